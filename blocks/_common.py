@@ -1,0 +1,42 @@
+"""Helpers shared by unidyn's blocks (not blocks themselves)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from unidyn._validate import ValidationError
+
+
+class NonFiniteSignalError(FloatingPointError):
+    """A block received or produced NaN or infinity; the message says where and when."""
+
+
+def as_vector(value, n: int, block, port: str, t: float) -> np.ndarray:
+    """An input port's value as a finite float vector of length n, or a clear error."""
+    arr = np.asarray(value, dtype=float).reshape(-1)
+    if arr.shape[0] != n:
+        raise ValidationError(
+            f"block {block.name!r}: input {port!r} must have {n} elements, got {arr.shape[0]}")
+    if not all(map(math.isfinite, arr.tolist())):
+        raise NonFiniteSignalError(
+            f"block {block.name!r}: input {port!r} is not finite at t = {t:.6g} s: {arr.tolist()}")
+    return arr
+
+
+def check_finite(arr, block, what: str, t: float) -> np.ndarray:
+    if not all(map(math.isfinite, np.asarray(arr).reshape(-1).tolist())):
+        raise NonFiniteSignalError(
+            f"block {block.name!r}: {what} is not finite at t = {t:.6g} s: {np.asarray(arr).tolist()}")
+    return arr
+
+
+def limits_from_args(limits, speed_max, steer_max, accel_max, angular_accel_max):
+    from unidyn.model import Limits
+    if limits is not None:
+        if not isinstance(limits, Limits):
+            raise ValidationError(f"limits must be a unidyn.Limits or None, got {limits!r}")
+        return limits
+    return Limits(speed_max=speed_max, steer_max=steer_max, accel_max=accel_max,
+                  angular_accel_max=angular_accel_max)

@@ -1,0 +1,365 @@
+"""Source blocks: reference trajectories with analytic derivatives, and held measurement noise."""
+
+from __future__ import annotations
+
+import numpy as np
+from bdsim.components import SampledBlock, SourceBlock
+
+from unidyn import trajectories as traj
+from unidyn._validate import ValidationError, nonnegative, vector
+
+from ._common import as_vector
+
+_TRAJ_PORTS = r"""
+    .. list-table::
+        :header-rows: 1
+
+        *   - Port type
+            - Port number
+            - Types
+            - Description
+        *   - Output
+            - 0
+            - ndarray(2)
+            - :math:`h_d`, desired position, m (label ``h_d``)
+        *   - Output
+            - 1
+            - ndarray(2)
+            - :math:`\dot h_d`, desired velocity, m/s (label ``h_d_dot``)
+        *   - Output
+            - 2
+            - ndarray(2)
+            - :math:`\ddot h_d`, desired acceleration, m/s² (label ``h_d_ddot``)
+"""
+
+
+class TrajectorySource(SourceBlock):
+    r"""
+    :blockname:`TRAJECTORYSOURCE`
+
+    Reference trajectory from any ``unidyn.trajectories.Trajectory`` or user callable.
+
+    :inputs: 0
+    :outputs: 3
+    :states: 0
+
+    .. list-table::
+        :header-rows: 1
+
+        *   - Port type
+            - Port number
+            - Types
+            - Description
+        *   - Output
+            - 0
+            - ndarray(2)
+            - :math:`h_d`, desired position, m (label ``h_d``)
+        *   - Output
+            - 1
+            - ndarray(2)
+            - :math:`\dot h_d`, desired velocity, m/s (label ``h_d_dot``)
+        *   - Output
+            - 2
+            - ndarray(2)
+            - :math:`\ddot h_d`, desired acceleration, m/s² (label ``h_d_ddot``)
+
+    A callable ``f(t) -> (h_d, h_d_dot)`` is wrapped in
+    :class:`unidyn.trajectories.FunctionTrajectory`; its second derivative is
+    then a central difference unless ``acceleration`` is given.
+
+    .. math:: (h_d(t), \dot h_d(t), \ddot h_d(t))
+    """
+
+    nin = 0
+    nout = 3
+    outlabels = ("h_d", "h_d_dot", "h_d_ddot")
+
+    def __init__(self, trajectory, acceleration=None, **blockargs):
+        r"""
+        :param trajectory: a Trajectory, a trajectory spec dict, or a callable t -> (h_d, h_d_dot)
+        :type trajectory: Trajectory, dict or callable
+        :param acceleration: for a callable, optional t -> h_d_ddot
+        :type acceleration: callable, optional
+        :param blockargs: common block options
+        :type blockargs: dict
+        """
+        if callable(trajectory) and not isinstance(trajectory, traj.Trajectory):
+            self.trajectory = traj.FunctionTrajectory(trajectory, acceleration)
+        else:
+            self.trajectory = traj.from_spec(trajectory)
+        super().__init__(**blockargs)
+        self.type = "trajectorysource"
+
+    def output(self, t, inports, x):
+        tr = self.trajectory
+        return [tr.position(t), tr.velocity(t), tr.acceleration(t)]
+
+
+class FigureEight(SourceBlock):
+    r"""
+    :blockname:`FIGUREEIGHT`
+
+    The paper's figure-eight reference (Section 5).
+
+    :inputs: 0
+    :outputs: 3
+    :states: 0
+
+    .. list-table::
+        :header-rows: 1
+
+        *   - Port type
+            - Port number
+            - Types
+            - Description
+        *   - Output
+            - 0
+            - ndarray(2)
+            - :math:`h_d`, desired position, m (label ``h_d``)
+        *   - Output
+            - 1
+            - ndarray(2)
+            - :math:`\dot h_d`, desired velocity, m/s (label ``h_d_dot``)
+        *   - Output
+            - 2
+            - ndarray(2)
+            - :math:`\ddot h_d`, desired acceleration, m/s² (label ``h_d_ddot``)
+
+    .. math:: x_d = A_x\sin(\omega_x t), \quad y_d = A_y(\cos(\omega_y t) - 1)
+
+    Defaults are the paper's: A_x = A_y = 1 m, omega_x = 0.5, omega_y = 0.25 rad/s.
+    """
+
+    nin = 0
+    nout = 3
+    outlabels = ("h_d", "h_d_dot", "h_d_ddot")
+
+    def __init__(self, ax=1.0, ay=1.0, wx=0.5, wy=0.25, center=(0.0, 0.0), **blockargs):
+        r"""
+        :param ax: x amplitude, m, > 0
+        :type ax: float
+        :param ay: y amplitude, m, > 0
+        :type ay: float
+        :param wx: x angular frequency, rad/s, > 0
+        :type wx: float
+        :param wy: y angular frequency, rad/s, > 0
+        :type wy: float
+        :param center: offset of the whole path, m
+        :type center: array_like(2)
+        :param blockargs: common block options
+        :type blockargs: dict
+        """
+        self.trajectory = traj.FigureEight(ax, ay, wx, wy, _pair("center", center))
+        super().__init__(**blockargs)
+        self.type = "figureeight"
+
+    def output(self, t, inports, x):
+        tr = self.trajectory
+        return [tr.position(t), tr.velocity(t), tr.acceleration(t)]
+
+
+class Circle(SourceBlock):
+    r"""
+    :blockname:`CIRCLE`
+
+    A circular reference at constant angular rate.
+
+    :inputs: 0
+    :outputs: 3
+    :states: 0
+
+    .. list-table::
+        :header-rows: 1
+
+        *   - Port type
+            - Port number
+            - Types
+            - Description
+        *   - Output
+            - 0
+            - ndarray(2)
+            - :math:`h_d`, desired position, m (label ``h_d``)
+        *   - Output
+            - 1
+            - ndarray(2)
+            - :math:`\dot h_d`, desired velocity, m/s (label ``h_d_dot``)
+        *   - Output
+            - 2
+            - ndarray(2)
+            - :math:`\ddot h_d`, desired acceleration, m/s² (label ``h_d_ddot``)
+
+    .. math:: h_d = c + R\,(\cos(\omega t + \phi), \sin(\omega t + \phi))
+    """
+
+    nin = 0
+    nout = 3
+    outlabels = ("h_d", "h_d_dot", "h_d_ddot")
+
+    def __init__(self, radius=1.0, omega=0.2, center=(0.0, 0.0), phase=0.0, **blockargs):
+        r"""
+        :param radius: R, m, > 0
+        :type radius: float
+        :param omega: angular rate, rad/s, nonzero (negative: clockwise)
+        :type omega: float
+        :param center: c, m
+        :type center: array_like(2)
+        :param phase: phi, rad
+        :type phase: float
+        :param blockargs: common block options
+        :type blockargs: dict
+        """
+        self.trajectory = traj.Circle(radius, omega, _pair("center", center), phase)
+        super().__init__(**blockargs)
+        self.type = "circle"
+
+    def output(self, t, inports, x):
+        tr = self.trajectory
+        return [tr.position(t), tr.velocity(t), tr.acceleration(t)]
+
+
+class Line(SourceBlock):
+    r"""
+    :blockname:`LINE`
+
+    A straight-line reference at constant velocity.
+
+    :inputs: 0
+    :outputs: 3
+    :states: 0
+
+    .. list-table::
+        :header-rows: 1
+
+        *   - Port type
+            - Port number
+            - Types
+            - Description
+        *   - Output
+            - 0
+            - ndarray(2)
+            - :math:`h_d`, desired position, m (label ``h_d``)
+        *   - Output
+            - 1
+            - ndarray(2)
+            - :math:`\dot h_d`, desired velocity, m/s (label ``h_d_dot``)
+        *   - Output
+            - 2
+            - ndarray(2)
+            - :math:`\ddot h_d = 0` (label ``h_d_ddot``)
+
+    .. math:: h_d = p_0 + v\,t
+    """
+
+    nin = 0
+    nout = 3
+    outlabels = ("h_d", "h_d_dot", "h_d_ddot")
+
+    def __init__(self, start=(0.0, 0.0), velocity=(0.2, 0.0), **blockargs):
+        r"""
+        :param start: p_0, m
+        :type start: array_like(2)
+        :param velocity: v, m/s
+        :type velocity: array_like(2)
+        :param blockargs: common block options
+        :type blockargs: dict
+        """
+        self.trajectory = traj.Line(start, velocity)
+        super().__init__(**blockargs)
+        self.type = "line"
+
+    def output(self, t, inports, x):
+        tr = self.trajectory
+        return [tr.position(t), tr.velocity(t), tr.acceleration(t)]
+
+
+def _pair(name, value):
+    return tuple(vector(name, value, 2).tolist())
+
+
+class MeasurementNoise(SampledBlock):
+    r"""
+    :blockname:`MEASUREMENTNOISE`
+
+    Adds seeded white noise, held over each clock period, to chosen components of a signal.
+
+    :inputs: 1
+    :outputs: 1
+    :states: len(indices) (discrete)
+
+    .. list-table::
+        :header-rows: 1
+
+        *   - Port type
+            - Port number
+            - Types
+            - Description
+        *   - Input
+            - 0
+            - ndarray(n)
+            - :math:`s`, the true signal (label ``s``)
+        *   - Output
+            - 0
+            - ndarray(n)
+            - :math:`s + \eta`, the measured signal (label ``s_meas``)
+
+    The noise :math:`\eta` on the components ``indices`` is
+    ``std * rng.standard_normal(len(indices))``, a new draw at every tick of the
+    clock and held in between (the paper's noise, spec section 5); other
+    components pass unchanged (the paper feeds psi back clean). The k-th held
+    value is the k-th draw of ``numpy.random.default_rng(seed)``, so a run is
+    reproducible from its seed.
+
+    .. math:: s_{meas}(t) = s(t) + \eta_k, \quad t_k \le t < t_{k+1}
+    """
+
+    nin = 1
+    nout = 1
+    inlabels = ("s",)
+    outlabels = ("s_meas",)
+
+    def __init__(self, clock, std=0.01, seed=0, indices=(0, 1), **blockargs):
+        r"""
+        :param clock: the sampling clock (name it)
+        :type clock: bdsim Clock
+        :param std: standard deviation, in the signal's unit, >= 0
+        :type std: float
+        :param seed: seed of the generator (int >= 0 or numpy SeedSequence)
+        :type seed: int or SeedSequence
+        :param indices: components of the input that get noise, defaults to (0, 1)
+        :type indices: sequence of int
+        :param blockargs: common block options
+        :type blockargs: dict
+        """
+        self.std = nonnegative("std", std)
+        if isinstance(seed, bool) or not (isinstance(seed, (int, np.integer)) and seed >= 0
+                                          or isinstance(seed, np.random.SeedSequence)):
+            raise ValidationError(f"seed must be an integer >= 0 or a SeedSequence, got {seed!r}")
+        self.seed = seed
+        try:
+            idx = [int(i) for i in indices]
+        except (TypeError, ValueError):
+            raise ValidationError(f"indices must be a sequence of integers, got {indices!r}") from None
+        if not idx or min(idx) < 0 or len(set(idx)) != len(idx):
+            raise ValidationError(f"indices must be distinct integers >= 0, got {indices!r}")
+        self.indices = np.array(idx)
+        self._rng = np.random.default_rng(self.seed)
+        x0 = self.std * self._rng.standard_normal(len(idx))
+        super().__init__(clock=clock, x0=x0, feedthrough=True, **blockargs)
+        self.type = "measurementnoise"
+
+    def start(self, simstate=None):
+        # restart the stream so every run of the diagram sees the same noise
+        super().start(simstate)
+        self._rng = np.random.default_rng(self.seed)
+        self._rng.standard_normal(len(self.indices))  # the first draw is x0
+
+    def output(self, t, inports, x):
+        s = np.array(np.asarray(inports[0], dtype=float).reshape(-1))
+        if self.indices.max() >= s.shape[0]:
+            raise ValidationError(f"block {self.name!r}: indices {self.indices.tolist()} out of "
+                                  f"range for an input of {s.shape[0]} elements")
+        s[self.indices] += x
+        return [s]
+
+    def next(self, t, inports, x):
+        return self.std * self._rng.standard_normal(len(self.indices))

@@ -1,0 +1,110 @@
+"""The installed package: dependency versions, bdsim block discovery, the .pth hook."""
+
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+BLOCKS = ["DYNAMICUNICYCLE", "KINEMATICUNICYCLE", "KINEMATICCONTROLLER",
+          "SAMPLEDKINEMATICCONTROLLER", "DYNAMICCOMPENSATOR", "SAMPLEDDYNAMICCOMPENSATOR",
+          "FIGUREEIGHT", "CIRCLE", "LINE", "TRAJECTORYSOURCE", "MEASUREMENTNOISE"]
+
+
+def _run(code, env=None):
+    full = {**os.environ, "MPLBACKEND": "Agg", **(env or {})}
+    return subprocess.run([sys.executable, "-c", textwrap.dedent(code)], capture_output=True,
+                          text=True, env=full, cwd=str(ROOT.parent), timeout=300)
+
+
+def test_bdsim_with_toolboxes_has_unicycle_vehicleplot_and_our_blocks():
+    # Guards the pin of roboticstoolbox-python < 1.5: with rtb 1.5.0, bdsim 1.4.0's
+    # block loader raises KeyError: 'type' inside bdsim.BDSim().
+    r = _run(f"""
+        import unidyn, bdsim
+        sim = bdsim.BDSim(graphics=False, progress=False, banner=False, sysargs=False, toolboxes=True)
+        lib = sim.blocklibrary() if callable(getattr(sim, 'blocklibrary', None)) else sim._blocklibrary
+        missing = [b for b in {BLOCKS + ['UNICYCLE', 'VEHICLEPLOT']!r} if b not in lib]
+        assert not missing, missing
+        bd = sim.blockdiagram()
+        veh = bd.DYNAMICUNICYCLE(robot='p3dx', x0=[0, 0, 0])
+        uni = bd.UNICYCLE(x0=[0, 0, 0])
+        print('ok')
+    """)
+    assert r.returncode == 0 and "ok" in r.stdout, r.stdout + r.stderr
+
+
+def test_the_documented_line_for_editable_installs():
+    # 'import unidyn' before bdsim.BDSim() makes the blocks available whatever the install
+    r = _run("""
+        import os
+        os.environ.pop('BDSIMPATH', None)
+        import unidyn, bdsim
+        sim = bdsim.BDSim(graphics=False, progress=False, banner=False, sysargs=False)
+        bd = sim.blockdiagram()
+        print(type(bd.FIGUREEIGHT()).__name__)
+    """, env={"BDSIMPATH": ""})
+    assert r.returncode == 0 and "FigureEight" in r.stdout, r.stdout + r.stderr
+
+
+def test_import_after_bdsim_still_registers():
+    r = _run("""
+        import bdsim
+        sim = bdsim.BDSim(graphics=False, progress=False, banner=False, sysargs=False)
+        import unidyn
+        sim = bdsim.BDSim(graphics=False, progress=False, banner=False, sysargs=False)
+        print(type(sim.blockdiagram().DYNAMICUNICYCLE()).__name__)
+    """, env={"BDSIMPATH": ""})
+    assert r.returncode == 0 and "DynamicUnicycle" in r.stdout, r.stdout + r.stderr
+
+
+def test_core_does_not_import_bdsim():
+    r = _run("""
+        import sys, unidyn, unidyn.model, unidyn.control, unidyn.trajectories, unidyn.robots
+        import unidyn.scenario, unidyn.result
+        print('bdsim' in sys.modules)
+    """)
+    assert r.returncode == 0 and r.stdout.strip() == "False", r.stdout + r.stderr
+
+
+@pytest.mark.slow
+def test_regular_install_finds_blocks_with_no_extra_step(tmp_path):
+    """Build the wheel, install it (no deps) into a site dir and check that a
+    fresh interpreter that never imports unidyn still gets bd.DYNAMICUNICYCLE."""
+    wheel_dir = tmp_path / "wheel"
+    r = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation",
+                        "-q", "-w", str(wheel_dir), str(ROOT)], capture_output=True, text=True,
+                       timeout=600)
+    if r.returncode != 0 and "No module named" in r.stderr:
+        pytest.skip(f"cannot build a wheel here: {r.stderr[-300:]}")
+    assert r.returncode == 0, r.stderr
+    wheel = next(wheel_dir.glob("unidyn-*.whl"))
+    site = tmp_path / "site"
+    r = subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "-q", "--target",
+                        str(site), str(wheel)], capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    assert (site / "unidyn-bdsim.pth").is_file()
+    assert (site / "unidyn" / "blocks" / "robots.py").is_file()
+    # a site dir processes .pth files as site-packages does at start-up; the
+    # editable install's finder is removed so only the wheel's copy is visible
+    code = f"""
+        import sys, site
+        sys.meta_path[:] = [f for f in sys.meta_path if 'editable' not in type(f).__module__
+                            and 'editable' not in getattr(f, '__name__', '')]
+        sys.path_importer_cache.clear()
+        site.addsitedir({str(site)!r})
+        sys.path.insert(0, {str(site)!r})
+        import os
+        assert 'unidyn' in os.environ['BDSIMPATH'].split(':'), os.environ.get('BDSIMPATH')
+        import bdsim
+        sim = bdsim.BDSim(graphics=False, progress=False, banner=False, sysargs=False)
+        veh = sim.blockdiagram().DYNAMICUNICYCLE()
+        import unidyn.blocks.robots as m
+        print(m.__file__)
+    """
+    r = _run(code, env={"BDSIMPATH": ""})
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert r.stdout.strip().startswith(str(site)), r.stdout

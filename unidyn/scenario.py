@@ -1,0 +1,230 @@
+"""A validated, immutable description of one closed-loop run (Fig. 2, Section 5).
+
+Defaults are the paper's simulation settings (spec section 5); ``Scenario.paper(n)``
+gives the paper's simulation n = 1..4. Scenarios are plain data: they convert to
+and from dicts (TOML and JSON files) and nothing in them is ever evaluated as code.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import robots, trajectories
+from ._validate import ValidationError, choice, nonnegative, positive, positive_vector, real, vector
+from .control import LEAKAGE_FORMS
+from .model import Limits, PAPER_LIMITS
+from .noise import NoiseSpec, PAPER_NOISE
+from .parameters import RobotParameters
+
+__all__ = ["Scenario", "CASES", "CONTROL_MODES", "VD_DOT_METHODS", "PAPER_GAMMA", "PAPER_SIGMA"]
+
+#: The four cases of Section 5, by name, in the paper's order.
+CASES = ("kinematic", "uncompensated", "compensated", "adaptive")
+#: How the controllers run: evaluated with the plant, or sampled on a clock at Ts.
+CONTROL_MODES = ("continuous", "sampled")
+#: How the compensator gets v_d': the exact derivative of Eq. (10) along the
+#: motion ("analytic"), a first-order derivative filter ("filter", continuous
+#: control only) or a backward difference over Ts ("difference", sampled only).
+VD_DOT_METHODS = ("analytic", "filter", "difference")
+PAPER_GAMMA = (1.7, 1.1, 0.5, 0.3, 0.01, 0.5)
+PAPER_SIGMA = (0.0005, 0.001, 0.001, 0.00006, 0.001, 0.001)
+
+
+def _tuple(name, value, n):
+    return tuple(vector(name, value, n).tolist())
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One run of the Fig. 2 loop. All fields are validated on construction.
+
+    :param case: ``"kinematic"`` (purely kinematic robot, v = v_d), ``"uncompensated"``
+        (dynamic robot, v_ref = v_d), ``"compensated"`` (exact theta_hat) or ``"adaptive"``
+    :param robot: the simulated robot: preset name, RobotParameters or six numbers
+    :param a: offset of the controlled point h ahead of the axle centre, m, > 0
+    :param x0: initial pose of h (x, y, psi), robot at rest, m and rad
+    :param trajectory: the reference: a Trajectory or a spec dict ``{"type": ...}``
+    :param kx, ky: kinematic-controller gains, 1/s, > 0 (Eq. 10)
+    :param lx, ly: kinematic-controller saturations, m/s, > 0
+    :param ku, kw: compensator gains, 1/s, > 0 (Eq. 12)
+    :param lu, lw: compensator saturations, > 0
+    :param theta_hat0: initial estimate; ``None`` means the robot's own theta for
+        ``compensated`` and theta/1.5 (the paper's choice) for ``adaptive``
+    :param gamma: diagonal of the adaptation gain, six values > 0 (Eq. 18)
+    :param sigma: diagonal of Sigma, six values >= 0 (Eq. 20)
+    :param adapt_from: time the update is switched on, s, >= 0
+    :param leakage: ``"paper"`` (Eq. 20), ``"fx44850"`` or ``"none"`` (Eq. 18)
+    :param noise: ``NoiseSpec`` (or a dict of it) or ``None`` for noise-free runs
+    :param limits: the robot's ``Limits`` (or a dict), defaults to the paper's
+    :param T: duration, s, > 0
+    :param Ts: sample time of the noise, the sampled controllers and the results, s, > 0
+    :param control: ``"continuous"`` or ``"sampled"``
+    :param vd_dot: ``"analytic"``, ``"filter"`` or ``"difference"`` (see ``VD_DOT_METHODS``);
+        ``None`` picks ``"analytic"`` for continuous and ``"difference"`` for sampled control
+    :param tau: time constant of the derivative filter, s, > 0
+    :param name: a label
+    """
+
+    case: str = "adaptive"
+    robot: RobotParameters = "p3dx_laser"
+    a: float = 0.2
+    x0: tuple = (0.2, 0.0, 0.0)
+    trajectory: trajectories.Trajectory = field(default_factory=trajectories.FigureEight)
+    kx: float = 0.1
+    ky: float = 0.1
+    lx: float = 0.1
+    ly: float = 0.1
+    ku: float = 4.0
+    kw: float = 4.0
+    lu: float = 1.0
+    lw: float = 1.0
+    theta_hat0: RobotParameters | None = None
+    gamma: tuple = PAPER_GAMMA
+    sigma: tuple = PAPER_SIGMA
+    adapt_from: float = 100.0
+    leakage: str = "paper"
+    noise: NoiseSpec | None = PAPER_NOISE
+    limits: Limits = PAPER_LIMITS
+    T: float = 200.0
+    Ts: float = 0.1
+    control: str = "continuous"
+    vd_dot: str | None = None
+    tau: float = 0.05
+    name: str = ""
+
+    def __post_init__(self):
+        s = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
+        s("case", choice("case", self.case, CASES))
+        s("robot", robots.resolve(self.robot, "robot"))
+        s("a", positive("a", self.a))
+        s("x0", _tuple("x0", self.x0, 3))
+        s("trajectory", trajectories.from_spec(self.trajectory))
+        for k in ("kx", "ky", "lx", "ly", "ku", "kw", "lu", "lw", "T", "Ts", "tau"):
+            s(k, positive(k, getattr(self, k)))
+        if self.theta_hat0 is not None:
+            s("theta_hat0", robots.resolve(self.theta_hat0, "theta_hat0"))
+        s("gamma", tuple(positive_vector("gamma", self.gamma, 6).tolist()))
+        sig = vector("sigma", self.sigma, 6)
+        if np.any(sig < 0):
+            raise ValidationError(f"every element of sigma must be >= 0, got {sig.tolist()}")
+        s("sigma", tuple(sig.tolist()))
+        s("adapt_from", nonnegative("adapt_from", self.adapt_from))
+        s("leakage", choice("leakage", self.leakage, LEAKAGE_FORMS))
+        if isinstance(self.noise, dict):
+            s("noise", _build("noise", NoiseSpec, self.noise))
+        elif self.noise is not None and not isinstance(self.noise, NoiseSpec):
+            raise ValidationError(f"noise must be None, a NoiseSpec or a dict with "
+                                  f"position_std, velocity_std, seed; got {self.noise!r}")
+        if isinstance(self.limits, dict):
+            s("limits", _build("limits", Limits, self.limits))
+        elif not isinstance(self.limits, Limits):
+            raise ValidationError(f"limits must be a Limits or a dict with speed_max, steer_max, "
+                                  f"accel_max, angular_accel_max; got {self.limits!r}")
+        s("control", choice("control", self.control, CONTROL_MODES))
+        if self.vd_dot is None:
+            s("vd_dot", "analytic" if self.control == "continuous" else "difference")
+        s("vd_dot", choice("vd_dot", self.vd_dot, VD_DOT_METHODS))
+        if self.control == "continuous" and self.vd_dot == "difference":
+            raise ValidationError("vd_dot='difference' needs control='sampled'; "
+                                  "use 'analytic' or 'filter' with continuous control")
+        if self.control == "sampled" and self.vd_dot == "filter":
+            raise ValidationError("vd_dot='filter' needs control='continuous'; "
+                                  "use 'analytic' or 'difference' with sampled control")
+        if self.Ts > self.T:
+            raise ValidationError(f"Ts must be <= T ({self.T:g} s), got {self.Ts!r}")
+        if not isinstance(self.name, str):
+            raise ValidationError(f"name must be a string, got {self.name!r}")
+
+    # ------------------------------------------------------------------ #
+    @property
+    def theta_hat_initial(self) -> np.ndarray:
+        """The estimate the compensator starts from (see ``theta_hat0``)."""
+        if self.theta_hat0 is not None:
+            return self.theta_hat0.theta
+        if self.case == "adaptive":
+            return self.robot.theta / 1.5
+        return self.robot.theta
+
+    @property
+    def steps(self) -> int:
+        """Number of sample intervals, round(T / Ts)."""
+        return int(round(self.T / self.Ts))
+
+    def replace(self, **changes) -> "Scenario":
+        """A copy with some fields changed (validated). Unknown fields raise."""
+        _check_fields(changes)
+        return dataclasses.replace(self, **changes)
+
+    @classmethod
+    def paper(cls, n: int, **changes) -> "Scenario":
+        """The paper's simulation n (Section 5): 1 kinematic robot, 2 dynamic robot
+        without compensation, 3 exact compensation, 4 adaptive compensation from t = 100 s."""
+        if isinstance(n, bool) or n not in (1, 2, 3, 4):
+            raise ValidationError(f"paper simulation n must be 1, 2, 3 or 4, got {n!r}")
+        _check_fields(changes)
+        base = {"case": CASES[n - 1], "name": f"paper simulation {n} ({CASES[n - 1]})"}
+        return cls(**{**base, **changes})
+
+    # ------------------------------------------------------------------ #
+    def to_dict(self) -> dict:
+        """Plain data (str, float, list, dict) that ``from_dict`` turns back into this scenario."""
+        out = {}
+        for f in dataclasses.fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, RobotParameters):
+                v = v.name if _is_preset(v) else {**v.as_dict(), "name": v.name}
+            elif isinstance(v, trajectories.Trajectory):
+                v = v.to_spec()
+            elif isinstance(v, (NoiseSpec, Limits)):
+                v = v.as_dict()
+            elif isinstance(v, tuple):
+                v = list(v)
+            if isinstance(v, dict):
+                v = {k: (list(x) if isinstance(x, tuple) else x) for k, x in v.items()}
+            out[f.name] = v
+        return out
+
+    @classmethod
+    def from_dict(cls, data) -> "Scenario":
+        """Build from plain data (as read from TOML or JSON). Unknown keys raise."""
+        if not isinstance(data, dict):
+            raise ValidationError(f"a scenario must be a table of fields, got {type(data).__name__}")
+        _check_fields(data)
+        data = dict(data)
+        if "noise" in data and data["noise"] in (False, "none", "off"):
+            data["noise"] = None
+        if "theta_hat0" in data and data["theta_hat0"] in ("default", ""):
+            data["theta_hat0"] = None
+        try:
+            return cls(**data)
+        except TypeError as err:  # e.g. a list where a number was expected, deep inside
+            raise ValidationError(f"scenario: {err}") from None
+
+
+def _is_preset(p: RobotParameters) -> bool:
+    try:
+        return p.name in robots.names() and robots.get(p.name) == p
+    except ValidationError:
+        return False
+
+
+def _check_fields(data):
+    known = {f.name for f in dataclasses.fields(Scenario)}
+    unknown = sorted(set(data) - known)
+    if unknown:
+        import difflib
+        close = difflib.get_close_matches(unknown[0], known, n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise ValidationError(f"unknown scenario field {unknown[0]!r}{hint}; "
+                              f"known fields: {', '.join(sorted(known))}")
+
+
+def _build(what, cls, data):
+    known = {f.name for f in dataclasses.fields(cls)}
+    unknown = sorted(set(data) - known)
+    if unknown:
+        raise ValidationError(f"unknown {what}.{unknown[0]}; allowed: {', '.join(sorted(known))}")
+    return cls(**data)
