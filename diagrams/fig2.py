@@ -28,11 +28,18 @@ __all__ = ["Fig2", "build_fig2", "new_simulator"]
 
 
 def new_simulator(**options):
-    """A headless, quiet ``bdsim.BDSim`` that ignores ``sys.argv`` (for scripts, tests, notebooks)."""
+    """A headless, quiet ``bdsim.BDSim`` that ignores ``sys.argv`` (for scripts, tests, notebooks).
+
+    bdsim's own notice about toolboxes that are not installed (machinevisiontoolbox)
+    is suppressed; keyword arguments override the defaults."""
+    import contextlib
+    import io
+
     import bdsim
     opts = dict(graphics=False, progress=False, banner=False, sysargs=False, quiet=True)
     opts.update(options)
-    return bdsim.BDSim(**opts)
+    with contextlib.redirect_stdout(io.StringIO()):
+        return bdsim.BDSim(**opts)
 
 
 @dataclass

@@ -102,6 +102,8 @@ _NAMES = ("theta1", "theta2", "theta3", "theta4", "theta5", "theta6")
 # The rows of Eq. (11): which parameters each decoupled problem estimates.
 _ROW_PARAMS = ((0, 2, 3), (1, 4, 5))
 _Z95 = 1.959963984540054
+# Newey-West lag, in windows: filtered residuals are correlated over about one window
+_LAG_WINDOWS = 2.0
 
 
 # --------------------------------------------------------------------------- logs
@@ -592,7 +594,7 @@ def identify(log, smoothing: str = "filter", window: float | None = None, order:
                               f"({half:g} s) from the ends of the log; at least 20 are needed: "
                               f"use a longer log or a shorter window")
     dt_med = float(np.median(np.diff(t)))
-    lag = max(1, int(round(window / dt_med)))
+    lag = max(1, int(round(_LAG_WINDOWS * window / dt_med)))
 
     theta = np.zeros(6)
     cov = np.zeros((6, 6))
@@ -713,7 +715,8 @@ def _warnings(theta, stderr, conds, u, w, dt, rel_max) -> list:
 def excitation(T: float, dt: float, robot=None, limits: Limits = PAPER_LIMITS,
                kind: str = "multisine", seed: int = 0, amplitude: float = 0.8,
                u_mean: float | None = None, f_min: float | None = None,
-               f_max: float | None = None, n_freq: int = 24) -> dict:
+               f_max: float | None = None, n_freq: int = 24,
+               crest_iterations: int = 50) -> dict:
     r"""Commands that excite all six parameters, within a robot's limits.
 
     ``"multisine"``: for each command a sum of ``n_freq`` sinusoids at harmonics
@@ -799,10 +802,11 @@ def excitation(T: float, dt: float, robot=None, limits: Limits = PAPER_LIMITS,
         ks = np.unique(np.round(np.geomspace(k_lo, k_hi, int(n_freq))).astype(int))
         f = ks / T
         shapes = []
+        a = 1.0 / f
         for _ in range(2):
-            ph = rng.uniform(0.0, 2 * math.pi, f.size)
+            ph = _low_crest_phases(ks, a * 2 * math.pi * f, rng.uniform(0.0, 2 * math.pi, f.size),
+                                   crest_iterations)
             arg = 2 * math.pi * f[:, None] * t[None, :] + ph[:, None]
-            a = 1.0 / f
             s = (a[:, None] * np.sin(arg)).sum(axis=0)
             ds = (a[:, None] * 2 * math.pi * f[:, None] * np.cos(arg)).sum(axis=0)
             shapes.append((s, ds))
@@ -837,6 +841,24 @@ def excitation(T: float, dt: float, robot=None, limits: Limits = PAPER_LIMITS,
         settings = {"clock": clock}
     return {"t": t, "u_ref": u_ref, "w_ref": w_ref, "kind": kind, "seed": int(seed),
             **settings}
+
+
+def _low_crest_phases(ks, amp, phases, iterations):
+    """Lower the peak of x(tau) = sum amp cos(2 pi k tau / P + phase) over one period
+    by clipping and re-projecting onto the harmonics ks (Van der Ouderaa, Schoukens
+    and Renneboog, IEEE Trans. Instrum. Meas. 37(2), 1988); amplitudes are kept."""
+    m = max(256, 8 * int(ks.max()) + 8)
+    tau = np.arange(m) / m
+    best, best_peak = phases, math.inf
+    for _ in range(int(iterations) + 1):
+        x = (amp[:, None] * np.cos(2 * math.pi * ks[:, None] * tau + phases[:, None])).sum(axis=0)
+        peak = float(np.max(np.abs(x)))
+        if peak < best_peak:
+            best, best_peak = phases, peak
+        clip = 0.85 * peak
+        X = np.fft.rfft(np.clip(x, -clip, clip))
+        phases = np.angle(X[ks])
+    return best
 
 
 def _scale(mean, s, ds, e, de, osc_max, rate_max) -> float:

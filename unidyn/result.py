@@ -58,7 +58,7 @@ def write_atomic(path: Path, text: str) -> None:
 
 @dataclass
 class Result:
-    """One run of a :class:`~unidyn.Scenario`.
+    r"""One run of a :class:`~unidyn.Scenario`.
 
     Arrays are sampled on a uniform grid of step ``scenario.Ts`` (N points):
 

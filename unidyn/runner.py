@@ -35,7 +35,10 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
     sim = new_simulator()
     fig = build_fig2(sim, scenario, **builder_args)
     roles = list(fig.watch)
-    fig.bd.compile()
+    import contextlib
+    import io
+    with contextlib.redirect_stdout(io.StringIO()):  # bdsim's notes on unconnected outputs
+        fig.bd.compile()
     sc = scenario
     out = sim.run(fig.bd, T=sc.T, dt=sc.Ts, watch=[fig.watch[r] for r in roles],
                   solver=method, solver_args=dict(rtol=rtol, atol=atol, max_step=sc.Ts))
