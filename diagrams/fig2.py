@@ -20,8 +20,8 @@ from typing import Any, Callable
 
 import numpy as np
 
-import unidyn
-from unidyn.noise import noise_streams
+
+
 from unidyn.scenario import Scenario
 
 __all__ = ["Fig2", "build_fig2", "new_simulator"]
@@ -107,8 +107,9 @@ def build_fig2(sim, scenario: Scenario, *, robot: Callable | None = None,
     sampled = sc.control == "sampled"
     dynamic = sc.case != "kinematic"
     compensated = sc.case in ("compensated", "adaptive")
-    # the exact v_d' needs the controller's rate output, available in continuous K only
-    analytic = compensated and sc.vd_dot == "analytic" and controller is None
+    # the exact v_d' needs the rate output of our continuous K; with a user's own
+    # controller the compensator falls back to its derivative filter
+    analytic = compensated and sc.derivative == "analytic" and controller is None
 
     if sc.noise is not None:
         sensor = bd.clock(sc.Ts, name="sensor")
@@ -172,10 +173,6 @@ def build_fig2(sim, scenario: Scenario, *, robot: Callable | None = None,
         if compensator is not None:
             D = compensator(bd, sc)
         elif sampled:
-            if analytic:
-                raise unidyn.ValidationError(
-                    "vd_dot='analytic' with control='sampled' is not available: the sampled "
-                    "controller has no rate output; use vd_dot='difference'")
             D = SampledDynamicCompensator(ctrl_clock, **dargs, vd_dot="difference", bd=bd,
                                           name="compensator")
         else:

@@ -64,7 +64,7 @@ class ClosedLoop:
         self.sigma = np.array([s.sigma for s in scs])
         self.adapt_from = np.where(self.case == _ADAPT, f("adapt_from"), np.inf)
         self.tau = f("tau")
-        self.filt = np.array([s.vd_dot == "filter" for s in scs])
+        self.filt = np.array([s.derivative == "filter" for s in scs])
         self.leak = np.array([{"paper": 0, "fx44850": 1, "none": 2}[s.leakage] for s in scs])
         self.vmax = np.array([s.limits.speed for s in scs])
         self.amax = np.array([s.limits.accel for s in scs])

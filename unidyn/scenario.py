@@ -29,6 +29,8 @@ CONTROL_MODES = ("continuous", "sampled")
 #: motion ("analytic"), a first-order derivative filter ("filter", continuous
 #: control only) or a backward difference over Ts ("difference", sampled only).
 VD_DOT_METHODS = ("analytic", "filter", "difference")
+# v_d' methods each control mode can use (the sampled controller has no rate output)
+_VD_DOT_FOR = {"continuous": ("analytic", "filter"), "sampled": ("difference",)}
 PAPER_GAMMA = (1.7, 1.1, 0.5, 0.3, 0.01, 0.5)
 PAPER_SIGMA = (0.0005, 0.001, 0.001, 0.00006, 0.001, 0.001)
 
@@ -62,8 +64,9 @@ class Scenario:
     :param T: duration, s, > 0
     :param Ts: sample time of the noise, the sampled controllers and the results, s, > 0
     :param control: ``"continuous"`` or ``"sampled"``
-    :param vd_dot: ``"analytic"``, ``"filter"`` or ``"difference"`` (see ``VD_DOT_METHODS``);
-        ``None`` picks ``"analytic"`` for continuous and ``"difference"`` for sampled control
+    :param vd_dot: ``"analytic"`` or ``"filter"`` (continuous control), ``"difference"``
+        (sampled control); ``None`` (default) picks ``"analytic"`` for continuous and
+        ``"difference"`` for sampled control (see :attr:`derivative`)
     :param tau: time constant of the derivative filter, s, > 0
     :param name: a label
     """
@@ -124,15 +127,13 @@ class Scenario:
             raise ValidationError(f"limits must be a Limits or a dict with speed_max, steer_max, "
                                   f"accel_max, angular_accel_max; got {self.limits!r}")
         s("control", choice("control", self.control, CONTROL_MODES))
-        if self.vd_dot is None:
-            s("vd_dot", "analytic" if self.control == "continuous" else "difference")
-        s("vd_dot", choice("vd_dot", self.vd_dot, VD_DOT_METHODS))
-        if self.control == "continuous" and self.vd_dot == "difference":
-            raise ValidationError("vd_dot='difference' needs control='sampled'; "
-                                  "use 'analytic' or 'filter' with continuous control")
-        if self.control == "sampled" and self.vd_dot == "filter":
-            raise ValidationError("vd_dot='filter' needs control='continuous'; "
-                                  "use 'analytic' or 'difference' with sampled control")
+        if self.vd_dot is not None:
+            choice("vd_dot", self.vd_dot, VD_DOT_METHODS)
+            allowed = _VD_DOT_FOR[self.control]
+            if self.vd_dot not in allowed:
+                raise ValidationError(
+                    f"vd_dot={self.vd_dot!r} cannot be used with control={self.control!r}; "
+                    f"use one of {', '.join(map(repr, allowed))} (or leave vd_dot unset)")
         if self.Ts > self.T:
             raise ValidationError(f"Ts must be <= T ({self.T:g} s), got {self.Ts!r}")
         if not isinstance(self.name, str):
@@ -149,6 +150,14 @@ class Scenario:
         return self.robot.theta
 
     @property
+    def derivative(self) -> str:
+        """The v_d' method in use: ``vd_dot``, or when unset ``"analytic"`` for
+        continuous and ``"difference"`` for sampled control."""
+        if self.vd_dot is not None:
+            return self.vd_dot
+        return "analytic" if self.control == "continuous" else "difference"
+
+    @property
     def steps(self) -> int:
         """Number of sample intervals, round(T / Ts)."""
         return int(round(self.T / self.Ts))
@@ -162,7 +171,7 @@ class Scenario:
     def paper(cls, n: int, **changes) -> "Scenario":
         """The paper's simulation n (Section 5): 1 kinematic robot, 2 dynamic robot
         without compensation, 3 exact compensation, 4 adaptive compensation from t = 100 s."""
-        if isinstance(n, bool) or n not in (1, 2, 3, 4):
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n not in (1, 2, 3, 4):
             raise ValidationError(f"paper simulation n must be 1, 2, 3 or 4, got {n!r}")
         _check_fields(changes)
         base = {"case": CASES[n - 1], "name": f"paper simulation {n} ({CASES[n - 1]})"}
