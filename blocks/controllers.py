@@ -232,7 +232,7 @@ class _CompensatorSettings:
         return G, control.compensation(G, theta_hat)
 
     def rate(self, t, G, v_d, v, theta_hat):
-        if not self.adaptive or t < self.adapt_from:
+        if not self.adaptive or not control.adaptation_on(t, self.adapt_from):
             return np.zeros(6)
         return control.adaptation_rate(G, v_d - v, theta_hat, self.gamma, self.sigma, self.leakage)
 

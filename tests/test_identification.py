@@ -325,6 +325,15 @@ def test_non_physical_estimate_is_an_error_not_a_number():
         ident.identify(log)
 
 
+def test_implausible_damping_is_flagged():
+    # measured speeds 1.5 times too large (a wheel-radius error): theta4 = 0.99 / 1.5
+    log = small_log()
+    log["u"] = 1.5 * log["u"]
+    res = ident.identify(log)
+    assert res.theta.theta4 == pytest.approx(robots.get("pioneer2").theta4 / 1.5, rel=0.02)
+    assert any(w.startswith("theta4 = 0.6") and "well below 1" in w for w in res.warnings)
+
+
 def test_bad_settings_are_rejected():
     with pytest.raises(ValidationError, match="smoothing"):
         ident.identify(small_log(), smoothing="diff")

@@ -147,7 +147,7 @@ class ClosedLoop:
         th = X[:, 5:11]
         leak = np.select([self.leak[:, None] == 0, self.leak[:, None] == 1],
                          [self.gamma * self.sigma * th, self.sigma * th], 0.0)
-        on = (t >= self.adapt_from)[:, None]
+        on = control.adaptation_on(t, self.adapt_from)[:, None]
         dX[:, 5:11] = np.where(on, self.gamma * grad - leak, 0.0)
         dX[:, 11:13] = np.where(self.filt[:, None], s["v_d_dot"], 0.0)
         return dX

@@ -19,6 +19,16 @@ __all__ = ["kinematic_control", "kinematic_control_rate", "compensation_regresso
 #: authors' Simulink package, ``- Sigma theta_hat``; ``"none"`` is Eq. (18).
 LEAKAGE_FORMS = ("paper", "fx44850", "none")
 
+#: Adaptation is on for t >= adapt_from - SWITCH_TOL (s): the switch then falls on
+#: the same side of a solver stage that lands on adapt_from up to rounding, in
+#: every engine.
+SWITCH_TOL = 1e-9
+
+
+def adaptation_on(t, adapt_from):
+    """Whether the update law is switched on at time t (see :data:`SWITCH_TOL`)."""
+    return t >= adapt_from - SWITCH_TOL
+
 
 def _inv_jacobian(psi, a):
     """A^-1(psi) of Eq. (10), shape (..., 2, 2)."""

@@ -839,12 +839,19 @@ def excitation(T: float, dt: float, robot=None, limits: Limits = PAPER_LIMITS,
     r"""Commands that excite all six parameters, within a robot's limits.
 
     ``"multisine"``: for each command a sum of ``n_freq`` sinusoids at harmonics
-    of 1/T, log-spaced between ``f_min`` and ``f_max``, with seeded random phases
-    and amplitudes proportional to 1/f (equal acceleration per component). u_ref
-    oscillates around a forward speed ``u_mean`` and w_ref around zero, with
-    independent phases, so the robot turns both ways at varying forward speed:
-    the w^2 and u w columns of Eq. (11), which carry theta3 and theta5, are
-    excited ("turning at speed").
+    of 1/T, log-spaced between ``f_min`` and ``f_max``. u_ref oscillates around a
+    forward speed ``u_mean`` and w_ref around zero, with independent phases, so
+    the robot turns both ways at varying forward speed: the w^2 and u w columns
+    of Eq. (11), which carry theta3 and theta5, are excited ("turning at
+    speed"). The amplitudes are proportional to 1 / min(f, f_c): equal
+    acceleration per component below a corner f_c and equal speed above it, with
+    f_c chosen (per command) so that the speed and the rate limits below are
+    reached together; low frequencies then carry the speed range (theta3, theta4,
+    theta5, theta6) and high ones the accelerations (theta1, theta2). The phases
+    start seeded-random and get ``crest_iterations`` rounds of crest-factor
+    reduction (clip and re-project), which lowers the peak for a given rms. The
+    commands fade in from 0 (raised cosine over a few seconds): the robot starts
+    at rest.
 
     ``"prbs"``: maximum-length pseudo-random binary sequences (seeded start
     states) switching u_ref between u_mean +/- a and w_ref between +/- b, with
@@ -862,7 +869,7 @@ def excitation(T: float, dt: float, robot=None, limits: Limits = PAPER_LIMITS,
     :param T: duration, s, > 0
     :param dt: sample interval, s, > 0 and <= T / 20
     :param robot: optional robot (name, :class:`RobotParameters` or six numbers);
-        it sets theta4 and theta6 above
+        it sets theta4 and theta6 above and the default f_max
     :param limits: :class:`unidyn.model.Limits` to respect (speed limits must be
         finite); default the paper's ``PAPER_LIMITS``
     :param kind: ``"multisine"`` or ``"prbs"``
@@ -876,6 +883,7 @@ def excitation(T: float, dt: float, robot=None, limits: Limits = PAPER_LIMITS,
         a speed range, higher frequencies mean larger accelerations, which is
         what identifies theta1 and theta2
     :param n_freq: number of sinusoids per command (multisine), >= 1
+    :param crest_iterations: rounds of crest-factor reduction (multisine), >= 0
     :return: dict with t (s), u_ref (m/s), w_ref (rad/s) and the settings used
     """
     T = positive("T", T)
@@ -919,6 +927,10 @@ def excitation(T: float, dt: float, robot=None, limits: Limits = PAPER_LIMITS,
     if kind == "multisine":
         if isinstance(n_freq, bool) or not isinstance(n_freq, (int, np.integer)) or n_freq < 1:
             raise ValidationError(f"n_freq must be an integer >= 1, got {n_freq!r}")
+        if isinstance(crest_iterations, bool) or \
+                not isinstance(crest_iterations, (int, np.integer)) or crest_iterations < 0:
+            raise ValidationError(f"crest_iterations must be an integer >= 0, "
+                                  f"got {crest_iterations!r}")
         k_lo = max(1, int(math.ceil(f_min * T - 1e-9)))
         k_hi = max(k_lo, int(math.floor(f_max * T + 1e-9)))
         ks = np.unique(np.round(np.geomspace(k_lo, k_hi, int(n_freq))).astype(int))
@@ -937,7 +949,8 @@ def excitation(T: float, dt: float, robot=None, limits: Limits = PAPER_LIMITS,
         (su, dsu), (sw, dsw) = shapes
         # start from rest: raised-cosine fade-in, long enough that the fade alone
         # uses at most half of the rate limit
-        t_fade = min(T / 4, max(1.0, math.pi * abs(u_mean) / amax if math.isfinite(amax) else 0.0))
+        t_fade = min(T / 4, max(1.0, math.pi * abs(u_mean) / amax
+                                if math.isfinite(amax) else 0.0))
         ph = np.clip(t / t_fade, 0.0, 1.0)
         e = 0.5 - 0.5 * np.cos(math.pi * ph)
         de = np.where(ph < 1.0, 0.5 * math.pi / t_fade * np.sin(math.pi * ph), 0.0)
