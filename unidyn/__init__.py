@@ -27,6 +27,8 @@ def __getattr__(name):
     lazy = {
         "Scenario": ("scenario", "Scenario"),
         "simulate": ("runner", "simulate"),
+        "SimulationError": ("runner", "SimulationError"),
+        "simulate_batch": ("batch", "simulate_batch"),
         "Result": ("result", "Result"),
         "properties": ("properties", None),
         "check_properties": ("properties", "check_properties"),

@@ -1,0 +1,169 @@
+"""Wall-time benchmarks of the engines, printed as a table (on the machine at hand).
+
+    python benchmarks/engines.py            # everything (several minutes)
+    python benchmarks/engines.py --quick    # fewer bdsim points for the sweep estimate
+
+Rows:
+  1. one 200 s adaptive run (paper simulation 4) through the bdsim diagram of Fig. 2
+  2. the same run through a bare bdsim loop: one block holding the whole closed loop
+     (the same equations, unidyn.closedloop) with the same noise clock and tolerances,
+     i.e. what bdsim costs without our decomposition into blocks
+  3. the same run through the batch engine (numba and numpy backends)
+  4. the full Fig. 11 sweep (4 cases x 70 gains x 250 s) through the batch engine,
+     and through bdsim (estimated from a sample of points: a full bdsim sweep takes hours)
+  5. import plus first run of `unidyn run --paper 4` in a fresh interpreter (cold start)
+and the accuracy of the batch engine against the bdsim diagram on the sampled points.
+"""
+
+import argparse
+import contextlib
+import io
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+import unidyn  # noqa: E402
+from unidyn import _kernels, runner  # noqa: E402
+from unidyn.batch import DEFAULT_SUBSTEPS, simulate_batch  # noqa: E402
+from unidyn.closedloop import ClosedLoop  # noqa: E402
+from unidyn.scenario import Scenario  # noqa: E402
+
+
+def timed(f, repeat=1):
+    best, out = np.inf, None
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = f()
+        best = min(best, time.perf_counter() - t0)
+    return best, out
+
+
+def bare_bdsim_run(sc, rtol, atol):
+    """The closed loop as a single bdsim block, with the same noise clock."""
+    from bdsim.components import ContinuousBlock, SampledBlock
+
+    from unidyn.diagrams import new_simulator
+
+    loop = ClosedLoop(sc)
+
+    class Loop(ContinuousBlock):
+        nin = 1
+        nout = 1
+
+        def __init__(self, **kw):
+            super().__init__(nstates=13, x0=loop.initial_state()[0], **kw)
+
+        def deriv(self, t, inports, x):
+            return loop.rhs(t, x[None], int(inports[0]))[0]
+
+        def output(self, t, inports, x):
+            return [x[0:3]]
+
+    class Tick(SampledBlock):  # the interval index, held between ticks like the noise
+        nin = 0
+        nout = 1
+
+        def __init__(self, clock, **kw):
+            super().__init__(clock=clock, x0=[0.0], **kw)
+
+        def output(self, t, inports, x):
+            return [x[0]]
+
+        def next(self, t, inports, x):
+            return np.array([x[0] + 1.0])
+
+    sim = new_simulator()
+    bd = sim.blockdiagram()
+    clock = bd.clock(sc.Ts, name="sensor")
+    tick = Tick(clock, bd=bd, name="tick")
+    plant = Loop(bd=bd, name="loop")
+    bd.connect(tick, plant)
+    bd.connect(plant, bd.NULL())
+    with contextlib.redirect_stdout(io.StringIO()):
+        bd.compile()
+    return sim.run(bd, T=sc.T, dt=sc.Ts, watch=[plant[0]], solver_args=dict(rtol=rtol, atol=atol))
+
+
+def fig11_scenarios(T=250.0):
+    theta = unidyn.robots.get("p3dx_laser").theta
+    out = []
+    for k in np.arange(0.5, 35.0 + 1e-9, 0.5):
+        base = dict(T=T, kx=float(k), ky=float(k))
+        out += [Scenario(case="uncompensated", **base),
+                Scenario(case="compensated", theta_hat0=0.9 * theta, **base),
+                Scenario(case="adaptive", theta_hat0=0.9 * theta, adapt_from=0.0, **base),
+                Scenario(case="compensated", **base)]
+    return out
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description="unidyn engine benchmarks")
+    p.add_argument("--quick", action="store_true", help="sample 4 bdsim sweep points, not 12")
+    args = p.parse_args(argv)
+    rtol, atol = runner.DEFAULT_RTOL, runner.DEFAULT_ATOL
+    rows = []
+    sc = Scenario.paper(4)
+
+    t_diag, _ = timed(lambda: unidyn.simulate(sc))
+    rows.append(("paper sim. 4 (200 s), bdsim diagram (our blocks)", t_diag, ""))
+    t_bare, _ = timed(lambda: bare_bdsim_run(sc, rtol, atol))
+    rows.append(("paper sim. 4 (200 s), bare bdsim loop (one block, same equations)", t_bare,
+                 f"our blocks add {100 * (t_diag / t_bare - 1):+.0f} %"))
+    if _kernels.AVAILABLE:
+        simulate_batch([sc.replace(T=1.0)], backend="numba")  # compile or load the cache
+        t_nb, _ = timed(lambda: simulate_batch([sc], backend="numba"), repeat=3)
+        rows.append(("paper sim. 4 (200 s), batch engine, numba", t_nb,
+                     f"{t_diag / t_nb:.0f}x faster than the diagram"))
+    t_np, _ = timed(lambda: simulate_batch([sc], backend="numpy"))
+    rows.append(("paper sim. 4 (200 s), batch engine, numpy", t_np,
+                 f"{t_diag / t_np:.0f}x faster than the diagram"))
+
+    scs = fig11_scenarios()
+    n_pts = len(scs)
+    batch_res = None
+    if _kernels.AVAILABLE:
+        t_sweep, batch_res = timed(lambda: simulate_batch(scs, backend="numba"))
+        rows.append((f"Fig. 11 sweep ({n_pts} runs x 250 s), batch engine, numba", t_sweep,
+                     f"{DEFAULT_SUBSTEPS} RK4 substeps per 0.1 s, {os.cpu_count()} threads"))
+    sample = np.unique(np.linspace(0, n_pts - 1, 4 if args.quick else 12).round().astype(int))
+    t_sample, diag_res = timed(lambda: [unidyn.simulate(scs[i]) for i in sample])
+    per_point = t_sample / len(sample)
+    t_sweep_bdsim = per_point * n_pts
+    note = f"{per_point:.1f} s per point"
+    if batch_res is not None:
+        note += f"; the batch engine is {t_sweep_bdsim / t_sweep:.0f}x faster"
+    rows.append((f"Fig. 11 sweep, bdsim diagram (estimated from {len(sample)} points)",
+                 t_sweep_bdsim, note))
+
+    with tempfile.TemporaryDirectory() as tmp:
+        cmd = [sys.executable, "-m", "unidyn", "run", "--paper", "4", "--out", os.path.join(tmp, "r")]
+        t0 = time.perf_counter()
+        r = subprocess.run(cmd, capture_output=True, text=True)
+        t_cli = time.perf_counter() - t0
+        note = "ok" if r.returncode == 0 else f"FAILED: {r.stderr.strip()[-200:]}"
+        rows.append(("`unidyn run --paper 4`, cold start (import, run, files, figures)", t_cli, note))
+
+    print(f"\nmachine: {os.cpu_count()} cores; numba {'available' if _kernels.AVAILABLE else 'absent'}; "
+          f"bdsim tolerances rtol={rtol:g}, atol={atol:g}\n")
+    print("| what | wall time [s] | note |")
+    print("|---|---:|---|")
+    for what, t, note in rows:
+        print(f"| {what} | {t:.3f} | {note} |")
+    if batch_res is not None:
+        errs = [abs(batch_res[i].metrics["iae"] - r.metrics["iae"]) / r.metrics["iae"]
+                for i, r in zip(sample, diag_res)]
+        pos = [np.max(np.abs(batch_res[i].pose[:, :2] - r.pose[:, :2]))
+               for i, r in zip(sample, diag_res)]
+        print(f"\nbatch engine vs bdsim diagram on the {len(sample)} sampled Fig. 11 points (with "
+              f"noise): IAE relative difference median {np.median(errs):.1e}, max {max(errs):.1e}; "
+              f"position difference max {max(pos):.1e} m")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,91 @@
+"""Every notebook in examples/ runs top to bottom in a fresh kernel without an error.
+
+The kernel is this test's own Python (``sys.executable``), whatever kernelspecs the
+user has installed elsewhere: the test writes a kernelspec for it into a temporary
+folder and hands nbclient a kernel manager that only looks there. Each notebook
+runs with a temporary working folder (files it writes land there) and a 120 s
+limit per cell. ``test_kernel_runs_this_python`` checks the kernel choice itself.
+
+Marked ``slow`` (about two minutes for all notebooks): deselect with ``-m "not slow"``.
+"""
+
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+nbformat = pytest.importorskip("nbformat")
+nbclient = pytest.importorskip("nbclient")
+pytest.importorskip("ipykernel")
+
+pytestmark = pytest.mark.slow
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+NOTEBOOKS = sorted(EXAMPLES.glob("*.ipynb"))
+CELL_TIMEOUT = 120  # s
+EXPECTED = ("01_model.ipynb", "02_fig2_diagram.ipynb", "03_adaptive.ipynb",
+            "04_toolbox_dropin.ipynb")
+
+
+@pytest.fixture(scope="module")
+def kernel_spec_dir(tmp_path_factory):
+    """A kernelspec named python3 that starts ipykernel with this interpreter."""
+    root = tmp_path_factory.mktemp("kernels")
+    spec = root / "python3"
+    spec.mkdir()
+    (spec / "kernel.json").write_text(json.dumps({
+        "argv": [sys.executable, "-m", "ipykernel_launcher", "-f", "{connection_file}"],
+        "display_name": "Python 3 (unidyn tests)",
+        "language": "python",
+    }))
+    return root
+
+
+def execute(nb, kernel_spec_dir, cwd):
+    from jupyter_client.kernelspec import KernelSpecManager
+    from jupyter_client.manager import AsyncKernelManager
+
+    ksm = KernelSpecManager(kernel_dirs=[str(kernel_spec_dir)], ensure_native_kernel=False)
+    km = AsyncKernelManager(kernel_name="python3", kernel_spec_manager=ksm)
+    env = {"MPLBACKEND": "Agg"}
+    client = nbclient.NotebookClient(nb, km=km, kernel_name="python3", timeout=CELL_TIMEOUT,
+                                     resources={"metadata": {"path": str(cwd)}})
+    old = {k: os.environ.get(k) for k in env}
+    os.environ.update(env)  # inherited by the kernel process
+    try:
+        return client.execute()
+    finally:
+        for k, v in old.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+def test_examples_are_present():
+    assert tuple(p.name for p in NOTEBOOKS) == EXPECTED
+
+
+def test_kernel_runs_this_python(kernel_spec_dir, tmp_path):
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(
+        "import os, sys, unidyn\nprint(sys.executable)\nprint(os.getcwd())")])
+    nb = execute(nb, kernel_spec_dir, tmp_path)
+    text = "".join(o.get("text", "") for o in nb.cells[0].outputs).split("\n")
+    assert os.path.realpath(text[0]) == os.path.realpath(sys.executable)
+    assert os.path.realpath(text[1]) == os.path.realpath(tmp_path)
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
+def test_notebook_runs(path, kernel_spec_dir, tmp_path):
+    nb = nbformat.read(path, as_version=4)
+    start = time.perf_counter()
+    # a failing cell raises nbclient's CellExecutionError with the cell and its traceback
+    nb = execute(nb, kernel_spec_dir, tmp_path)
+    elapsed = time.perf_counter() - start
+    errors = [o for cell in nb.cells if cell.cell_type == "code"
+              for o in cell.get("outputs", []) if o.get("output_type") == "error"]
+    assert not errors, errors
+    print(f"{path.name}: {elapsed:.1f} s")

@@ -1,0 +1,7 @@
+"""``python -m unidyn``: the unidyn command line."""
+
+import sys
+
+from .cli import main
+
+sys.exit(main())

@@ -1,0 +1,498 @@
+"""The ``unidyn`` command: run scenarios and sweeps, list robots, check properties,
+identify parameters from a log.
+
+    unidyn run --paper 4 --out out/case4
+    unidyn run scenario.toml --set kx=0.5 --set noise=off --out out/run1
+    unidyn run --from out/run1/summary.json --out out/run1-again
+    unidyn sweep sweep.toml --out out/sweep
+    unidyn sweep --paper-fig11 --no-noise --out out/fig11
+    unidyn robots
+    unidyn properties p3dx --u-max 1.2
+    unidyn identify log.csv --columns t=time,u=v_meas,w=omega_meas --out out/ident
+
+Errors in the input (a bad value, malformed TOML, a missing file) print one line
+``unidyn: error: ...`` on stderr and exit with status 2; an interrupt exits with 130.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from ._validate import ValidationError
+
+__all__ = ["main"]
+
+_RESULT_FILES = ("timeseries.csv", "summary.json")
+# everything a run writes, removed before an --overwrite so no stale file survives
+_RUN_ARTEFACTS = _RESULT_FILES + ("path.png", "error.png", "positions.png", "velocities.png",
+                                  "theta_hat.png", "animation.gif")
+
+
+class _UsageError(Exception):
+    """A command-line usage error (reported on one line, exit status 2)."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):
+        raise _UsageError(f"{message} (see '{self.prog} --help')")
+
+
+# ------------------------------------------------------------------------ helpers
+
+def _err(message: str) -> None:
+    message = " ".join(str(message).split())  # one line
+    print(f"unidyn: error: {message}", file=sys.stderr)
+
+
+def _scenario_table(path: Path) -> dict:
+    from .sweep import read_toml
+    data = read_toml(path, "scenario file")
+    if set(data) == {"scenario"} and isinstance(data["scenario"], dict):
+        data = data["scenario"]
+    return data
+
+
+def _split_set(item: str):
+    key, sep, value = item.partition("=")
+    key = key.strip()
+    if not sep or not key:
+        raise ValidationError(f"--set expects KEY=VALUE, got {item!r}")
+    from .sweep import parse_toml_value
+    return key, parse_toml_value(value.strip())
+
+
+def _apply_set(d: dict, key: str, value, item: str) -> dict:
+    d = dict(d)
+    head, dot, rest = key.partition(".")
+    if not dot:
+        d[key] = value
+        return d
+    if head not in d:
+        raise ValidationError(f"--set {item}: unknown scenario field {head!r}")
+    sub = d[head]
+    if sub is None:
+        raise ValidationError(f"--set {item}: {head} is off; set the whole table, e.g. "
+                              f"--set '{head}={{...}}'")
+    if not isinstance(sub, dict):
+        raise ValidationError(f"--set {item}: {head} is not a table")
+    d[head] = _apply_set(sub, rest, value, item)
+    return d
+
+
+def _build_scenario(args):
+    """The Scenario from --from / --paper / the file, then flags, then --set."""
+    from .scenario import Scenario
+    if args.from_ and (args.scenario or args.paper):
+        raise _UsageError("--from cannot be combined with a scenario file or --paper")
+    engine = None
+    if args.from_:
+        path = Path(args.from_)
+        if path.is_dir():
+            path = path / "summary.json"
+        try:
+            summary = json.loads(path.read_text())
+        except FileNotFoundError:
+            raise FileNotFoundError(f"{path} does not exist") from None
+        except ValueError as err:
+            raise ValidationError(f"{path}: not valid JSON: {err}") from None
+        if not isinstance(summary, dict) or not isinstance(summary.get("scenario"), dict):
+            raise ValidationError(f"{path} has no 'scenario' table; is it a summary.json "
+                                  f"written by unidyn run?")
+        raw, where = summary["scenario"], str(path)
+        engine = summary.get("engine")
+    else:
+        raw, where = {}, "defaults"
+        if args.paper is not None:
+            raw = Scenario.paper(args.paper).to_dict()
+            where = f"--paper {args.paper}"
+        if args.scenario:
+            raw = {**raw, **_scenario_table(Path(args.scenario))}
+            where = str(args.scenario)
+    try:
+        sc = Scenario.from_dict(raw)
+    except ValidationError as err:
+        raise ValidationError(f"{where}: {err}") from None
+    d = sc.to_dict()
+    paper_name = d.get("name") if args.paper is not None else None
+    for flag, key, value in (("--case", "case", args.case), ("--robot", "robot", args.robot),
+                             ("--T", "T", args.T)):
+        if value is None:
+            continue
+        d[key] = value
+        try:
+            Scenario.from_dict(d)
+        except ValidationError as err:
+            raise ValidationError(f"{flag} {value}: {err}") from None
+    for item in args.set or []:
+        key, value = _split_set(item)
+        d = _apply_set(d, key, value, item)
+        try:
+            Scenario.from_dict(d)
+        except ValidationError as err:
+            raise ValidationError(f"--set {item}: {err}") from None
+    sc = Scenario.from_dict(d)
+    if paper_name and sc.name == paper_name and sc.case != Scenario.paper(args.paper).case:
+        sc = sc.replace(name="")  # the paper's name no longer describes the run
+    return sc, engine
+
+
+def _check_out(out: Path, overwrite: bool, names=_RESULT_FILES, artefacts=_RUN_ARTEFACTS):
+    if out.exists() and not out.is_dir():
+        raise ValidationError(f"--out {out} is a file, not a folder")
+    held = [n for n in names if (out / n).exists()]
+    if held and not overwrite:
+        raise ValidationError(f"{out} already holds results ({', '.join(held)}); pass "
+                              f"--overwrite to replace them or choose another --out")
+    if held:
+        for n in artefacts:
+            p = out / n
+            if p.is_file():
+                p.unlink()
+
+
+def _import_animation():
+    from .sweep import MissingDependency
+    import importlib
+    try:
+        animation = importlib.import_module(".animation", __package__)
+    except ModuleNotFoundError as err:
+        if err.name == f"{__package__}.animation":
+            raise MissingDependency("--animate is not available: this installation has no "
+                                    "unidyn.animation module") from None
+        raise MissingDependency(f"--animate needs {err.name}, which is not installed") from None
+    if not hasattr(animation, "animate"):
+        raise MissingDependency("--animate is not available: unidyn.animation has no animate()")
+    return animation
+
+
+# ------------------------------------------------------------------------ commands
+
+def _cmd_run(args) -> int:
+    sc, engine_from = _build_scenario(args)
+    engine = args.engine or engine_from or "auto"
+    if engine not in ("bdsim", "batch", "auto"):
+        raise ValidationError(f"engine must be 'bdsim', 'batch' or 'auto', got {engine!r}")
+    if engine == "auto":  # the batch engine where it applies: same numbers, far faster
+        engine = "batch" if sc.control == "continuous" else "bdsim"
+    out = Path(args.out)
+    _check_out(out, args.overwrite)
+    animation = _import_animation() if args.animate else None
+    t0 = time.perf_counter()
+    if engine == "batch":
+        from .batch import simulate_batch
+        result = simulate_batch([sc])[0]
+    else:
+        from .runner import SimulationError, simulate
+        try:
+            result = simulate(sc)
+        except SimulationError as err:
+            if err.result is None:
+                raise
+            result = err.result  # written below, marked incomplete
+    wall = time.perf_counter() - t0
+    result.save(out)
+    from .plots import save_figures
+    save_figures(result, out)
+    if animation is not None:
+        animation.animate(result, out / "animation.gif")
+    m = result.metrics
+    print(f"case       {sc.case}" + (f"  ({sc.name})" if sc.name else ""))
+    print(f"robot      {sc.robot.name}")
+    print(f"engine     {engine}, T = {sc.T:g} s, noise "
+          + ("off" if sc.noise is None else f"seed {sc.noise.seed}"))
+    print(f"IAE        {m['iae']:.6g} m·s")
+    print(f"error(T)   {m['error_final']:.6g} m")
+    print(f"wall time  {wall:.2f} s")
+    print(f"written    {out}/ (timeseries.csv, summary.json, figures"
+          + (", animation.gif" if animation is not None else "") + ")")
+    if not result.complete:
+        print(f"unidyn: warning: the run stopped early: {result.message}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _parse_gains(text: str):
+    """'0.5:35:0.5' (start:stop:step, stop included) or a TOML list '[1, 5, 23]'."""
+    from .sweep import _expand_range, parse_toml_value
+    if ":" in text:
+        parts = text.split(":")
+        if len(parts) != 3:
+            raise ValidationError(f"--gains expects START:STOP:STEP or a list, got {text!r}")
+        try:
+            start, stop, step = (float(p) for p in parts)
+        except ValueError:
+            raise ValidationError(f"--gains expects numbers in START:STOP:STEP, "
+                                  f"got {text!r}") from None
+        return _expand_range("--gains", {"start": start, "stop": stop, "step": step})
+    v = parse_toml_value(text)
+    if not isinstance(v, list):
+        v = [v]
+    for g in v:
+        if isinstance(g, bool) or not isinstance(g, (int, float)) or not g > 0:
+            raise ValidationError(f"--gains: every gain must be a number > 0, got {g!r}")
+    return [float(g) for g in v]
+
+
+def _cmd_sweep(args) -> int:
+    from . import sweep as sw
+    if bool(args.sweep) == bool(args.paper_fig11):
+        raise _UsageError("give either a sweep file or --paper-fig11")
+    if args.gains is not None and not args.paper_fig11:
+        raise _UsageError("--gains applies to --paper-fig11 only (a sweep file has its grid)")
+    if args.paper_fig11:
+        gains = _parse_gains(args.gains) if args.gains is not None else None
+        spec = sw.paper_fig11(T=250.0 if args.T is None else args.T, gains=gains,
+                              noise=None if args.no_noise else sw.PAPER_NOISE,
+                              **({} if args.substeps is None else {"substeps": args.substeps}))
+    else:
+        spec = sw.Sweep.from_toml(args.sweep)
+        changes = {}
+        if args.T is not None:
+            changes["T"] = args.T
+        if args.no_noise:
+            changes["noise"] = "off"
+        try:
+            if changes:
+                spec = spec.with_base(**changes)
+            if args.substeps is not None:
+                import dataclasses
+                spec = dataclasses.replace(spec, substeps=args.substeps)
+        except ValidationError as err:
+            raise ValidationError(f"{args.sweep}: {err}") from None
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ValidationError(f"--out {out} is a file, not a folder")
+    n = len(spec)
+    print(f"sweep: {spec.name or args.sweep}: {n} points, engine {args.engine}"
+          + (f", Dask at {args.dask}" if args.dask else ""), flush=True)
+    run = sw.run_sweep(spec, out, engine=args.engine, chunk_size=args.chunk_size,
+                       resume=not args.no_resume, progress=not args.no_progress,
+                       dask_address=args.dask)
+    print(f"ran {run.ran} points" + (f", {run.skipped} already done (resumed)"
+                                     if run.skipped else "")
+          + f" in {run.seconds:.1f} s; written {out}/ (metrics.csv, sweep.json, metrics.png)")
+    if run.failed:
+        print(f"unidyn: warning: {len(run.failed)} point(s) did not complete: "
+              f"{', '.join(map(str, run.failed[:10]))}", file=sys.stderr)
+    if args.paper_fig11:
+        base = spec.points()[0].scenario
+        noise = ("off" if base.noise is None else
+                 f"position std {base.noise.position_std:g} m, velocity std "
+                 f"{base.noise.velocity_std:g}, seed {base.noise.seed}")
+        title = (f"Fig. 11 claims: T = {base.T:g} s, {len(spec.grid['kxy'])} gains "
+                 f"{min(spec.grid['kxy']):g}..{max(spec.grid['kxy']):g}, noise {noise}, "
+                 f"engine {args.engine}")
+        claims = sw.fig11_claims(run.rows)
+        table = sw.format_fig11_claims(claims, title=f"**{title}**")
+        from .result import write_atomic
+        write_atomic(out / "claims.md", table + "\n")
+        sw.plot_fig11(run.rows, out / "fig11.png",
+                      title=f"IAE, T = {base.T:g} s, noise " + ("off" if base.noise is None
+                                                                else "on"))
+        print()
+        print(table)
+        print(f"\nwritten {out}/claims.md and {out}/fig11.png")
+    return 1 if run.failed else 0
+
+
+def _cmd_robots(args) -> int:
+    from . import robots
+    names = robots.names()
+    w = max(len(n) for n in names)
+    head = f"{'name':{w}s} " + " ".join(f"{f'theta{i}':>10s}" for i in range(1, 7)) + "  source"
+    print(head)
+    for n in names:
+        r = robots.get(n)
+        print(f"{n:{w}s} " + " ".join(f"{v:10.6g}" for v in r.theta) + f"  {r.source}")
+    return 0
+
+
+def _cmd_properties(args) -> int:
+    from . import robots
+    from .properties import check_properties
+    robot = robots.resolve(args.robot, "robot")
+    print(check_properties(robot, args.u_max))
+    return 0
+
+
+def _parse_columns(text: str) -> dict:
+    out = {}
+    for part in text.split(","):
+        part = part.strip()
+        if not part:
+            continue
+        k, sep, v = part.partition("=")
+        if not sep or not k.strip() or not v.strip():
+            raise ValidationError(f"--columns expects NAME=COLUMN pairs separated by commas "
+                                  f"(e.g. t=time,u=v_meas), got {part!r}")
+        out[k.strip()] = v.strip()
+    return out
+
+
+def _cmd_identify(args) -> int:
+    from . import identification as ident
+    log = Path(args.log)
+    if not log.exists():
+        raise FileNotFoundError(f"log {log} does not exist")
+    columns = _parse_columns(args.columns) if args.columns else None
+    out = Path(args.out)
+    _check_out(out, args.overwrite, names=("theta.json",),
+               artefacts=("theta.json", "validation.png", "validation.json"))
+    kwargs = {"columns": columns}
+    if args.smoothing is not None:
+        kwargs["smoothing"] = args.smoothing
+    if args.window is not None:
+        kwargs["window"] = args.window
+    if args.name is not None:
+        kwargs["name"] = args.name
+    res = ident.identify(str(log), **kwargs)
+    path = res.save(out)
+    print(res.summary() if hasattr(res, "summary") else res.theta)
+    print(f"written    {path}")
+    validate = getattr(ident, "validate", None)
+    plot = getattr(ident, "plot_validation", None)
+    if validate is not None:
+        vlog = Path(args.validate) if args.validate else log
+        if not vlog.exists():
+            raise FileNotFoundError(f"validation log {vlog} does not exist")
+        report = validate(res, str(vlog), columns=columns)
+        what = "held-out log" if args.validate else "the same log (in-sample)"
+        fit = getattr(report, "fit", None)
+        if isinstance(fit, dict):
+            print(f"validation on {what}: NRMSE fit "
+                  + ", ".join(f"{k} {v:.1f} %" for k, v in fit.items()))
+        if hasattr(report, "as_dict"):
+            from .result import write_atomic
+            write_atomic(out / "validation.json",
+                         json.dumps({**report.as_dict(), "log": str(vlog),
+                                     "in_sample": not args.validate}, indent=2) + "\n")
+        if plot is not None:
+            import matplotlib.pyplot as plt
+            axes = plot(report)
+            fig = axes[0].figure
+            fig.tight_layout()
+            fig.savefig(out / "validation.png", dpi=110)
+            plt.close(fig)
+            print(f"written    {out / 'validation.png'}")
+    return 0
+
+
+# ------------------------------------------------------------------------ parser
+
+def _parser() -> argparse.ArgumentParser:
+    p = _Parser(prog="unidyn", description="Differential-drive robots with the velocity-based "
+                "dynamic model of Martins et al. (2017): simulations, sweeps, parameters.")
+    from . import __version__
+    p.add_argument("--version", action="version", version=f"unidyn {__version__}")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub.required = True
+
+    r = sub.add_parser("run", help="simulate one scenario and write its results",
+                       description="Simulate one scenario (the paper's defaults, a TOML file, "
+                       "then flags, then --set) and write timeseries.csv, summary.json and "
+                       "figures into --out.")
+    r.add_argument("scenario", nargs="?", metavar="SCENARIO.toml",
+                   help="scenario fields (top level or a [scenario] table)")
+    r.add_argument("--paper", type=int, choices=(1, 2, 3, 4),
+                   help="start from the paper's simulation N (Section 5)")
+    r.add_argument("--from", dest="from_", metavar="SUMMARY.json",
+                   help="rebuild the scenario (and engine) of a previous run's summary.json")
+    r.add_argument("--case", help="kinematic, uncompensated, compensated or adaptive")
+    r.add_argument("--robot", help="preset name (see 'unidyn robots') or a theta.json file")
+    r.add_argument("--T", type=float, help="duration, s")
+    r.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="set a scenario field; VALUE is a TOML value (kx=0.5, noise=off, "
+                        "'x0=[0,0,0]', noise.seed=3); repeatable")
+    r.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    r.add_argument("--engine", choices=("auto", "bdsim", "batch"),
+                   help="auto (default): the batch engine for continuous control, the bdsim "
+                        "diagram for sampled control; bdsim: always the diagram")
+    r.add_argument("--overwrite", action="store_true", help="replace results already in DIR")
+    r.add_argument("--animate", action="store_true", help="also write DIR/animation.gif")
+    r.set_defaults(func=_cmd_run)
+
+    s = sub.add_parser("sweep", help="run a parameter sweep (resumable)",
+                       description="Run every point of a sweep file, or the paper's Fig. 11, "
+                       "writing metrics.csv (one row per point), sweep.json and metrics.png "
+                       "into --out. An interrupted sweep resumes where it stopped.")
+    s.add_argument("sweep", nargs="?", metavar="SWEEP.toml", help="the sweep file")
+    s.add_argument("--paper-fig11", action="store_true",
+                   help="the paper's Fig. 11: IAE against kx = ky, four cases; also writes "
+                        "fig11.png and claims.md")
+    s.add_argument("--gains", help="with --paper-fig11: START:STOP:STEP or a list '[1, 5, 23]' "
+                                   "(default 0.5:35:0.5)")
+    s.add_argument("--no-noise", action="store_true", help="noise-free runs")
+    s.add_argument("--T", type=float, help="duration of every run, s")
+    s.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    s.add_argument("--engine", choices=("batch", "bdsim"), default="batch")
+    s.add_argument("--chunk-size", type=int, metavar="N", help="points per chunk")
+    s.add_argument("--substeps", type=int, metavar="N",
+                   help="RK4 steps per sample interval of the batch engine (default 10)")
+    s.add_argument("--dask", metavar="ADDRESS", help="run the chunks on this Dask scheduler")
+    s.add_argument("--no-resume", action="store_true",
+                   help="start over instead of skipping the points already in DIR")
+    s.add_argument("--no-progress", action="store_true", help="no progress bar")
+    s.set_defaults(func=_cmd_sweep)
+
+    rb = sub.add_parser("robots", help="list the preset robots",
+                        description="The preset robots: theta1..theta6 and their source.")
+    rb.set_defaults(func=_cmd_robots)
+
+    pr = sub.add_parser("properties", help="check the model's properties for a robot",
+                        description="Check properties 1-7 of Section 3 for a robot.")
+    pr.add_argument("robot", metavar="ROBOT", help="preset name or a theta.json file")
+    pr.add_argument("--u-max", type=float, help="speed range |u| <= U_MAX, m/s "
+                                                "(default: the paper's for the robot)")
+    pr.set_defaults(func=_cmd_properties)
+
+    i = sub.add_parser("identify", help="identify theta1..theta6 from a log",
+                       description="Least-squares identification of theta from a CSV log with "
+                       "columns t, u_ref, w_ref, u, w; writes theta.json (and a validation "
+                       "figure) into --out.")
+    i.add_argument("log", metavar="LOG.csv")
+    i.add_argument("--columns", metavar="NAME=COLUMN,...",
+                   help="map t, u_ref, w_ref, u, w to the log's column names")
+    i.add_argument("--out", required=True, metavar="DIR")
+    i.add_argument("--smoothing", choices=("filter", "savgol"))
+    i.add_argument("--window", type=float, help="filter / fit window, s")
+    i.add_argument("--name", help="name of the identified parameter set")
+    i.add_argument("--validate", metavar="HELDOUT.csv",
+                   help="validate on this log (default: the identification log, in-sample)")
+    i.add_argument("--overwrite", action="store_true", help="replace a theta.json in DIR")
+    i.set_defaults(func=_cmd_identify)
+    return p
+
+
+def main(argv=None) -> int:
+    """Run the ``unidyn`` command line; returns the exit status."""
+    from .sweep import MissingDependency
+    try:
+        args = _parser().parse_args(argv)
+        return int(args.func(args) or 0)
+    except SystemExit as exc:  # --help, --version
+        return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
+    except KeyboardInterrupt:
+        print("unidyn: interrupted", file=sys.stderr)
+        return 130
+    except (ValidationError, _UsageError, MissingDependency) as err:
+        _err(err)
+        return 2
+    except BrokenPipeError:  # e.g. piped into head: stop quietly
+        import os
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 141
+    except FileNotFoundError as err:
+        _err(err.args[0] if len(err.args) == 1 else f"no such file: {err.filename}")
+        return 2
+    except OSError as err:
+        _err(f"{err.strerror or err}" + (f": {err.filename}" if err.filename else ""))
+        return 2
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
