@@ -18,7 +18,7 @@ class DynamicUnicycle(ContinuousBlock):
     Differential-drive robot with the velocity-based dynamic model of Martins et al. (2017).
 
     :inputs: 2 (3 with ``disturbance=True``)
-    :outputs: 2
+    :outputs: 1 (2 with ``velocity_output=True``)
     :states: 5
 
     .. list-table::
@@ -48,7 +48,8 @@ class DynamicUnicycle(ContinuousBlock):
         *   - Output
             - 1
             - ndarray(2)
-            - :math:`v = (u, \omega)`, actual velocities, m/s and rad/s (label ``velocity``)
+            - :math:`v = (u, \omega)`, actual velocities, m/s and rad/s, only with
+              ``velocity_output=True`` (label ``velocity``)
 
     A drop-in replacement for the Robotics Toolbox's kinematic ``UNICYCLE``: the
     same input ports, labels and constructor arguments, with the pose on output
@@ -65,6 +66,11 @@ class DynamicUnicycle(ContinuousBlock):
         \dot\omega = -\frac{\theta_5}{\theta_2}u\omega - \frac{\theta_6}{\theta_2}\omega
                  + \frac{\omega_{ref}}{\theta_2} + \delta_\omega \qquad &\text{Eq. (2)}
 
+    The velocity output is off by default: bdsim connects a whole block
+    (``bd.connect(vehicle, xy, theta, vplot)``, as toolbox models do) only when
+    it has a single output, so the default keeps such diagrams running unchanged.
+    The Fig. 2 loop feeds the velocities back and turns it on.
+
     State order ``x, y, psi, u, w``. With ``a = 0`` (the default) h is the
     wheel-axle centre, as for ``UNICYCLE``. Commands are clipped to the speed
     limits, the accelerations to the acceleration limits, and a velocity at its
@@ -75,13 +81,13 @@ class DynamicUnicycle(ContinuousBlock):
     """
 
     nin = 2
-    nout = 2
+    nout = 1
     inlabels = ("v", "ω")
-    outlabels = ("q", "velocity")
+    outlabels = ("q",)
 
     def __init__(self, robot="p3dx_laser", a=0.0, x0=None, speed_max=np.inf,
                  accel_max=np.inf, steer_max=np.inf, angular_accel_max=np.inf,
-                 limits=None, disturbance=False, w=None, **blockargs):
+                 limits=None, disturbance=False, velocity_output=False, w=None, **blockargs):
         r"""
         :param robot: preset name (see ``unidyn.robots.names()``), ``RobotParameters``
             or six numbers theta1..theta6, defaults to ``"p3dx_laser"``
@@ -103,6 +109,8 @@ class DynamicUnicycle(ContinuousBlock):
         :type limits: unidyn.Limits, optional
         :param disturbance: add input 2, the disturbance delta of Eqs. (1)-(2)
         :type disturbance: bool
+        :param velocity_output: add output 1, the actual velocities (u, w), defaults to False
+        :type velocity_output: bool
         :param w: vehicle width, m, > 0; accepted for compatibility with ``UNICYCLE`` and
             unused: input 1 is the turn rate. (roboticstoolbox 1.4's ``UNICYCLE`` divides
             its ω input by ``w``, unlike its docstring, so a diagram built with ``w != 1``
@@ -127,6 +135,12 @@ class DynamicUnicycle(ContinuousBlock):
         if self.disturbance:
             blockargs.setdefault("inames", ["v", "ω", "delta"])
             blockargs.setdefault("nin", 3)
+        if velocity_output not in (True, False):
+            raise ValidationError(f"velocity_output must be True or False, got {velocity_output!r}")
+        self.velocity_output = bool(velocity_output)
+        if self.velocity_output:
+            blockargs.setdefault("onames", ["q", "velocity"])
+            blockargs.setdefault("nout", 2)
         super().__init__(nstates=5, x0=x0, snames=["x", "y", "psi", "u", "w"], **blockargs)
         self.type = "dynamicunicycle"
 
@@ -143,7 +157,9 @@ class DynamicUnicycle(ContinuousBlock):
         return check_finite(xd, self, "state derivative", t)
 
     def output(self, t, inports, x):
-        return [np.array(x[0:3]), np.array(x[3:5])]
+        if self.velocity_output:
+            return [np.array(x[0:3]), np.array(x[3:5])]
+        return [np.array(x[0:3])]
 
 
 class KinematicUnicycle(ContinuousBlock):

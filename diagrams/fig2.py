@@ -126,7 +126,8 @@ def build_fig2(sim, scenario: Scenario, *, robot: Callable | None = None,
     if robot is not None:
         R = robot(bd, sc)
     elif dynamic:
-        R = DynamicUnicycle(robot=sc.robot, a=sc.a, x0=sc.x0, limits=sc.limits, bd=bd, name="robot")
+        R = DynamicUnicycle(robot=sc.robot, a=sc.a, x0=sc.x0, limits=sc.limits,
+                            velocity_output=True, bd=bd, name="robot")
     else:
         R = KinematicUnicycle(a=sc.a, x0=sc.x0, limits=sc.limits, bd=bd, name="robot")
     fig.blocks["robot"] = R

@@ -129,10 +129,6 @@ def test_toolbox_diagram_runs_unchanged(wiring):
         assert np.hypot(q[0] - GOAL[0], q[1] - GOAL[1]) < 0.05, vehicle_type
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError,
-                   reason="DYNAMICUNICYCLE has two outputs (pose, velocities), and bdsim "
-                          "connects a whole block only when it has one output: RVC-style "
-                          "bd.connect(vehicle, xy, theta, vplot) must name vehicle[0] instead")
 def test_whole_block_connect_as_in_rvc_models():
     sim = new_simulator()
     bd = sim.blockdiagram()

@@ -46,6 +46,7 @@ def kernel_spec_dir(tmp_path_factory):
 
 def execute(nb, kernel_spec_dir, cwd):
     from jupyter_client.kernelspec import KernelSpecManager
+    from jupyter_core.utils import run_sync
     from jupyter_client.manager import AsyncKernelManager
 
     ksm = KernelSpecManager(kernel_dirs=[str(kernel_spec_dir)], ensure_native_kernel=False)
@@ -58,6 +59,8 @@ def execute(nb, kernel_spec_dir, cwd):
     try:
         return client.execute()
     finally:
+        if km.has_kernel:  # nbclient shuts down only the kernels of managers it created
+            run_sync(km.shutdown_kernel)(now=True)
         for k, v in old.items():
             if v is None:
                 os.environ.pop(k, None)

@@ -53,7 +53,7 @@ def test_linear_step_response(sim, robot):
     th = robots.get(robot)
     u_ref = 0.35
     bd = sim.blockdiagram()
-    veh = bd.DYNAMICUNICYCLE(robot, x0=[0.5, -0.2, 0.0])
+    veh = bd.DYNAMICUNICYCLE(robot, velocity_output=True, x0=[0.5, -0.2, 0.0])
     bd.connect(bd.CONSTANT(u_ref), veh.v)
     bd.connect(bd.CONSTANT(0.0), veh[1])
     T = 3.0
@@ -78,7 +78,7 @@ def test_angular_step_response_and_point_of_interest_circle(sim):
     a, w_ref = 0.2, 0.6
     bd = sim.blockdiagram()
     # axle centre at the origin, heading 0: h starts at (a, 0)
-    veh = bd.DYNAMICUNICYCLE(th, a=a, x0=[a, 0.0, 0.0])
+    veh = bd.DYNAMICUNICYCLE(th, velocity_output=True, a=a, x0=[a, 0.0, 0.0])
     bd.connect(bd.CONSTANT(0.0), veh.v)
     bd.connect(bd.CONSTANT(w_ref), veh[1])
     out = run(sim, bd, 4.0, [veh[0]])
@@ -98,8 +98,8 @@ def test_angular_step_response_and_point_of_interest_circle(sim):
 def test_x0_three_and_five_vectors(sim):
     th = np.array([0.2604, 0.2509, 0.0, 0.9965, 0.0, 1.0768])
     bd = sim.blockdiagram()
-    v3 = bd.DYNAMICUNICYCLE(th, x0=[1.0, 2.0, 0.5])
-    v5 = bd.DYNAMICUNICYCLE(th, x0=[-1.0, 0.5, -0.3, 0.4, -0.7])
+    v3 = bd.DYNAMICUNICYCLE(th, velocity_output=True, x0=[1.0, 2.0, 0.5])
+    v5 = bd.DYNAMICUNICYCLE(th, velocity_output=True, x0=[-1.0, 0.5, -0.3, 0.4, -0.7])
     for v in (v3, v5):
         bd.connect(bd.CONSTANT(0.0), v.v)
         bd.connect(bd.CONSTANT(0.0), v[1])
@@ -118,7 +118,7 @@ def test_x0_three_and_five_vectors(sim):
 
 def test_state_names(sim):
     bd = sim.blockdiagram()
-    veh = bd.DYNAMICUNICYCLE("p3dx")
+    veh = bd.DYNAMICUNICYCLE("p3dx", velocity_output=True)
     bd.connect(bd.CONSTANT(0.1), veh.v)
     bd.connect(bd.CONSTANT(0.1), veh[1])
     out = run(sim, bd, 0.2, [])
@@ -145,7 +145,7 @@ def test_pose_is_point_of_interest_and_matches_solve_ivp(sim):
     x0 = np.array([0.3, -0.4, 0.8, 0.1, -0.2])
     T = 8.0
     bd = sim.blockdiagram()
-    veh = bd.DYNAMICUNICYCLE(robot, a=a, x0=x0)
+    veh = bd.DYNAMICUNICYCLE(robot, velocity_output=True, a=a, x0=x0)
     bd.connect(fn_of_time(bd, u_cmd), veh.v)
     bd.connect(fn_of_time(bd, w_cmd), veh[1])
     out = run(sim, bd, T, [veh[0], veh[1]])
@@ -176,7 +176,7 @@ def test_fast_robot_tracks_toolbox_unicycle(sim):
     bd = sim.blockdiagram()
     fu = fn_of_time(bd, lambda t: 0.3 + 0.1 * math.sin(0.5 * t))
     fw = fn_of_time(bd, lambda t: 0.4 * math.cos(0.3 * t))
-    veh = bd.DYNAMICUNICYCLE(fast, x0=x0)
+    veh = bd.DYNAMICUNICYCLE(fast, velocity_output=True, x0=x0)
     uni = bd.UNICYCLE(x0=x0, w=1)  # UNICYCLE's psi' is omega / w
     bd.connect(fu, veh.v, uni.v)
     bd.connect(fw, veh[1], uni[1])
@@ -199,7 +199,7 @@ def test_speed_and_acceleration_limits_hold_during_a_run(sim):
     th = [0.26, 0.25, 0.0, 0.8, 0.0, 0.8]
     smax, wmax, amax, alpha = 0.5, 1.0, 0.3, 2.0
     bd = sim.blockdiagram()
-    veh = bd.DYNAMICUNICYCLE(th, speed_max=smax, steer_max=wmax, accel_max=amax,
+    veh = bd.DYNAMICUNICYCLE(th, velocity_output=True, speed_max=smax, steer_max=wmax, accel_max=amax,
                              angular_accel_max=alpha)
     bd.connect(bd.CONSTANT(2.0), veh.v)    # clipped to 0.5
     bd.connect(bd.CONSTANT(-3.0), veh[1])  # clipped to -1
@@ -225,7 +225,7 @@ def test_speed_and_acceleration_limits_hold_during_a_run(sim):
 
 def test_limits_object_overrides_arguments(sim):
     bd = sim.blockdiagram()
-    veh = bd.DYNAMICUNICYCLE("p3dx_laser", speed_max=10.0, limits=Limits(speed_max=0.2))
+    veh = bd.DYNAMICUNICYCLE("p3dx_laser", velocity_output=True, speed_max=10.0, limits=Limits(speed_max=0.2))
     bd.connect(bd.CONSTANT(1.0), veh.v)
     bd.connect(bd.CONSTANT(0.0), veh[1])
     out = run(sim, bd, 3.0, [veh[1]])
@@ -240,7 +240,7 @@ def test_limits_object_overrides_arguments(sim):
 def test_drop_in_ports_and_toolbox_arguments(sim):
     bd = sim.blockdiagram()
     # UNICYCLE's constructor arguments are accepted
-    veh = bd.DYNAMICUNICYCLE("p3dx_laser", w=0.4, speed_max=2.0, accel_max=5.0,
+    veh = bd.DYNAMICUNICYCLE("p3dx_laser", velocity_output=True, w=0.4, speed_max=2.0, accel_max=5.0,
                              steer_max=3.0, x0=[0.0, 0.0, 0.0])
     bd.connect(bd.CONSTANT(0.3), veh.v)      # input by label
     bd.connect(bd.CONSTANT(0.0), veh[1])     # input by number
@@ -263,8 +263,8 @@ def test_disturbance_on_linear_and_position_channels(sim):
     th = robots.get("p3dx_laser")
     u_ref, dx, dy, du = 0.3, 0.05, -0.02, 0.4
     bd = sim.blockdiagram()
-    veh = bd.DYNAMICUNICYCLE("p3dx_laser", disturbance=True)
-    ref = bd.DYNAMICUNICYCLE("p3dx_laser")
+    veh = bd.DYNAMICUNICYCLE("p3dx_laser", velocity_output=True, disturbance=True)
+    ref = bd.DYNAMICUNICYCLE("p3dx_laser", velocity_output=True)
     bd.connect(bd.CONSTANT(u_ref), veh.v, ref.v)
     bd.connect(bd.CONSTANT(0.0), veh[1], ref[1])
     bd.connect(bd.CONSTANT(np.array([dx, dy, du, 0.0])), veh[2])
@@ -288,7 +288,7 @@ def test_disturbance_on_angular_channel(sim):
     th = np.array([0.2604, 0.2509, 0.0, 0.9965, 0.00263, 1.0768])
     dw = 0.8
     bd = sim.blockdiagram()
-    veh = bd.DYNAMICUNICYCLE(th, disturbance=True)
+    veh = bd.DYNAMICUNICYCLE(th, velocity_output=True, disturbance=True)
     bd.connect(bd.CONSTANT(0.0), veh.v)
     bd.connect(bd.CONSTANT(0.0), veh[1])
     bd.connect(bd.CONSTANT(np.array([0.0, 0.0, 0.0, dw])), veh.delta)
@@ -360,7 +360,7 @@ def _chain(exc):
 @pytest.mark.parametrize("port", [0, 1, 2])
 def test_nan_command_stops_the_run_naming_block_and_time(sim, port):
     bd = sim.blockdiagram()
-    veh = bd.DYNAMICUNICYCLE("p3dx_laser", name="robby", disturbance=(port == 2))
+    veh = bd.DYNAMICUNICYCLE("p3dx_laser", velocity_output=True, name="robby", disturbance=(port == 2))
     if port == 2:
         bad = fn_of_time(bd, lambda t: np.array([0.0, 0.0, math.nan if t > 0.7 else 0.1, 0.0]))
         bd.connect(bad, veh[2])
@@ -432,7 +432,7 @@ def test_kinematic_and_dynamic_blocks_swap(sim):
     fast = [1e-3, 1e-3, 0.0, 1.0, 0.0, 1.0]
     bd = sim.blockdiagram()
     kin = bd.KINEMATICUNICYCLE(a=0.2, x0=[0.2, 0.0, 0.0])
-    dyn = bd.DYNAMICUNICYCLE(fast, a=0.2, x0=[0.2, 0.0, 0.0])
+    dyn = bd.DYNAMICUNICYCLE(fast, velocity_output=True, a=0.2, x0=[0.2, 0.0, 0.0])
     bd.connect(bd.CONSTANT(0.3), kin.v, dyn.v)
     bd.connect(fn_of_time(bd, lambda t: 0.6 * math.sin(0.8 * t)), kin[1], dyn[1])
     out = run(sim, bd, 6.0, [kin[0], dyn[0]], rtol=1e-8)

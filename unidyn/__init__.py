@@ -31,6 +31,8 @@ def __getattr__(name):
         "simulate_batch": ("batch", "simulate_batch"),
         "Result": ("result", "Result"),
         "properties": ("properties", None),
+        "animation": ("animation", None),
+        "batch": ("batch", None),
         "check_properties": ("properties", "check_properties"),
         "rank_test": ("properties", "rank_test"),
     }

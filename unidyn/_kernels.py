@@ -266,7 +266,8 @@ def _run_one(X0, P, pos_noise, vel_noise, Ts, n, m, Xs, SIG):
 
 @_parallel
 def run_batch(X0, P, pos_noise, vel_noise, Ts, n, m, Xs, SIG, stops):
-    """Integrate every run; Xs (B, n+1, 13) and SIG (B, n+1, 8) are filled in place,
+    """Integrate every run, run i with m[i] RK4 steps per interval; Xs (B, n+1, 13)
+    and SIG (B, n+1, 8) are filled in place,
     stops[i] is the last sample index written (n when the run completed)."""
     for i in _prange(X0.shape[0]):
-        stops[i] = _run_one(X0[i], P[i], pos_noise[i], vel_noise[i], Ts, n, m, Xs[i], SIG[i])
+        stops[i] = _run_one(X0[i], P[i], pos_noise[i], vel_noise[i], Ts, n, m[i], Xs[i], SIG[i])

@@ -181,7 +181,8 @@ def animate(result, path, fps=20, speedup=None, trail=True, frames=None, *, robo
     seconds per second of playback), about ``duration * fps / speedup``; else
     real time if that takes at most :data:`DEFAULT_MAX_FRAMES` (200) frames, and
     otherwise 200 frames spread over the whole run. A GIF has exactly that many
-    frames (the time stamp in the title makes every frame distinct).
+    frames: the time stamp in the title makes every frame distinct (except for a
+    run of zero duration, whose identical frames the GIF writer merges).
 
     :param result: a :class:`~unidyn.Result`, a :class:`Motion`, or a list of them
     :type result: Result, Motion or list
@@ -247,7 +248,7 @@ def animate(result, path, fps=20, speedup=None, trail=True, frames=None, *, robo
     times = np.linspace(t0, t1, n) if n > 1 else np.array([t1])
     # every frame's time stamp distinct: enough decimals for the frame spacing
     step = (t1 - t0) / (n - 1) if n > 1 else 1.0
-    decimals = 1 if step <= 0 else min(6, max(1, math.ceil(-math.log10(step)) + 1))
+    decimals = 1 if step <= 0 else min(12, max(1, math.ceil(-math.log10(step))))
 
     # poses at the frame times, and a dense copy for the trails
     frames_at = [m.at(times) for m in motions]
@@ -273,9 +274,21 @@ def animate(result, path, fps=20, speedup=None, trail=True, frames=None, *, robo
 
     fig = Figure(figsize=figsize, dpi=dpi)
     FigureCanvasAgg(fig)
+    left, right, bottom, top = 0.14, 0.96, 0.2, 0.92
+    fig.subplots_adjust(left=left, right=right, top=top, bottom=bottom)
     ax = fig.add_subplot(1, 1, 1)
-    ax.set_xlim(lo[0] - margin, hi[0] + margin)
-    ax.set_ylim(lo[1] - margin, hi[1] + margin)
+    # the view: the drawing plus margins, widened in x or y to the shape of the axes so
+    # that equal scales fill them
+    lo, hi = lo - margin, hi + margin
+    box = (figsize[1] * (top - bottom)) / (figsize[0] * (right - left))  # height / width
+    width, height = hi - lo
+    centre = (lo + hi) / 2
+    if height < box * width:
+        height = box * width
+    else:
+        width = height / box
+    ax.set_xlim(centre[0] - width / 2, centre[0] + width / 2)
+    ax.set_ylim(centre[1] - height / 2, centre[1] + height / 2)
     ax.set_aspect("equal", adjustable="box")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
@@ -309,7 +322,6 @@ def animate(result, path, fps=20, speedup=None, trail=True, frames=None, *, robo
         ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=3, fontsize="small",
                   frameon=False)
     stamp = ax.set_title("")
-    fig.subplots_adjust(left=0.14, right=0.96, top=0.92, bottom=0.2)
     dynamic = [stamp] + [a for group in artists for a in group] + [m for m in ref_marks if m]
 
     def update(i, tf):

@@ -41,6 +41,43 @@ def _group(scenarios):
 
 BACKENDS = ("auto", "numba", "numpy")
 
+#: RK4 is stable for real eigenvalues lambda with |lambda h| < 2.78, and accurate
+#: to about 1e-5 per unit time at |lambda h| = 0.5; the step is kept below
+#: STEP_RATE_LIMIT / (fastest rate of the loop).
+STEP_RATE_LIMIT = 0.5
+
+
+def fastest_rate(sc: Scenario) -> tuple[float, str]:
+    """The fastest decay rate (1/s) in the loop of ``sc`` and what it comes from.
+
+    The candidates are the robot's velocity loops (theta4/theta1, theta6/theta2,
+    Eq. 2, with the speed-dependent term of F at the speed limit), the designed
+    error dynamics of the kinematic controller (kx, ky) and of the compensator
+    (ku, kw), the derivative filter (1/tau) and, conservatively, the update law
+    (gamma_i times the square of a typical regressor entry)."""
+    th = sc.robot.theta
+    vmax = sc.limits.speed_max if np.isfinite(sc.limits.speed_max) else 1.0
+    f22 = th[5] + abs(th[4] - th[2]) * vmax
+    rates = {f"robot time constant theta1/theta4 = {th[0] / th[3]:.3g} s": th[3] / th[0],
+             f"robot time constant theta2/theta6 = {th[1] / f22:.3g} s": f22 / th[1],
+             f"kinematic gains kx, ky = {sc.kx:g}, {sc.ky:g} 1/s": max(sc.kx, sc.ky)}
+    if sc.case in ("compensated", "adaptive"):
+        # with exact compensation the velocity error decays at ku, kw plus H^-1 F
+        rates[f"compensator gains ku, kw = {sc.ku:g}, {sc.kw:g} 1/s"] = max(sc.ku, sc.kw)
+        if sc.derivative == "filter":
+            rates[f"derivative filter tau = {sc.tau:g} s"] = 1.0 / sc.tau
+    what = max(rates, key=rates.get)
+    return rates[what], what
+
+
+def stable_substeps(sc: Scenario, substeps: int) -> int:
+    """``substeps``, raised where needed so that the RK4 step Ts/substeps stays
+    below STEP_RATE_LIMIT / :func:`fastest_rate` (a fast robot such as the
+    Khepera III needs a shorter step than the Pioneer, and so does a high gain)."""
+    rate, _ = fastest_rate(sc)
+    need = int(np.ceil(sc.Ts * rate / STEP_RATE_LIMIT - 1e-9))
+    return max(int(substeps), need)
+
 
 def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str = "auto",
                    progress=None) -> list:
@@ -52,7 +89,9 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
     control runs through :func:`unidyn.simulate`).
 
     :param scenarios: a sequence of :class:`~unidyn.Scenario`
-    :param substeps: RK4 steps per sample interval, integer >= 1
+    :param substeps: RK4 steps per sample interval, integer >= 1; raised
+        automatically where a run's fastest time constant needs a shorter step for
+        RK4 to be stable (:func:`stable_substeps`; the value used is ``Result.substeps``)
     :param backend: ``"numba"`` (compiled kernel, :mod:`unidyn._kernels`; needs numba and
         the built-in trajectories), ``"numpy"`` (vectorised numpy), or ``"auto"`` (numba
         when it can be used, else numpy). Both integrate the same equations with the
@@ -82,21 +121,27 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
     use_numba = backend == "numba" or (backend == "auto" and _kernels.AVAILABLE and compilable)
     results = [None] * len(scs)
     for (T, Ts), idx in _group(scs).items():
+        m = np.array([stable_substeps(scs[i], int(substeps)) for i in idx])
         loop = ClosedLoop([scs[i] for i in idx])
-        run = _integrate_numba if use_numba else _integrate
-        for j, r in enumerate(run(loop, int(substeps), progress)):
+        if use_numba:  # each run with its own step
+            group = _integrate_numba(loop, m, progress)
+        else:  # one vectorised step for the group: the smallest any run needs
+            m[:] = m.max()
+            group = _integrate(loop, int(m[0]), progress)
+        for j, r in enumerate(group):
+            r.substeps = int(m[j])
             results[idx[j]] = r
     return results
 
 
-def _integrate_numba(loop: ClosedLoop, m: int, progress):
+def _integrate_numba(loop: ClosedLoop, m, progress):
     from . import _kernels
     n, B = loop.steps, loop.B
     Xs = np.full((B, n + 1, 13), np.nan)
     SIG = np.full((B, n + 1, 8), np.nan)
     stops = np.zeros(B, dtype=np.int64)
     _kernels.run_batch(loop.initial_state(), _kernels.pack(loop), loop.pos_noise, loop.vel_noise,
-                       float(loop.Ts), int(n), int(m), Xs, SIG, stops)
+                       float(loop.Ts), int(n), np.asarray(m, dtype=np.int64), Xs, SIG, stops)
     if progress is not None:
         progress(n, n)
     t = np.arange(n + 1) * loop.Ts

@@ -88,6 +88,7 @@ class Result:
     engine: str = "bdsim"
     complete: bool = True
     message: str = ""
+    substeps: int | None = None
     error: np.ndarray = field(init=False)
     metrics: dict = field(init=False)
 
@@ -108,6 +109,7 @@ class Result:
         return {
             "unidyn_version": __version__,
             "engine": self.engine,
+            "substeps": self.substeps,
             "complete": self.complete,
             "message": self.message,
             "scenario": sc.to_dict(),
