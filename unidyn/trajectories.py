@@ -213,8 +213,10 @@ class FunctionTrajectory(Trajectory):
         return (self.velocity(_t(t) + h) - self.velocity(_t(t) - h)) / (2 * h)
 
     def to_spec(self) -> dict:
-        raise ValidationError("a FunctionTrajectory wraps Python code and cannot be written "
-                              "to a scenario file; use figure_eight, circle or line")
+        """A record of the wrapped callable (for summaries); :func:`from_spec` refuses
+        to rebuild it, since a file cannot hold the code."""
+        name = getattr(self.f, "__qualname__", None) or repr(self.f)
+        return {"type": "function", "callable": f"{getattr(self.f, '__module__', '?')}.{name}"}
 
 
 KINDS = {"figure_eight": FigureEight, "circle": Circle, "line": Line}
@@ -235,6 +237,10 @@ def from_spec(spec) -> Trajectory:
                               f"a name or a Trajectory; got {spec!r}")
     spec = dict(spec)
     kind = spec.pop("type", None)
+    if kind == "function":
+        raise ValidationError("trajectory of type 'function' wraps Python code and cannot be "
+                              "rebuilt from a file; use figure_eight, circle or line, or pass a "
+                              "FunctionTrajectory from Python")
     if kind not in KINDS:
         raise ValidationError(f"trajectory type must be one of {', '.join(KINDS)}; got {kind!r}")
     cls = KINDS[kind]
