@@ -10,29 +10,6 @@ from unidyn._validate import ValidationError, nonnegative, vector
 
 from ._common import as_vector
 
-_TRAJ_PORTS = r"""
-    .. list-table::
-        :header-rows: 1
-
-        *   - Port type
-            - Port number
-            - Types
-            - Description
-        *   - Output
-            - 0
-            - ndarray(2)
-            - :math:`h_d`, desired position, m (label ``h_d``)
-        *   - Output
-            - 1
-            - ndarray(2)
-            - :math:`\dot h_d`, desired velocity, m/s (label ``h_d_dot``)
-        *   - Output
-            - 2
-            - ndarray(2)
-            - :math:`\ddot h_d`, desired acceleration, m/s² (label ``h_d_ddot``)
-"""
-
-
 class TrajectorySource(SourceBlock):
     r"""
     :blockname:`TRAJECTORYSOURCE`
@@ -95,7 +72,7 @@ class TrajectorySource(SourceBlock):
         return [tr.position(t), tr.velocity(t), tr.acceleration(t)]
 
 
-class FigureEight(SourceBlock):
+class FigureEight(TrajectorySource):
     r"""
     :blockname:`FIGUREEIGHT`
 
@@ -149,16 +126,11 @@ class FigureEight(SourceBlock):
         :param blockargs: common block options
         :type blockargs: dict
         """
-        self.trajectory = traj.FigureEight(ax, ay, wx, wy, _pair("center", center))
-        super().__init__(**blockargs)
+        super().__init__(traj.FigureEight(ax, ay, wx, wy, _pair("center", center)), **blockargs)
         self.type = "figureeight"
 
-    def output(self, t, inports, x):
-        tr = self.trajectory
-        return [tr.position(t), tr.velocity(t), tr.acceleration(t)]
 
-
-class Circle(SourceBlock):
+class Circle(TrajectorySource):
     r"""
     :blockname:`CIRCLE`
 
@@ -208,16 +180,11 @@ class Circle(SourceBlock):
         :param blockargs: common block options
         :type blockargs: dict
         """
-        self.trajectory = traj.Circle(radius, omega, _pair("center", center), phase)
-        super().__init__(**blockargs)
+        super().__init__(traj.Circle(radius, omega, _pair("center", center), phase), **blockargs)
         self.type = "circle"
 
-    def output(self, t, inports, x):
-        tr = self.trajectory
-        return [tr.position(t), tr.velocity(t), tr.acceleration(t)]
 
-
-class Line(SourceBlock):
+class Line(TrajectorySource):
     r"""
     :blockname:`LINE`
 
@@ -263,13 +230,8 @@ class Line(SourceBlock):
         :param blockargs: common block options
         :type blockargs: dict
         """
-        self.trajectory = traj.Line(start, velocity)
-        super().__init__(**blockargs)
+        super().__init__(traj.Line(start, velocity), **blockargs)
         self.type = "line"
-
-    def output(self, t, inports, x):
-        tr = self.trajectory
-        return [tr.position(t), tr.velocity(t), tr.acceleration(t)]
 
 
 def _pair(name, value):
