@@ -40,3 +40,12 @@ def limits_from_args(limits, speed_max, steer_max, accel_max, angular_accel_max)
         return limits
     return Limits(speed_max=speed_max, steer_max=steer_max, accel_max=accel_max,
                   angular_accel_max=angular_accel_max)
+
+
+def check_clock(clock, block_name: str):
+    """A bdsim clock, or a clear error naming the parameter."""
+    from bdsim.components import Clock
+    if not isinstance(clock, Clock):
+        raise ValidationError(f"{block_name}: clock must be a bdsim Clock (e.g. "
+                              f"bd.clock(0.1, name='controller')), got {clock!r}")
+    return clock

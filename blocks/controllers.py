@@ -7,9 +7,9 @@ import numpy as np
 from bdsim.components import ContinuousBlock, FunctionBlock, SampledBlock
 
 from unidyn import control, robots
-from unidyn._validate import ValidationError, choice, nonnegative, positive, positive_vector, real, vector
+from unidyn._validate import ValidationError, choice, flag, nonnegative, positive, positive_vector, real, vector
 
-from ._common import as_vector, check_finite
+from ._common import as_vector, check_clock, check_finite
 
 VD_DOT_CONTINUOUS = ("input", "filter")
 VD_DOT_SAMPLED = ("input", "difference")
@@ -104,8 +104,7 @@ class KinematicController(FunctionBlock):
         :type blockargs: dict
         """
         self.k, self.l, self.a = _gains(kx, ky, lx, ly, a)
-        if rate not in (True, False):
-            raise ValidationError(f"rate must be True or False, got {rate!r}")
+        rate = flag("rate", rate)
         self.rate = bool(rate)
         if self.rate:
             blockargs.setdefault("inames", ["h_d", "h_d_dot", "q", "h_d_ddot", "v"])
@@ -197,7 +196,7 @@ class SampledKinematicController(SampledBlock):
         :type blockargs: dict
         """
         self.k, self.l, self.a = _gains(kx, ky, lx, ly, a)
-        super().__init__(clock=clock, x0=vector("v_d0", v_d0, 2), **blockargs)
+        super().__init__(clock=check_clock(clock, type(self).__name__), x0=vector("v_d0", v_d0, 2), **blockargs)
         self.type = "sampledkinematiccontroller"
 
     def output(self, t, inports, x):
@@ -217,8 +216,7 @@ class _CompensatorSettings:
         self.theta_hat0 = robots.resolve(theta_hat0, "theta_hat0").theta
         self.k = np.array([positive("ku", ku), positive("kw", kw)])
         self.l = np.array([positive("lu", lu), positive("lw", lw)])
-        if adaptive not in (True, False):
-            raise ValidationError(f"adaptive must be True or False, got {adaptive!r}")
+        adaptive = flag("adaptive", adaptive)
         self.adaptive = bool(adaptive)
         self.gamma = positive_vector("gamma", gamma, 6)
         self.sigma = vector("sigma", sigma, 6)
@@ -472,7 +470,7 @@ class SampledDynamicCompensator(SampledBlock):
             blockargs.setdefault("nin", 3)
         # state: theta_hat (6), held v_r (2), previous v_d (2)
         x0 = np.r_[self.settings.theta_hat0, 0.0, 0.0, np.nan, np.nan]
-        super().__init__(clock=clock, x0=x0, **blockargs)
+        super().__init__(clock=check_clock(clock, type(self).__name__), x0=x0, **blockargs)
         self.type = "sampleddynamiccompensator"
 
     def output(self, t, inports, x):

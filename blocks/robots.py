@@ -6,7 +6,7 @@ import numpy as np
 from bdsim.components import ContinuousBlock
 
 from unidyn import model, robots
-from unidyn._validate import ValidationError, positive, real, vector
+from unidyn._validate import ValidationError, flag, positive, real, vector
 
 from ._common import as_vector, check_finite, limits_from_args
 
@@ -129,14 +129,12 @@ class DynamicUnicycle(ContinuousBlock):
         x0 = vector("x0", x0, (3, 5))
         if x0.shape[0] == 3:
             x0 = np.r_[x0, 0.0, 0.0]
-        if disturbance not in (True, False):
-            raise ValidationError(f"disturbance must be True or False, got {disturbance!r}")
+        disturbance = flag("disturbance", disturbance)
         self.disturbance = bool(disturbance)
         if self.disturbance:
             blockargs.setdefault("inames", ["v", "ω", "delta"])
             blockargs.setdefault("nin", 3)
-        if velocity_output not in (True, False):
-            raise ValidationError(f"velocity_output must be True or False, got {velocity_output!r}")
+        velocity_output = flag("velocity_output", velocity_output)
         self.velocity_output = bool(velocity_output)
         if self.velocity_output:
             blockargs.setdefault("onames", ["q", "velocity"])

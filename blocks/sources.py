@@ -8,7 +8,7 @@ from bdsim.components import SampledBlock, SourceBlock
 from unidyn import trajectories as traj
 from unidyn._validate import ValidationError, nonnegative, vector
 
-from ._common import as_vector
+from ._common import as_vector, check_clock
 
 class TrajectorySource(SourceBlock):
     r"""
@@ -63,6 +63,9 @@ class TrajectorySource(SourceBlock):
         if callable(trajectory) and not isinstance(trajectory, traj.Trajectory):
             self.trajectory = traj.FunctionTrajectory(trajectory, acceleration)
         else:
+            if acceleration is not None:
+                raise ValidationError("acceleration is only for a callable trajectory; a "
+                                      f"{type(trajectory).__name__} has its own derivatives")
             self.trajectory = traj.from_spec(trajectory)
         super().__init__(**blockargs)
         self.type = "trajectorysource"
@@ -297,16 +300,17 @@ class MeasurementNoise(SampledBlock):
                                           or isinstance(seed, np.random.SeedSequence)):
             raise ValidationError(f"seed must be an integer >= 0 or a SeedSequence, got {seed!r}")
         self.seed = seed
-        try:
-            idx = [int(i) for i in indices]
-        except (TypeError, ValueError):
-            raise ValidationError(f"indices must be a sequence of integers, got {indices!r}") from None
+        if isinstance(indices, (str, bytes)) or not all(
+                isinstance(i, (int, np.integer)) and not isinstance(i, (bool, np.bool_))
+                for i in (indices if hasattr(indices, "__iter__") else [None])):
+            raise ValidationError(f"indices must be a sequence of integers, got {indices!r}")
+        idx = [int(i) for i in indices]
         if not idx or min(idx) < 0 or len(set(idx)) != len(idx):
             raise ValidationError(f"indices must be distinct integers >= 0, got {indices!r}")
         self.indices = np.array(idx)
         self._rng = np.random.default_rng(self.seed)
         x0 = self.std * self._rng.standard_normal(len(idx))
-        super().__init__(clock=clock, x0=x0, feedthrough=True, **blockargs)
+        super().__init__(clock=check_clock(clock, type(self).__name__), x0=x0, feedthrough=True, **blockargs)
         self.type = "measurementnoise"
 
     def start(self, simstate=None):

@@ -250,6 +250,9 @@ def _run_one(X0, P, pos_noise, vel_noise, Ts, n, m, Xs, SIG):
             rhs(t + h, tmp, P, p0, p1, v0, v1, k4, sig)
             for i in range(13):
                 X[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+            # the speed limits are hard: a step that crosses one ends on it
+            X[3] = min(max(X[3], -P[VMAX]), P[VMAX])
+            X[4] = min(max(X[4], -P[VMAX + 1]), P[VMAX + 1])
         Xs[k + 1] = X
         # logged with interval k's measurement, as the diagram logs it before the tick
         signals((k + 1) * Ts, X, P, p0, p1, v0, v1, sig)

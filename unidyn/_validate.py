@@ -27,9 +27,12 @@ def real(name: str, value, *, low: float | None = None, high: float | None = Non
     :param low_open, high_open: exclude the bound itself
     :param allow_inf: accept +/-inf (e.g. "no limit")
     """
-    if isinstance(value, bool) or not isinstance(value, (Real, np.floating, np.integer)):
-        raise ValidationError(f"{name} must be a real number, got {value!r}")
-    v = float(value)
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (Real, np.floating, np.integer)):
+        raise ValidationError(f"{name} must be a real number, got {_short(value)}")
+    try:
+        v = float(value)
+    except OverflowError:  # an integer too large for a float (TOML allows them)
+        raise ValidationError(f"{name} is too large: {_short(value)}") from None
     if math.isnan(v) or (math.isinf(v) and not allow_inf):
         raise ValidationError(f"{name} must be finite, got {v!r}")
     if low is not None and (v < low or (low_open and v == low)):
@@ -57,12 +60,24 @@ def vector(name: str, value, length: int | tuple[int, ...], *, finite: bool = Tr
     :param length: the required length, or a tuple of accepted lengths
     """
     lengths = (length,) if isinstance(length, int) else tuple(length)
-    if isinstance(value, (str, bytes)) or value is None:
-        raise ValidationError(f"{name} must be a vector of length {_or(lengths)}, got {value!r}")
+    what = f"{name} must be a vector of {_or(lengths)} real numbers"
+    if isinstance(value, (str, bytes, dict)) or value is None:
+        raise ValidationError(f"{what}, got {_short(value)}")
     try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ValidationError(f"{name} must be a vector of length {_or(lengths)}, got {value!r}") from None
+        raw = np.asarray(value)
+    except (TypeError, ValueError, OverflowError, RecursionError):
+        raise ValidationError(f"{what}, got {_short(value)}") from None
+    # only numbers: no strings ("1"), booleans, complex values or objects
+    if raw.dtype.kind not in "iuf":
+        if raw.dtype.kind == "O" and raw.ndim == 1:
+            for v in raw.tolist():
+                real(f"each element of {name}", v, allow_inf=not finite)
+        else:
+            raise ValidationError(f"{what}, got {_short(value)}")
+    try:
+        arr = np.asarray(raw, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise ValidationError(f"{what}, got {_short(value)}") from None
     if arr.ndim == 0:
         arr = arr.reshape(1)
     if arr.ndim != 1 or arr.shape[0] not in lengths:
@@ -81,12 +96,38 @@ def positive_vector(name: str, value, length: int) -> np.ndarray:
     return arr
 
 
+def flag(name: str, value) -> bool:
+    """True or False (a Python or numpy boolean)."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValidationError(f"{name} must be True or False, got {_short(value)}")
+    return bool(value)
+
+
 def choice(name: str, value, allowed) -> str:
     """One of a fixed set of strings."""
-    if value not in allowed:
+    if not isinstance(value, str) or value not in allowed:
         raise ValidationError(
-            f"{name} must be one of {', '.join(repr(a) for a in allowed)}; got {value!r}")
+            f"{name} must be one of {', '.join(repr(a) for a in allowed)}; got {_short(value)}")
     return value
+
+
+def string_keys(name: str, table) -> dict:
+    """A mapping whose keys are all strings (as TOML and JSON tables are)."""
+    if not isinstance(table, dict):
+        raise ValidationError(f"{name} must be a table, got {_short(table)}")
+    bad = [k for k in table if not isinstance(k, str)]
+    if bad:
+        raise ValidationError(f"{name}: keys must be strings, got {_short(bad[0])}")
+    return table
+
+
+def _short(value, limit: int = 300) -> str:
+    """repr of a value, cut to ``limit`` characters (and safe for deep nesting)."""
+    try:
+        text = repr(value)
+    except RecursionError:
+        text = f"<deeply nested {type(value).__name__}>"
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def _or(lengths: tuple[int, ...]) -> str:

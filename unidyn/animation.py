@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._validate import ValidationError, positive, real, vector
+from ._validate import ValidationError, flag, positive, real, vector
 
 __all__ = ["Motion", "animate", "show", "DEFAULT_MAX_FRAMES", "MAX_FRAMES", "SUFFIXES"]
 
@@ -230,8 +230,7 @@ def animate(result, path, fps=20, speedup=None, trail=True, frames=None, *, robo
     else:
         trail_len = positive("trail", trail)
     robot_size = None if robot_size is None else positive("robot_size", robot_size)
-    if reference not in (True, False):
-        raise ValidationError(f"reference must be True or False, got {reference!r}")
+    reference = flag("reference", reference)
     dpi = positive("dpi", dpi)
     figsize = tuple(vector("figsize", figsize, 2).tolist())
     if min(figsize) <= 0:

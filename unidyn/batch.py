@@ -7,7 +7,9 @@ classical Runge-Kutta (RK4) steps, for all runs at once; the noise is constant
 inside an interval, exactly as in the bdsim diagram. Results are sampled at the
 same grid t = k Ts as :func:`unidyn.simulate`.
 
-Accuracy is that of RK4 with step Ts/substeps: fourth order where the loop is
+The speed limits are enforced exactly: a step that would end beyond one ends on
+it (the diagram's adaptive solver holds them to its tolerance). Accuracy is that
+of RK4 with step Ts/substeps: fourth order where the loop is
 smooth. Two events are not smooth: the limits' clipping (a kink in the
 right-hand side) and switching adaptation on at ``adapt_from`` (a jump), which a
 fixed step integrates with an error proportional to the step (about 5e-6 m at
@@ -70,13 +72,26 @@ def fastest_rate(sc: Scenario) -> tuple[float, str]:
     return rates[what], what
 
 
+#: The most RK4 steps per sample interval the engine takes before it refuses.
+MAX_SUBSTEPS = 10_000
+
+
 def stable_substeps(sc: Scenario, substeps: int) -> int:
     """``substeps``, raised where needed so that the RK4 step Ts/substeps stays
     below STEP_RATE_LIMIT / :func:`fastest_rate` (a fast robot such as the
-    Khepera III needs a shorter step than the Pioneer, and so does a high gain)."""
-    rate, _ = fastest_rate(sc)
-    need = int(np.ceil(sc.Ts * rate / STEP_RATE_LIMIT - 1e-9))
-    return max(int(substeps), need)
+    Khepera III needs a shorter step than the Pioneer, and so does a high gain).
+
+    :raises ValidationError: if that needs more than :data:`MAX_SUBSTEPS` steps per
+        sample; the message names the time constant responsible
+    """
+    rate, what = fastest_rate(sc)
+    need = sc.Ts * rate / STEP_RATE_LIMIT
+    if not np.isfinite(need) or need > MAX_SUBSTEPS:
+        raise ValidationError(
+            f"{sc.name or sc.case}: the batch engine would need more than {MAX_SUBSTEPS} RK4 "
+            f"steps per {sc.Ts:g} s sample for the fastest rate of this loop ({what}); use a "
+            f"shorter Ts, or unidyn.simulate (the bdsim diagram, adaptive step)")
+    return max(int(substeps), int(np.ceil(need - 1e-9)))
 
 
 def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str = "auto",
@@ -107,8 +122,9 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
         if s.control != "continuous":
             raise ValidationError("the batch engine runs control='continuous' only; "
                                   "use unidyn.simulate (engine 'bdsim') for sampled control")
-    if isinstance(substeps, bool) or not isinstance(substeps, (int, np.integer)) or substeps < 1:
-        raise ValidationError(f"substeps must be an integer >= 1, got {substeps!r}")
+    if (isinstance(substeps, bool) or not isinstance(substeps, (int, np.integer))
+            or not 1 <= substeps <= MAX_SUBSTEPS):
+        raise ValidationError(f"substeps must be an integer in 1..{MAX_SUBSTEPS}, got {substeps!r}")
     if backend not in BACKENDS:
         raise ValidationError(f"backend must be one of {', '.join(BACKENDS)}; got {backend!r}")
     from . import _kernels
@@ -197,6 +213,8 @@ def _integrate(loop: ClosedLoop, m: int, progress):
             k3 = loop.rhs(t + h / 2, X + h / 2 * k2, k)
             k4 = loop.rhs(t + h, X + h * k3, k)
             X = X + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+            # the speed limits are hard: a step that crosses one ends on it
+            X[:, 3:5] = np.clip(X[:, 3:5], -loop.vmax, loop.vmax)
         # the sample at the end of interval k is logged with interval k's
         # measurement, as the diagram logs it just before the clock tick
         record(k + 1, X, (k + 1) * Ts, k)

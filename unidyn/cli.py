@@ -492,6 +492,9 @@ def main(argv=None) -> int:
     except OSError as err:
         _err(f"{err.strerror or err}" + (f": {err.filename}" if err.filename else ""))
         return 2
+    except RecursionError:  # input nested deeper than Python can walk
+        _err("input nested too deeply to process")
+        return 2
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -64,6 +64,8 @@ class RobotParameters:
             object.__setattr__(self, k, v)
         if not isinstance(self.name, str):
             raise ValidationError(f"name must be a string, got {self.name!r}")
+        if not isinstance(self.source, str):
+            raise ValidationError(f"source must be a string, got {self.source!r}")
 
     @property
     def theta(self) -> np.ndarray:

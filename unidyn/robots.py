@@ -83,12 +83,22 @@ def resolve(robot, what: str = "robot") -> RobotParameters:
         except ValidationError as err:
             raise ValidationError(f"{what}: {err}") from None
     if isinstance(robot, dict):
+        from ._validate import string_keys
+        string_keys(what, robot)
+        keys = ("theta1", "theta2", "theta3", "theta4", "theta5", "theta6")
+        unknown = sorted(set(robot) - set(keys) - {"name", "source"})
+        if unknown:
+            raise ValidationError(f"{what}: unknown key {unknown[0]!r}; a robot table has "
+                                  f"theta1..theta6 (and optionally name)")
+        missing = [k for k in keys if k not in robot]
+        if missing:
+            raise ValidationError(f"{what}: missing {missing[0]}")
+        name = robot.get("name", "custom")
         try:
-            return RobotParameters(**{k: robot[k] for k in
-                                      ("theta1", "theta2", "theta3", "theta4", "theta5", "theta6")},
-                                   name=str(robot.get("name", "custom")))
-        except KeyError as err:
-            raise ValidationError(f"{what}: missing {err.args[0]}") from None
+            return RobotParameters(*(robot[k] for k in keys),
+                                   name=name if isinstance(name, str) else repr(name))
+        except ValidationError as err:
+            raise ValidationError(f"{what}: {err}") from None
     try:
         return RobotParameters.from_vector(robot)
     except ValidationError as err:
@@ -108,4 +118,6 @@ def _from_json(path: str, what: str) -> RobotParameters:
         data = data["theta"]
     if not isinstance(data, dict):
         raise ValidationError(f"{what}: {path} must hold a JSON object with theta1..theta6")
-    return resolve({**data, "name": data.get("name", Path(path).stem)}, what)
+    data = {k: v for k, v in data.items() if k in ("theta1", "theta2", "theta3", "theta4",
+                                                  "theta5", "theta6", "name")}
+    return resolve({**data, "name": data.get("name", Path(path).stem)}, f"{what} ({path})")

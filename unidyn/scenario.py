@@ -31,6 +31,9 @@ CONTROL_MODES = ("continuous", "sampled")
 VD_DOT_METHODS = ("analytic", "filter", "difference")
 # v_d' methods each control mode can use (the sampled controller has no rate output)
 _VD_DOT_FOR = {"continuous": ("analytic", "filter"), "sampled": ("difference",)}
+#: The most samples (T/Ts) one run may hold: 1e7 samples of the result arrays
+#: take about 2 GB.
+MAX_SAMPLES = 10_000_000
 PAPER_GAMMA = (1.7, 1.1, 0.5, 0.3, 0.01, 0.5)
 PAPER_SIGMA = (0.0005, 0.001, 0.001, 0.00006, 0.001, 0.001)
 
@@ -136,6 +139,9 @@ class Scenario:
                     f"use one of {', '.join(map(repr, allowed))} (or leave vd_dot unset)")
         if self.Ts > self.T:
             raise ValidationError(f"Ts must be <= T ({self.T:g} s), got {self.Ts!r}")
+        if self.T / self.Ts > MAX_SAMPLES:
+            raise ValidationError(f"T/Ts must be at most {MAX_SAMPLES:.0e} samples, got "
+                                  f"T = {self.T:g} s, Ts = {self.Ts:g} s")
         if not isinstance(self.name, str):
             raise ValidationError(f"name must be a string, got {self.name!r}")
 
@@ -203,9 +209,9 @@ class Scenario:
             raise ValidationError(f"a scenario must be a table of fields, got {type(data).__name__}")
         _check_fields(data)
         data = dict(data)
-        if "noise" in data and data["noise"] in (False, "none", "off"):
+        if isinstance(data.get("noise"), (bool, str)) and data["noise"] in (False, "none", "off"):
             data["noise"] = None
-        if "theta_hat0" in data and data["theta_hat0"] in ("default", ""):
+        if isinstance(data.get("theta_hat0"), str) and data["theta_hat0"] in ("default", ""):
             data["theta_hat0"] = None
         try:
             return cls(**data)
@@ -221,6 +227,9 @@ def _is_preset(p: RobotParameters) -> bool:
 
 
 def _check_fields(data):
+    bad = [k for k in data if not isinstance(k, str)]
+    if bad:
+        raise ValidationError(f"scenario field names must be strings, got {bad[0]!r}")
     known = {f.name for f in dataclasses.fields(Scenario)}
     unknown = sorted(set(data) - known)
     if unknown:
@@ -232,6 +241,8 @@ def _check_fields(data):
 
 
 def _build(what, cls, data):
+    from ._validate import string_keys
+    string_keys(what, data)
     known = {f.name for f in dataclasses.fields(cls)}
     unknown = sorted(set(data) - known)
     if unknown:

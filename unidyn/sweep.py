@@ -50,7 +50,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._validate import ValidationError, choice, positive
+from ._validate import ValidationError, choice, positive, real
 from .batch import DEFAULT_SUBSTEPS
 from .noise import NoiseSpec, PAPER_NOISE
 from .result import write_atomic
@@ -110,6 +110,8 @@ def read_toml(path, what: str = "file") -> dict:
         raise ValidationError(f"{path}: malformed TOML: {err}") from None
     except UnicodeDecodeError as err:
         raise ValidationError(f"{path}: not a UTF-8 text file: {err}") from None
+    except RecursionError:
+        raise ValidationError(f"{path}: TOML nested too deeply to read") from None
 
 
 def parse_toml_value(text: str):
@@ -120,6 +122,8 @@ def parse_toml_value(text: str):
         return tomllib.loads(f"v = {text}")["v"]
     except tomllib.TOMLDecodeError:
         return text
+    except RecursionError:
+        raise ValidationError("value nested too deeply to read") from None
 
 
 # ------------------------------------------------------------------ plain values
@@ -163,9 +167,8 @@ def _expand_range(where: str, spec: Mapping) -> list:
     for k in ("start", "stop"):
         if k not in spec:
             raise ValidationError(f"{where}: a range needs {k!r} (and step or num)")
-        if not _is_number(spec[k]) or not math.isfinite(spec[k]):
-            raise ValidationError(f"{where}.{k} must be a finite number, got {spec[k]!r}")
-    start, stop = float(spec["start"]), float(spec["stop"])
+    start = real(f"{where}.start", spec["start"])
+    stop = real(f"{where}.stop", spec["stop"])
     if ("step" in spec) == ("num" in spec):
         raise ValidationError(f"{where}: a range needs exactly one of 'step' and 'num'")
     log = spec.get("log", False)
@@ -177,8 +180,7 @@ def _expand_range(where: str, spec: Mapping) -> list:
         step = spec["step"]
         if log:
             raise ValidationError(f"{where}: log = true needs num, not step")
-        if not _is_number(step) or not math.isfinite(step) or step <= 0:
-            raise ValidationError(f"{where}.step must be a number > 0, got {step!r}")
+        step = real(f"{where}.step", step, low=0.0, low_open=True)
         n = int(math.floor((stop - start) / step + 1e-9)) + 1
         if n > MAX_POINTS:
             raise ValidationError(f"{where}: {n} values; at most {MAX_POINTS} are allowed")
@@ -310,9 +312,11 @@ class Sweep:
         s = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
         if not isinstance(self.name, str):
             raise ValidationError(f"name must be a string, got {self.name!r}")
+        from .batch import MAX_SUBSTEPS
         if (isinstance(self.substeps, bool) or not isinstance(self.substeps, (int, np.integer))
-                or self.substeps < 1):
-            raise ValidationError(f"substeps must be an integer >= 1, got {self.substeps!r}")
+                or not 1 <= self.substeps <= MAX_SUBSTEPS):
+            raise ValidationError(f"substeps must be an integer in 1..{MAX_SUBSTEPS}, "
+                                  f"got {self.substeps!r}")
         s("substeps", int(self.substeps))
         s("base", _check_keys("base", self.base))
         if not isinstance(self.grid, Mapping):

@@ -235,8 +235,11 @@ def from_spec(spec) -> Trajectory:
     if not isinstance(spec, dict):
         raise ValidationError(f"trajectory must be a dict with 'type' ({', '.join(KINDS)}), "
                               f"a name or a Trajectory; got {spec!r}")
-    spec = dict(spec)
+    from ._validate import string_keys
+    spec = dict(string_keys("trajectory", spec))
     kind = spec.pop("type", None)
+    if not isinstance(kind, str):
+        raise ValidationError(f"trajectory type must be one of {', '.join(KINDS)}; got {kind!r}")
     if kind == "function":
         raise ValidationError("trajectory of type 'function' wraps Python code and cannot be "
                               "rebuilt from a file; use figure_eight, circle or line, or pass a "

@@ -10,7 +10,7 @@ Two groups:
 
 Every property runs a fixed number of examples (``MAX_EXAMPLES``), derandomised
 so that the tier is reproducible; ``EXAMPLES`` counts the examples each property
-actually ran and the last test prints the table.
+ran to the end and the last test prints the table.
 """
 
 from __future__ import annotations
@@ -328,17 +328,13 @@ def test_batch_runs_are_independent(sc, others, position):
     _ran("batch_runs_are_independent")
 
 
-#: found by this property: the batch engine lets |u| pass speed_max by ~4e-5 m/s
+#: found by this property: the batch engine once let |u| pass speed_max by ~4e-5 m/s
+#: (one RK4 step starting just inside the limit); steps now end on the limit
 SPEED_OVERSHOOT = Scenario(
     case="compensated", kx=20.0, ky=20.0, lx=1.0, ly=1.0, x0=(0.0, -1.0, 0.0), noise=None,
     T=3.0, limits=Limits(speed_max=0.75, steer_max=1.745, accel_max=3.0, angular_accel_max=1.745))
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "batch engine: the speed limit is enforced only in the state derivative (an outward "
-    "derivative is zeroed at |v| >= speed_max), so one RK4 step that starts just inside "
-    "the limit ends beyond it: max|u| = speed_max + 4.1e-5 m/s for SPEED_OVERSHOOT "
-    "(numba and numpy backends alike; the bdsim diagram overshoots by 2.5e-7)"))
 @_settings("speed_limits_hold_in_batch_runs")
 @given(sc=scenarios())
 @example(sc=SPEED_OVERSHOOT)

@@ -10,11 +10,10 @@ never TypeError, AttributeError, KeyError, OverflowError or a numpy warning
 (every call runs under ``warnings.simplefilter("error")``), and the message must
 name the parameter.
 
-Kinds of input that some targets do not handle yet have their own tests
-(huge integers, complex arrays, numpy arrays for names and flags, unhashable
-trajectory types, tables with non-string keys, clocks), so that each known gap
-is one strict xfail per target with its reason, and everything else stays
-tested.
+Kinds of input that are easy to get past a validator have their own tests:
+integers beyond the float range, complex arrays, numpy arrays for names and
+flags, unhashable trajectory types, tables with non-string keys, values of the
+wrong type inside vectors and tables.
 """
 
 from __future__ import annotations
@@ -28,11 +27,10 @@ from functools import lru_cache
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
-import unidyn
-from unidyn import Limits, RobotParameters, ValidationError, robots
+from unidyn import RobotParameters, ValidationError, robots
 from unidyn.control import LEAKAGE_FORMS
 from unidyn.scenario import CASES, CONTROL_MODES, VD_DOT_METHODS, Scenario
 
@@ -46,18 +44,24 @@ MAX_EXAMPLES = {
     "numpy_arrays_for_names_and_flags": 10,
     "unhashable_trajectory_type": 10,
     "tables_with_non_string_keys": 10,
-    "clock": 10,
     "robot_parameters_invalid": 60,
 }
 #: examples that ran to the end (passed) in this session, summed over targets
 EXAMPLES = {name: 0 for name in MAX_EXAMPLES}
+#: targets each property was run on
 TARGETS_RUN = {name: set() for name in MAX_EXAMPLES}
 
 
+#: the kinds of input with known gaps fail at once; their tests skip shrinking
+KNOWN_GAPS = set()
+
+
 def _settings(name):
+    phases = ((Phase.explicit, Phase.generate) if name in KNOWN_GAPS
+              else (Phase.explicit, Phase.generate, Phase.shrink))
     return settings(max_examples=MAX_EXAMPLES[name], deadline=None, derandomize=True,
-                    database=None, suppress_health_check=[HealthCheck.too_slow,
-                                                          HealthCheck.filter_too_much])
+                    database=None, phases=phases,
+                    suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 
 
 # ------------------------------------------------------------------ invalid values
@@ -212,9 +216,7 @@ def bad_noise(from_dict=False):
             st.integers(-2**63, -1), finite, st.booleans(), texts, st.none())}),
         st.text(min_size=1, max_size=8).filter(
             lambda k: k not in ("position_std", "velocity_std", "seed")).map(lambda k: {k: 1}))
-    options = [table, texts.filter(lambda s: not (from_dict and s in off)),
-               small_ints.filter(lambda i: not (from_dict and i == 0)),
-               finite.filter(lambda x: not (from_dict and x == 0)),
+    options = [table, texts.filter(lambda s: not (from_dict and s in off)), small_ints, finite,
                st.just(True), st.lists(finite, max_size=3), st.builds(object)]
     if not from_dict:
         options.append(st.just(False))
@@ -227,7 +229,8 @@ LIMIT_KEYS = ("speed_max", "steer_max", "accel_max", "angular_accel_max")
 def bad_limits_table():
     table = st.one_of(
         st.tuples(st.sampled_from(LIMIT_KEYS),
-                  st.one_of(zero, negative, neg_inf, nan, not_a_number)).map(lambda p: {p[0]: p[1]}),
+                  st.one_of(zero, negative, neg_inf, nan, not_a_number)).map(
+            lambda p: {p[0]: p[1]}),
         st.text(min_size=1, max_size=8).filter(lambda k: k not in LIMIT_KEYS).map(
             lambda k: {k: 1.0}))
     return st.one_of(table, texts, small_ints, finite, st.booleans(), st.none(),
@@ -272,9 +275,8 @@ INVALID = {
     "flag": bad_flag,
     "robot": bad_robot(),
     "robot_or_none": bad_robot(none_ok=True),
-    # (numpy arrays here: test_numpy_arrays_for_names_and_flags_raise_validation_error)
     "robot_or_none_from_dict": bad_robot(none_ok=True).filter(
-        lambda v: not isinstance(v, np.ndarray) and v not in ("default", "")),
+        lambda v: not (isinstance(v, str) and v in ("default", ""))),
     "trajectory": bad_trajectory(),
     "noise": bad_noise(),
     "noise_from_dict": bad_noise(from_dict=True),
@@ -314,19 +316,25 @@ class Target:
         return self.names or (self.param,)
 
 
-def _scenario_targets():
-    kinds = {"case": "case", "robot": "robot", "a": "positive", "x0": "vector3",
-             "trajectory": "trajectory", "theta_hat0": "robot_or_none",
-             "gamma": "positive_vector6", "sigma": "nonnegative_vector6",
-             "adapt_from": "nonnegative", "leakage": "leakage", "noise": "noise",
-             "limits": "limits_table", "control": "control", "vd_dot": "vd_dot",
-             "name": "name"}
-    for k in ("kx", "ky", "lx", "ly", "ku", "kw", "lu", "lw", "T", "Ts", "tau"):
-        kinds[k] = "positive"
+#: every Scenario field, with its kind
+SCENARIO_FIELDS = {"case": "case", "robot": "robot", "a": "positive", "x0": "vector3",
+                   "trajectory": "trajectory", "theta_hat0": "robot_or_none",
+                   "gamma": "positive_vector6", "sigma": "nonnegative_vector6",
+                   "adapt_from": "nonnegative", "leakage": "leakage", "noise": "noise",
+                   "limits": "limits_table", "control": "control", "vd_dot": "vd_dot",
+                   "name": "name",
+                   **{k: "positive" for k in ("kx", "ky", "lx", "ly", "ku", "kw", "lu", "lw",
+                                              "T", "Ts", "tau")}}
+
+
+def test_scenario_field_table_is_complete():
     import dataclasses
-    assert set(kinds) == {f.name for f in dataclasses.fields(Scenario)}, "a new Scenario field"
+    assert sorted(SCENARIO_FIELDS) == sorted(f.name for f in dataclasses.fields(Scenario))
+
+
+def _scenario_targets():
     out = []
-    for field, kind in kinds.items():
+    for field, kind in SCENARIO_FIELDS.items():
         names = LIMIT_KEYS + ("limits",) if field == "limits" else ()
         out.append(Target(f"Scenario.{field}", field, kind,
                           lambda v, f=field: Scenario(**{f: v}), names))
@@ -358,7 +366,7 @@ BLOCK_PARAMETERS = {
                              "steer_max": "positive_or_inf",
                              "angular_accel_max": "positive_or_inf",
                              "limits": "limits_object", "disturbance": "flag",
-                             "w": "positive_or_none"}),
+                             "velocity_output": "flag", "w": "positive_or_none"}),
     "KinematicUnicycle": ({}, {"a": "nonnegative", "x0": "vector3or5_or_none",
                                "speed_max": "positive_or_inf", "steer_max": "positive_or_inf",
                                "limits": "limits_object"}),
@@ -445,16 +453,23 @@ def _rejects(target: Target, value):
         f"{target.id}: the message does not name {target.param!r}: {message}")
 
 
-def _param(target_ids, known: dict):
-    """pytest params over target ids, strict xfail where ``known`` gives a reason."""
+FAILED = pytest.fail.Exception  # what _rejects raises for an accepted value
+
+
+def _param(target_ids, known: dict, raises=None):
+    """pytest params over target ids, strict xfail where ``known`` gives a reason;
+    ``raises``: the exception the gap shows (a type, or a dict by target id)."""
     out = []
     for tid in target_ids:
-        marks = [pytest.mark.xfail(strict=True, reason=known[tid])] if tid in known else []
+        marks = []
+        if tid in known:
+            exc = raises.get(tid) if isinstance(raises, dict) else raises
+            marks = [pytest.mark.xfail(strict=True, reason=known[tid], raises=exc)]
         out.append(pytest.param(BY_ID[tid], id=tid, marks=marks))
     return out
 
 
-@pytest.mark.parametrize("target", _param([t.id for t in ALL_TARGETS if t.kind != "clock"], {}))
+@pytest.mark.parametrize("target", _param([t.id for t in ALL_TARGETS], {}))
 def test_invalid_values_raise_validation_error(target):
     @_settings("invalid_values")
     @given(value=INVALID[target.kind])
@@ -462,8 +477,8 @@ def test_invalid_values_raise_validation_error(target):
         _rejects(target, value)
         EXAMPLES["invalid_values"] += 1
 
-    check()
     TARGETS_RUN["invalid_values"].add(target.id)
+    check()
 
 
 # ------------------------------------------------------- known gaps, one kind each
@@ -477,12 +492,10 @@ VECTOR_KINDS = {"vector2": 2, "vector3": 3, "vector3or5_or_none": 3, "positive_v
 huge_int = st.one_of(st.integers(min_value=2**1024, max_value=2**1100),
                      st.integers(min_value=-2**1100, max_value=-2**1024))
 
-_OVERFLOW = ("OverflowError: an integer beyond the float range (TOML integers of 310+ digits "
-             "parse as such) reaches float() unguarded in unidyn._validate.real / vector")
 _HUGE_TARGETS = [t.id for t in ALL_TARGETS if t.kind in NUMERIC_KINDS or t.kind in VECTOR_KINDS]
 
 
-@pytest.mark.parametrize("target", _param(_HUGE_TARGETS, {t: _OVERFLOW for t in _HUGE_TARGETS}))
+@pytest.mark.parametrize("target", _param(_HUGE_TARGETS, {}))
 def test_integers_beyond_the_float_range_raise_validation_error(target):
     @_settings("huge_integers")
     @given(data=st.data())
@@ -497,18 +510,14 @@ def test_integers_beyond_the_float_range_raise_validation_error(target):
         _rejects(target, value)
         EXAMPLES["huge_integers"] += 1
 
-    check()
     TARGETS_RUN["huge_integers"].add(target.id)
+    check()
 
 
-_COMPLEX = ("numpy ComplexWarning: a complex numpy array is cast to float by "
-            "np.asarray(value, dtype=float) in unidyn._validate.vector; without the warning "
-            "filter the imaginary part is silently dropped and the value accepted")
 _COMPLEX_TARGETS = [t.id for t in ALL_TARGETS if t.kind in VECTOR_KINDS]
 
 
-@pytest.mark.parametrize("target", _param(_COMPLEX_TARGETS,
-                                          {t: _COMPLEX for t in _COMPLEX_TARGETS}))
+@pytest.mark.parametrize("target", _param(_COMPLEX_TARGETS, {}))
 def test_complex_arrays_raise_validation_error(target):
     @_settings("complex_arrays")
     @given(data=st.data())
@@ -519,21 +528,17 @@ def test_complex_arrays_raise_validation_error(target):
         _rejects(target, np.array(re_) + 1j * np.array(im))
         EXAMPLES["complex_arrays"] += 1
 
-    check()
     TARGETS_RUN["complex_arrays"].add(target.id)
+    check()
 
 
-_AMBIGUOUS = ("ValueError (not ValidationError): `value in (...)` on a numpy array raises "
-              "'truth value of an array ... is ambiguous' (and a 1-element array holding an "
-              "allowed name is accepted as is)")
 _CHOICE_TARGETS = [t.id for t in ALL_TARGETS
                    if t.kind in ("case", "control", "leakage", "vd_dot", "vd_dot_continuous",
                                  "vd_dot_sampled", "flag")
                    or t.id in ("Scenario.from_dict.noise", "Scenario.from_dict.theta_hat0")]
 
 
-@pytest.mark.parametrize("target", _param(_CHOICE_TARGETS,
-                                          {t: _AMBIGUOUS for t in _CHOICE_TARGETS}))
+@pytest.mark.parametrize("target", _param(_CHOICE_TARGETS, {}))
 def test_numpy_arrays_for_names_and_flags_raise_validation_error(target):
     @_settings("numpy_arrays_for_names_and_flags")
     @given(value=st.one_of(
@@ -544,24 +549,15 @@ def test_numpy_arrays_for_names_and_flags_raise_validation_error(target):
         _rejects(target, value)
         EXAMPLES["numpy_arrays_for_names_and_flags"] += 1
 
-    check()
     TARGETS_RUN["numpy_arrays_for_names_and_flags"].add(target.id)
+    check()
 
 
 _TRAJ_TARGETS = ["Scenario.trajectory", "Scenario.from_dict.trajectory",
                  "TrajectorySource.trajectory"]
-_UNHASHABLE = {
-    "Scenario.trajectory": "TypeError: unhashable type: 'list' from `kind not in KINDS` in "
-                           "unidyn.trajectories.from_spec",
-    "Scenario.from_dict.trajectory": "ValidationError 'scenario: unhashable type: 'list'' "
-                                     "(from_dict turns the TypeError into a message that does "
-                                     "not name the trajectory field)",
-    "TrajectorySource.trajectory": "TypeError: unhashable type: 'list' from "
-                                   "unidyn.trajectories.from_spec",
-}
 
 
-@pytest.mark.parametrize("target", _param(_TRAJ_TARGETS, _UNHASHABLE))
+@pytest.mark.parametrize("target", _param(_TRAJ_TARGETS, {}))
 def test_unhashable_trajectory_types_raise_validation_error(target):
     @_settings("unhashable_trajectory_type")
     @given(kind=st.one_of(st.lists(st.sampled_from(["circle", "line"]), max_size=2),
@@ -570,19 +566,16 @@ def test_unhashable_trajectory_types_raise_validation_error(target):
         _rejects(target, {"type": kind})
         EXAMPLES["unhashable_trajectory_type"] += 1
 
-    check()
     TARGETS_RUN["unhashable_trajectory_type"].add(target.id)
+    check()
 
 
 _TABLE_TARGETS = ["Scenario.noise", "Scenario.limits", "Scenario.trajectory",
                   "Scenario.from_dict.noise", "Scenario.from_dict.limits",
                   "Scenario.from_dict.trajectory", "TrajectorySource.trajectory"]
-_MIXED_KEYS = ("TypeError: '<' not supported between 'str' and 'int': sorted() of the "
-               "unknown keys of a table whose keys mix strings and non-strings (Python API "
-               "only: TOML and JSON keys are strings)")
 
 
-@pytest.mark.parametrize("target", _param(_TABLE_TARGETS, {t: _MIXED_KEYS for t in _TABLE_TARGETS}))
+@pytest.mark.parametrize("target", _param(_TABLE_TARGETS, {}))
 def test_tables_with_non_string_keys_raise_validation_error(target):
     @_settings("tables_with_non_string_keys")
     @given(ints=st.lists(small_ints, min_size=1, max_size=2, unique=True),
@@ -595,31 +588,16 @@ def test_tables_with_non_string_keys_raise_validation_error(target):
         _rejects(target, table)
         EXAMPLES["tables_with_non_string_keys"] += 1
 
-    check()
     TARGETS_RUN["tables_with_non_string_keys"].add(target.id)
-
-
-def test_scenario_from_dict_with_non_string_field_names_raises_validation_error():
-    for data in ({1: 2}, {1: 2, "zz": 3}, {None: 1}):
-        with pytest.raises(ValidationError, match="unknown scenario field"):
-            Scenario.from_dict(data)
-
-
-_CLOCK_TARGETS = [t.id for t in ALL_TARGETS if t.kind == "clock"]
-_CLOCK = ("AttributeError: '<type>' object has no attribute 'T' raised inside bdsim's "
-          "SampledBlock.__init__: the clock argument is not checked")
-
-
-@pytest.mark.parametrize("target", _param(_CLOCK_TARGETS, {t: _CLOCK for t in _CLOCK_TARGETS}))
-def test_clock_parameters_reject_non_clocks(target):
-    @_settings("clock")
-    @given(value=INVALID["clock"])
-    def check(value):
-        _rejects(target, value)
-        EXAMPLES["clock"] += 1
-
     check()
-    TARGETS_RUN["clock"].add(target.id)
+
+
+@pytest.mark.parametrize("data", [{1: 2}, {1: 2, "zz": 3}, {None: 1}], ids=repr)
+def test_scenario_from_dict_with_non_string_field_names_raises_validation_error(data):
+    with pytest.raises(ValidationError, match="field"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            Scenario.from_dict(data)
 
 
 def test_misspelt_block_keywords_fail_loudly():
@@ -641,8 +619,6 @@ SILENTLY_ACCEPTED = [
     ("Scenario.x0", [True, False, True], "booleans inside a vector are taken as 1.0 / 0.0"),
     ("Scenario.gamma", [True] * 6, "booleans inside a vector are taken as 1.0"),
     ("FigureEight.center", ["0", "1"], "numeric strings inside a vector are converted"),
-    ("Scenario.from_dict.noise", 0, "from_dict maps noise = 0 (and 0.0) to 'off' "
-     "because 0 == False in `noise in (False, 'none', 'off')`"),
     ("Scenario.robot", _theta_table(theta7=1.0),
      "unknown keys of a robot table are ignored (robots.resolve picks theta1..theta6)"),
     ("DynamicUnicycle.robot", _theta_table(thetta1=1.0),
@@ -654,37 +630,26 @@ SILENTLY_ACCEPTED = [
 
 
 @pytest.mark.parametrize("target_id, value, reason", [
-    pytest.param(t, v, r, id=f"{t}={v!r}"[:60],
-                 marks=pytest.mark.xfail(strict=True, reason=f"accepted: {r}"))
-    for t, v, r in SILENTLY_ACCEPTED])
+    pytest.param(t, v, r, id=f"{t}={v!r}"[:60]) for t, v, r in SILENTLY_ACCEPTED])
 def test_values_of_the_wrong_type_are_not_silently_accepted(target_id, value, reason):
     _rejects(BY_ID[target_id], value)
 
 
-@pytest.mark.xfail(strict=True, reason="TrajectorySource ignores `acceleration` unless the "
-                   "trajectory is a callable: a non-callable acceleration is accepted")
 def test_trajectory_source_rejects_an_acceleration_it_would_ignore():
     _rejects(Target("TrajectorySource.acceleration", "acceleration", "callable",
                     lambda v: _block("TrajectorySource", trajectory={"type": "circle"})(
                         "acceleration", v)), "not callable")
 
 
-@pytest.mark.xfail(strict=True, reason="RobotParameters.source is not validated: source=5 "
-                   "is accepted (name is checked)")
 def test_robot_parameters_source_must_be_a_string():
     with pytest.raises(ValidationError, match="source"):
         RobotParameters(*VALID_THETA, source=5)
 
 
-_ROBOT_TABLE_MESSAGE = ("the message of a robot table with an invalid theta does not say "
-                        "which field it is ('theta1 must be > 0, got -1.0'): robots.resolve "
-                        "does not prefix the field name for tables (it does for names and "
-                        "lists)")
 
 
 @pytest.mark.parametrize("target_id", [
-    pytest.param(t, marks=pytest.mark.xfail(strict=True, reason=_ROBOT_TABLE_MESSAGE))
-    for t in ("Scenario.robot", "Scenario.theta_hat0", "Scenario.from_dict.robot",
+    t for t in ("Scenario.robot", "Scenario.theta_hat0", "Scenario.from_dict.robot",
               "DynamicUnicycle.robot", "DynamicCompensator.theta_hat0",
               "SampledDynamicCompensator.theta_hat0")])
 def test_robot_tables_with_an_invalid_theta_name_the_field(target_id):
@@ -736,14 +701,14 @@ def test_robot_parameters_reject_invalid_values(target):
         _rejects(target, value)
         EXAMPLES["robot_parameters_invalid"] += 1
 
-    check()
     TARGETS_RUN["robot_parameters_invalid"].add(target.id)
+    check()
 
 
 _RP_HUGE = [t.id for t in ROBOT_TARGETS if t.kind in NUMERIC_KINDS]
 
 
-@pytest.mark.parametrize("target", _param(_RP_HUGE, {t: _OVERFLOW for t in _RP_HUGE}))
+@pytest.mark.parametrize("target", _param(_RP_HUGE, {}))
 def test_robot_parameters_reject_integers_beyond_the_float_range(target):
     @_settings("huge_integers")
     @given(value=huge_int)
@@ -751,8 +716,8 @@ def test_robot_parameters_reject_integers_beyond_the_float_range(target):
         _rejects(target, value)
         EXAMPLES["huge_integers"] += 1
 
-    check()
     TARGETS_RUN["huge_integers"].add(target.id)
+    check()
 
 
 def test_from_physical_rejects_parameters_that_give_an_invalid_theta():
@@ -769,5 +734,6 @@ def test_zz_report_example_counts(capsys):
     with capsys.disabled():
         print("\nhypothesis examples per property (test_hypothesis_validation.py):")
         for name, n in MAX_EXAMPLES.items():
-            print(f"  {name:36s} {EXAMPLES[name]:6d} passed over {len(TARGETS_RUN[name]):3d} "
-                  f"targets (max_examples {n} per target)")
+            note = " (known gap: strict xfail on the targets it fails)" if name in KNOWN_GAPS else ""
+            print(f"  {name:34s} {len(TARGETS_RUN[name]):3d} targets x max_examples {n:3d}: "
+                  f"{EXAMPLES[name]:5d} examples passed{note}")
