@@ -354,6 +354,7 @@ class DynamicCompensator(ContinuousBlock):
             x0 = np.r_[x0, 0.0, 0.0]
         super().__init__(nstates=len(x0), x0=x0, feedthrough=True, snames=snames, **blockargs)
         self.type = "dynamiccompensator"
+        self._last = None
 
     def _signals(self, t, inports, x):
         v_d = as_vector(inports[0], 2, self, "v_d", t)
@@ -364,16 +365,30 @@ class DynamicCompensator(ContinuousBlock):
             v_d_dot = (v_d - x[6:8]) / self.tau
         return v_d, v, v_d_dot
 
-    def output(self, t, inports, x):
+    def _evaluate(self, t, inports, x):
+        """Signals and the regressor at (t, inputs, x). bdsim asks for the output and
+        then the derivative at the same point: the second call reuses the first."""
         v_d, v, v_d_dot = self._signals(t, inports, x)
+        key = (t, v_d.tobytes(), v.tobytes(), v_d_dot.tobytes(), np.asarray(x).tobytes())
+        if self._last is not None and self._last[0] == key:
+            return self._last[1]
         theta_hat = np.array(x[:6])
-        _, v_r = self.settings.command(v_d, v_d_dot, v, theta_hat)
+        G, v_r = self.settings.command(v_d, v_d_dot, v, theta_hat)
+        value = (v_d, v, v_d_dot, theta_hat, G, v_r)
+        self._last = (key, value)
+        return value
+
+    def start(self, simstate=None):
+        super().start(simstate)
+        self._last = None
+
+    def output(self, t, inports, x):
+        _, _, _, theta_hat, _, v_r = self._evaluate(t, inports, x)
         return [check_finite(v_r, self, "output v_r", t), check_finite(theta_hat, self, "theta_hat", t)]
 
     def deriv(self, t, inports, x):
-        v_d, v, v_d_dot = self._signals(t, inports, x)
-        G, _ = self.settings.command(v_d, v_d_dot, v, x[:6])
-        dtheta = self.settings.rate(t, G, v_d, v, x[:6])
+        v_d, v, v_d_dot, theta_hat, G, _ = self._evaluate(t, inports, x)
+        dtheta = self.settings.rate(t, G, v_d, v, theta_hat)
         if self.vd_dot == "input":
             return dtheta
         return np.concatenate([dtheta, v_d_dot])
