@@ -18,10 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-import numpy as np
-
-
-
+from unidyn.noise import noise_seeds
 from unidyn.scenario import Scenario
 
 __all__ = ["Fig2", "build_fig2", "new_simulator"]
@@ -135,7 +132,7 @@ def build_fig2(sim, scenario: Scenario, *, robot: Callable | None = None,
     # --- measurements (noise held over Ts; psi is fed back clean)
     q_meas, v_meas = R[0], (R[1] if dynamic else None)
     if sc.noise is not None:
-        pos_seed, vel_seed = np.random.SeedSequence(sc.noise.seed).spawn(2)
+        pos_seed, vel_seed = noise_seeds(sc.noise.seed)
         pn = MeasurementNoise(sensor, std=sc.noise.position_std, seed=pos_seed, indices=(0, 1),
                               bd=bd, name="position_noise")
         bd.connect(R[0], pn)

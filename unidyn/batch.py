@@ -160,48 +160,22 @@ def _integrate_numba(loop: ClosedLoop, m, progress):
                        float(loop.Ts), int(n), np.asarray(m, dtype=np.int64), Xs, SIG, stops)
     if progress is not None:
         progress(n, n)
-    t = np.arange(n + 1) * loop.Ts
-    out = []
-    for i, sc in enumerate(loop.scenarios):
-        stop = int(stops[i]) + 1
-        X_i = Xs[i, :stop]
-        complete = stop == n + 1 and bool(np.all(np.isfinite(X_i)))
-        message = ""
-        if not complete:
-            finite = np.all(np.isfinite(X_i), axis=1)
-            stop = int(np.argmin(finite))
-            X_i = X_i[:stop]
-            message = (f"non-finite state at t = {stop * loop.Ts:.6g} s "
-                       f"(scenario {sc.name or sc.case})")
-        S = SIG[i, :stop]
-        v_ref = np.clip(S[:, 6:8], -loop.vmax[i], loop.vmax[i])
-        vel = X_i[:, 3:5] if sc.case != "kinematic" else v_ref
-        out.append(Result(scenario=sc, t=t[:stop], pose=X_i[:, 0:3], velocity=vel,
-                          reference=S[:, 0:2], v_d=S[:, 2:4], v_ref=v_ref,
-                          theta_hat=X_i[:, 5:11], engine="batch", complete=complete,
-                          message=message))
-    return out
+    return _results(loop, Xs, SIG, stops)
 
 
 def _integrate(loop: ClosedLoop, m: int, progress):
-    Ts, n = loop.Ts, loop.steps
+    """The numpy backend: fills the same arrays as the compiled kernel."""
+    Ts, n, B = loop.Ts, loop.steps, loop.B
     h = Ts / m
     X = loop.initial_state()
-    B = loop.B
-    traj = np.empty((n + 1, B, 13))
-    sig_vd = np.empty((n + 1, B, 2))
-    sig_vref = np.empty((n + 1, B, 2))
-    sig_ref = np.empty((n + 1, B, 2))
-    complete = np.ones(B, dtype=bool)
-    message = [""] * B
-    last = n
+    Xs = np.full((B, n + 1, 13), np.nan)
+    SIG = np.full((B, n + 1, 8), np.nan)
+    stops = np.full(B, n, dtype=np.int64)
 
     def record(k, X, t, noise_k):
         s = loop.signals(t, X, noise_k)
-        traj[k] = X
-        sig_vd[k] = s["v_d"]
-        sig_vref[k] = np.clip(s["v_ref"], -loop.vmax, loop.vmax)
-        sig_ref[k] = s["h_d"]
+        Xs[:, k] = X
+        SIG[:, k] = np.concatenate([s["h_d"], s["v_d"], s["v_d_dot"], s["v_ref"]], axis=1)
 
     record(0, X, 0.0, 0)
     for k in range(n):
@@ -220,27 +194,32 @@ def _integrate(loop: ClosedLoop, m: int, progress):
         record(k + 1, X, (k + 1) * Ts, k)
         if progress is not None:
             progress(k + 1, n)
-        bad = ~np.all(np.isfinite(X), axis=1)
-        if bad.any():
-            for i in np.flatnonzero(bad & complete):
-                complete[i] = False
-                message[i] = (f"non-finite state at t = {(k + 1) * Ts:.6g} s "
-                              f"(scenario {loop.scenarios[i].name or loop.scenarios[i].case})")
-            if not complete.any():
-                last = k + 1
-                break
+        if not np.isfinite(Xs[:, : k + 2]).all(axis=(1, 2)).any():
+            stops[:] = k + 1  # every run has failed: stop integrating
+            break
+    return _results(loop, Xs, SIG, stops)
+
+
+def _results(loop: ClosedLoop, Xs, SIG, stops) -> list:
+    """One Result per run from the sampled states Xs (B, n+1, 13) and signals SIG
+    (B, n+1, 8: h_d, v_d, v_d', v_ref); stops[i] is the last sample written. A run
+    with a non-finite state keeps its finite part and is marked incomplete."""
+    n = loop.steps
+    t = np.arange(n + 1) * loop.Ts
     out = []
-    t = np.arange(n + 1) * Ts
     for i, sc in enumerate(loop.scenarios):
-        stop = n + 1
-        if not complete[i]:
-            # keep the finite part of the run
-            finite = np.all(np.isfinite(traj[: last + 1, i]), axis=1)
-            stop = int(np.argmin(finite)) if not finite.all() else last + 1
-        X_i = traj[:stop, i]
-        vel = X_i[:, 3:5] if sc.case != "kinematic" else sig_vref[:stop, i]
+        X_i = Xs[i, : int(stops[i]) + 1]
+        finite = np.all(np.isfinite(X_i), axis=1)
+        complete = int(stops[i]) == n and bool(finite.all())
+        stop = len(X_i) if finite.all() else int(np.argmin(finite))
+        message = "" if complete else (f"non-finite state at t = {stop * loop.Ts:.6g} s "
+                                       f"(scenario {sc.name or sc.case})")
+        X_i = X_i[:stop]
+        S = SIG[i, :stop]
+        v_ref = np.clip(S[:, 6:8], -loop.vmax[i], loop.vmax[i])
+        vel = X_i[:, 3:5] if sc.case != "kinematic" else v_ref
         out.append(Result(scenario=sc, t=t[:stop], pose=X_i[:, 0:3], velocity=vel,
-                          reference=sig_ref[:stop, i], v_d=sig_vd[:stop, i],
-                          v_ref=sig_vref[:stop, i], theta_hat=X_i[:, 5:11], engine="batch",
-                          complete=bool(complete[i]), message=message[i]))
+                          reference=S[:, 0:2], v_d=S[:, 2:4], v_ref=v_ref,
+                          theta_hat=X_i[:, 5:11], engine="batch", complete=complete,
+                          message=message))
     return out

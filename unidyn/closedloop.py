@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import control, model
-from .noise import noise_streams
+from .noise import held_sequence, noise_seeds
 from .scenario import CASES, Scenario
 
 __all__ = ["ClosedLoop", "NSTATE"]
@@ -86,13 +86,10 @@ class ClosedLoop:
         for i, s in enumerate(scs):
             if s.noise is None:
                 continue
-            pos_seed, vel_seed = np.random.SeedSequence(s.noise.seed).spawn(2)
-            rp, rv = np.random.default_rng(pos_seed), np.random.default_rng(vel_seed)
-            for k in range(n):
-                self.pos_noise[i, k] = s.noise.position_std * rp.standard_normal(2)
-            if s.case != "kinematic":
-                for k in range(n):
-                    self.vel_noise[i, k] = s.noise.velocity_std * rv.standard_normal(2)
+            pos_seed, vel_seed = noise_seeds(s.noise.seed)
+            self.pos_noise[i] = held_sequence(pos_seed, s.noise.position_std, n)
+            if s.case != "kinematic":  # a kinematic robot has no velocities to measure
+                self.vel_noise[i] = held_sequence(vel_seed, s.noise.velocity_std, n)
 
     # ------------------------------------------------------------------ #
     def initial_state(self) -> np.ndarray:

@@ -15,7 +15,7 @@ import numpy as np
 
 from ._validate import ValidationError, nonnegative
 
-__all__ = ["NoiseSpec", "noise_streams", "PAPER_NOISE"]
+__all__ = ["NoiseSpec", "noise_seeds", "held_sequence", "PAPER_NOISE"]
 
 
 @dataclass(frozen=True)
@@ -47,18 +47,18 @@ class NoiseSpec:
 PAPER_NOISE = NoiseSpec()
 
 
-def noise_streams(seed: int):
-    """Two independent generators, (position, velocity), derived from one seed."""
-    ss = np.random.SeedSequence(int(seed))
-    pos, vel = ss.spawn(2)
-    return np.random.default_rng(pos), np.random.default_rng(vel)
+def noise_seeds(seed: int):
+    """The (position, velocity) seed sequences derived from one run seed: the
+    noise blocks of the diagram and every other engine draw from these."""
+    pos, vel = np.random.SeedSequence(int(seed)).spawn(2)
+    return pos, vel
 
 
-def held_sequence(rng: np.random.Generator, std: float, n: int, dim: int = 2) -> np.ndarray:
-    """``n`` held values, one row per sample interval: ``std * rng.standard_normal((n, dim))``.
-
-    Drawn one row at a time, exactly as a sampled block draws them tick by tick.
-    """
+def held_sequence(seed, std: float, n: int, dim: int = 2) -> np.ndarray:
+    """``n`` held values, one row per sample interval: the k-th row is the k-th draw
+    ``std * rng.standard_normal(dim)`` of ``numpy.random.default_rng(seed)``, drawn one
+    row at a time exactly as :class:`unidyn.blocks.MeasurementNoise` draws them tick by tick."""
+    rng = np.random.default_rng(seed)
     out = np.empty((n, dim))
     for k in range(n):
         out[k] = std * rng.standard_normal(dim)
