@@ -160,7 +160,7 @@ def _integrate_numba(loop: ClosedLoop, m, progress):
                        float(loop.Ts), int(n), np.asarray(m, dtype=np.int64), Xs, SIG, stops)
     if progress is not None:
         progress(n, n)
-    return _results(loop, Xs, SIG, stops)
+    return _results(loop, Xs, SIG, stops, "numba (compiled)")
 
 
 def _integrate(loop: ClosedLoop, m: int, progress):
@@ -197,10 +197,10 @@ def _integrate(loop: ClosedLoop, m: int, progress):
         if not np.isfinite(Xs[:, : k + 2]).all(axis=(1, 2)).any():
             stops[:] = k + 1  # every run has failed: stop integrating
             break
-    return _results(loop, Xs, SIG, stops)
+    return _results(loop, Xs, SIG, stops, "numpy")
 
 
-def _results(loop: ClosedLoop, Xs, SIG, stops) -> list:
+def _results(loop: ClosedLoop, Xs, SIG, stops, backend: str) -> list:
     """One Result per run from the sampled states Xs (B, n+1, 13) and signals SIG
     (B, n+1, 8: h_d, v_d, v_d', v_ref); stops[i] is the last sample written. A run
     with a non-finite state keeps its finite part and is marked incomplete."""
@@ -221,5 +221,5 @@ def _results(loop: ClosedLoop, Xs, SIG, stops) -> list:
         out.append(Result(scenario=sc, t=t[:stop], pose=X_i[:, 0:3], velocity=vel,
                           reference=S[:, 0:2], v_d=S[:, 2:4], v_ref=v_ref,
                           theta_hat=X_i[:, 5:11], engine="batch", complete=complete,
-                          message=message))
+                          message=message, backend=backend))
     return out

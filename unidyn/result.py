@@ -73,8 +73,17 @@ class Result:
     :ivar v_ref: commands applied to the robot, (N, 2)
     :ivar error: distance error \|h_d - h\|, m, (N,)
     :ivar theta_hat: parameter estimate, (N, 6) (constant for non-adaptive cases)
-    :ivar metrics: see :func:`metrics`
+    :ivar metrics: see :func:`metrics`; when the run did not complete every value is
+        ``None`` (metrics of a partial run are not a result)
+    :ivar partial_metrics: when the run did not complete, the metrics of the part that
+        was computed (``None`` for a complete run)
     :ivar complete: False if the run stopped early (see ``message``)
+    :ivar message: why the run stopped early ("" for a complete run)
+    :ivar engine: ``"bdsim"`` (the diagram) or ``"batch"``
+    :ivar backend: what actually integrated the run: ``"solve_ivp RK45"`` (or the
+        solver method used) for the diagram, ``"numba (compiled)"`` or ``"numpy"``
+        for the batch engine
+    :ivar log_every: samples are logged every ``log_every`` steps of ``Ts``
     """
 
     scenario: object
@@ -89,12 +98,21 @@ class Result:
     complete: bool = True
     message: str = ""
     substeps: int | None = None
+    backend: str = ""
     error: np.ndarray = field(init=False)
     metrics: dict = field(init=False)
+    partial_metrics: dict | None = field(init=False)
 
     def __post_init__(self):
+        self.complete = bool(self.complete)
+        self.message = str(self.message)
         self.error = np.linalg.norm(self.reference - self.pose[:, :2], axis=1)
-        self.metrics = metrics(self.t, self.error, self.velocity)
+        computed = metrics(self.t, self.error, self.velocity)
+        if self.complete:
+            self.metrics, self.partial_metrics = computed, None
+        else:
+            self.metrics = {k: None for k in computed}
+            self.partial_metrics = computed
 
     # ------------------------------------------------------------------ #
     def window(self, t0: float, t1: float) -> dict:
@@ -106,9 +124,11 @@ class Result:
         """What ``summary.json`` holds: scenario, metrics, provenance."""
         from . import __version__
         sc = self.scenario
-        return {
+        notes = []
+        out = {
             "unidyn_version": __version__,
             "engine": self.engine,
+            "backend": self.backend,
             "substeps": self.substeps,
             "complete": self.complete,
             "message": self.message,
@@ -116,9 +136,19 @@ class Result:
             "seed": None if sc.noise is None else sc.noise.seed,
             "samples": int(len(self.t)),
             "t_end": float(self.t[-1]) if len(self.t) else 0.0,
-            "metrics": self.metrics,
-            "theta_hat_final": self.theta_hat[-1].tolist() if len(self.t) else None,
+            "metrics": _finite_or_null(self.metrics, "metrics", notes),
+            "partial_metrics": _finite_or_null(self.partial_metrics, "partial_metrics", notes),
+            "theta_hat_final": (_finite_or_null(self.theta_hat[-1].tolist(), "theta_hat_final", notes)
+                                if len(self.t) else None),
         }
+        if notes:
+            out["notes"] = notes
+        return out
+
+    def to_json(self) -> str:
+        """``summary()`` as strict JSON: a non-finite number is written as ``null``
+        (with a line in ``notes``), never as ``Infinity`` or ``NaN``."""
+        return json.dumps(self.summary(), indent=2, default=_json_default, allow_nan=False) + "\n"
 
     def save(self, folder) -> Path:
         """Write ``timeseries.csv`` and ``summary.json`` into ``folder`` (created if needed),
@@ -137,7 +167,7 @@ class Result:
         buf = io.StringIO()
         np.savetxt(buf, data, delimiter=",", header=",".join(cols), comments="", fmt="%.10g")
         write_atomic(folder / "timeseries.csv", buf.getvalue())
-        write_atomic(folder / "summary.json", json.dumps(self.summary(), indent=2, default=_json_default) + "\n")
+        write_atomic(folder / "summary.json", self.to_json())
         return folder
 
     # plotting helpers (matplotlib is imported only when used)
@@ -160,6 +190,20 @@ class Result:
     def plot_theta_hat(self, ax=None, **kw):
         from .plots import plot_theta_hat
         return plot_theta_hat(self, ax=ax, **kw)
+
+
+def _finite_or_null(value, where: str, notes: list):
+    """``value`` (a dict or list of numbers, or None) with every non-finite number
+    replaced by None; each replacement adds a line to ``notes``."""
+    if value is None:
+        return None
+    items = value.items() if isinstance(value, dict) else enumerate(value)
+    out = dict(value) if isinstance(value, dict) else list(value)
+    for k, v in items:
+        if v is not None and not np.isfinite(v):
+            notes.append(f"{where}[{k!r}] was {float(v)!r}, written as null")
+            out[k] = None
+    return out
 
 
 def _json_default(o):

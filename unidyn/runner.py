@@ -109,7 +109,7 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
     result = Result(scenario=sc, t=t, pose=signals["pose"], velocity=velocity,
                     reference=signals["reference"], v_d=signals["v_d"], v_ref=signals["v_ref"],
                     theta_hat=theta_hat, engine="bdsim", complete=failure is None,
-                    message=failure or "")
+                    message=failure or "", backend=f"solve_ivp {method}")
     if failure is not None:
         raise SimulationError(failure, result)
     return result

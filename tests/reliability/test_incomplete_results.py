@@ -1,0 +1,77 @@
+"""A run that did not complete never shows metrics that look like a result, and
+summary.json is strict JSON (no Infinity, no NaN)."""
+
+import json
+
+import numpy as np
+import pytest
+
+import unidyn
+from unidyn.batch import simulate_batch
+from unidyn.result import Result
+from unidyn.scenario import Scenario
+from unidyn.trajectories import FigureEight, FunctionTrajectory
+
+pytestmark = pytest.mark.reliability
+
+F8 = FigureEight()
+
+
+def _nan_after(t_bad):
+    def f(t):
+        p = F8.position(t)
+        if t > t_bad:
+            p = np.array([np.nan, p[1]])
+        return p, F8.velocity(t)
+    return FunctionTrajectory(f, acceleration=F8.acceleration)
+
+
+def _strict(text):
+    def bad(c):
+        raise AssertionError(f"non-standard JSON constant {c}")
+    return json.loads(text, parse_constant=bad)
+
+
+def test_an_incomplete_batch_run_has_null_metrics_and_the_partial_ones_apart(tmp_path):
+    bad = Scenario.paper(3, T=6.0, trajectory=_nan_after(2.0), name="bad")
+    rb, = simulate_batch([bad], backend="numpy")
+    assert rb.complete is False and rb.message
+    assert set(rb.metrics) == {"iae", "ise", "itae", "energy", "error_final"}
+    assert all(v is None for v in rb.metrics.values())
+    # the partial metrics are those of a clean run over the part computed
+    clean, = simulate_batch([bad.replace(trajectory=F8, T=float(rb.t[-1]))], backend="numpy")
+    assert clean.complete and clean.partial_metrics is None
+    for k, v in clean.metrics.items():
+        assert rb.partial_metrics[k] == pytest.approx(v, rel=1e-12, abs=1e-15), k
+    rb.save(tmp_path)
+    s = _strict((tmp_path / "summary.json").read_text())
+    assert s["complete"] is False and s["message"] == rb.message
+    assert all(v is None for v in s["metrics"].values())
+    assert s["partial_metrics"]["iae"] == pytest.approx(clean.metrics["iae"], rel=1e-12)
+    assert s["engine"] == "batch" and s["backend"] == "numpy"
+
+
+def test_a_complete_run_says_which_backend_ran_it():
+    sc = Scenario.paper(1, T=1.0)
+    r_np, = simulate_batch([sc], backend="numpy")
+    r_bd = unidyn.simulate(sc)
+    assert (r_np.engine, r_np.backend) == ("batch", "numpy")
+    assert (r_bd.engine, r_bd.backend) == ("bdsim", "solve_ivp RK45")
+    assert r_np.complete and all(np.isfinite(v) for v in r_np.metrics.values())
+
+
+def test_non_finite_numbers_are_written_as_null_with_a_note(tmp_path):
+    sc = Scenario.paper(1, T=0.2)
+    n = 3
+    pose = np.zeros((n, 3))
+    pose[-1, 0] = np.inf  # a diverged sample
+    r = Result(scenario=sc, t=np.arange(n) * 0.1, pose=pose, velocity=np.zeros((n, 2)),
+               reference=np.zeros((n, 2)), v_d=np.zeros((n, 2)), v_ref=np.zeros((n, 2)),
+               theta_hat=np.full((n, 6), np.nan), engine="batch", complete=False, message="diverged")
+    r.save(tmp_path)
+    text = (tmp_path / "summary.json").read_text()
+    assert "Infinity" not in text and "NaN" not in text
+    s = _strict(text)
+    assert s["partial_metrics"]["iae"] is None and s["partial_metrics"]["error_final"] is None
+    assert s["theta_hat_final"] == [None] * 6
+    assert any("iae" in note and "inf" in note for note in s["notes"])
