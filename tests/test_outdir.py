@@ -1,0 +1,194 @@
+"""All-or-nothing output folders (unidyn.outdir): refusals, interruptions, partial
+results, foreign files, and processes killed at random moments."""
+
+import json
+import os
+import random
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import pytest
+
+from unidyn import ValidationError
+from unidyn import outdir
+from unidyn.outdir import staged_output
+
+RESULTS = ("summary.json", "timeseries.csv")
+
+
+def _write(folder, generation, names=RESULTS):
+    for n in names:
+        (folder / n).write_text(json.dumps({"generation": generation, "file": n}))
+
+
+def _generations(folder):
+    return {json.loads((folder / n).read_text())["generation"] for n in RESULTS
+            if (folder / n).exists()}
+
+
+def _siblings(tmp_path, out):
+    return sorted(p.name for p in tmp_path.iterdir() if p.name != out.name)
+
+
+def test_fresh_folder_is_created_with_the_usual_mode(tmp_path):
+    out = tmp_path / "a" / "b"
+    with staged_output(out, overwrite=False, results=RESULTS) as st:
+        assert st.path.parent == out.parent and st.path != out
+        _write(st.path, 1)
+    assert _generations(out) == {1} and st.final == out.absolute()
+    umask = os.umask(0)
+    os.umask(umask)
+    assert (out.stat().st_mode & 0o777) == (0o777 & ~umask)
+    assert _siblings(tmp_path / "a", out) == []
+
+
+def test_existing_results_need_overwrite_and_the_message_names_them(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    _write(out, 1)
+    with pytest.raises(ValidationError, match=r"summary\.json, timeseries\.csv.*--overwrite"):
+        with staged_output(out, overwrite=False, results=RESULTS, what="run results"):
+            pytest.fail("the block must not run")
+    assert _generations(out) == {1} and _siblings(tmp_path, out) == []
+
+
+def test_a_file_is_not_a_folder(tmp_path):
+    out = tmp_path / "out"
+    out.write_text("x")
+    with pytest.raises(ValidationError, match="--out .* is a file"):
+        with staged_output(out, overwrite=True, results=RESULTS):
+            pass
+
+
+@pytest.mark.parametrize("exc", [RuntimeError("boom"), KeyboardInterrupt()])
+def test_an_error_or_ctrl_c_inside_leaves_the_old_results(tmp_path, exc):
+    out = tmp_path / "out"
+    out.mkdir()
+    _write(out, 1)
+    with pytest.raises(type(exc)):
+        with staged_output(out, overwrite=True, results=RESULTS) as st:
+            _write(st.path, 2)
+            raise exc
+    assert _generations(out) == {1}
+    assert _siblings(tmp_path, out) == []  # staging folder removed
+
+
+def test_overwrite_replaces_owned_artefacts_and_keeps_foreign_files(tmp_path):
+    out = tmp_path / "out"
+    (out / "notes").mkdir(parents=True)
+    _write(out, 1)
+    (out / "animation.gif").write_text("old gif")
+    (out / "README.txt").write_text("mine")
+    (out / "notes" / "n.txt").write_text("also mine")
+    with staged_output(out, overwrite=True, results=RESULTS,
+                       owned=RESULTS + ("animation.gif",)) as st:
+        assert st.held == RESULTS
+        _write(st.path, 2)
+    assert _generations(out) == {2}
+    assert not (out / "animation.gif").exists()  # last run's artefact does not survive
+    assert (out / "README.txt").read_text() == "mine"
+    assert (out / "notes" / "n.txt").read_text() == "also mine"
+    assert _siblings(tmp_path, out) == []
+
+
+def test_partial_results_never_replace_complete_ones(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    _write(out, 1)
+    with staged_output(out, overwrite=True, results=RESULTS) as st:
+        _write(st.path, 2)
+        st.incomplete("diverged at t = 3 s")
+    assert _generations(out) == {1}
+    side = tmp_path / "out.incomplete"
+    assert st.final == side and _generations(side) == {2}
+    # a second failure replaces the previous partial results, not the complete ones
+    with staged_output(out, overwrite=True, results=RESULTS) as st:
+        _write(st.path, 3, names=RESULTS[:1])
+        st.incomplete("again")
+    assert _generations(out) == {1} and _generations(side) == {3}
+    assert not (side / "timeseries.csv").exists()
+
+
+def test_partial_results_go_into_an_empty_target(tmp_path):
+    out = tmp_path / "out"
+    with staged_output(out, overwrite=False, results=RESULTS) as st:
+        _write(st.path, 1)
+        st.incomplete("stopped")
+    assert st.final == out.absolute() and _generations(out) == {1}
+
+
+def test_leftovers_of_a_killed_process_are_recovered(tmp_path):
+    out = tmp_path / "out"
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True).stdout.strip()
+    # died between the two renames of the fallback swap: the old results sit aside
+    backup = tmp_path / f".out.old-{dead}-abc"
+    backup.mkdir()
+    _write(backup, 1)
+    staging = tmp_path / f".out.new-{dead}-def"
+    staging.mkdir()
+    _write(staging, 2)
+    with pytest.raises(ValidationError, match="already holds"):
+        with staged_output(out, overwrite=False, results=RESULTS):
+            pass
+    assert _generations(out) == {1}
+    assert _siblings(tmp_path, out) == []
+
+
+def test_fallback_swap_without_renameat2(tmp_path, monkeypatch):
+    monkeypatch.setattr(outdir, "_EXCHANGE", None)
+    out = tmp_path / "out"
+    out.mkdir()
+    _write(out, 1)
+    (out / "keep.txt").write_text("k")
+    with staged_output(out, overwrite=True, results=RESULTS) as st:
+        _write(st.path, 2)
+    assert _generations(out) == {2} and (out / "keep.txt").read_text() == "k"
+    assert _siblings(tmp_path, out) == []
+
+
+_WRITER = textwrap.dedent("""
+    import json, sys, time
+    from unidyn.outdir import staged_output
+    out, gen = sys.argv[1], int(sys.argv[2])
+    names = ("summary.json", "timeseries.csv", "a.csv", "b.csv")
+    with staged_output(out, overwrite=True, results=names[:2], owned=names) as st:
+        for n in names:
+            (st.path / n).write_text(json.dumps({"generation": gen, "file": n}) + " " * 200000)
+            time.sleep(0.01)
+    print("done", flush=True)
+""")
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL, signal.SIGTERM])
+def test_processes_killed_at_random_moments_leave_old_or_new_never_a_mix(tmp_path, sig):
+    """Real processes, real signals: after each one, ``out`` holds every file of one
+    generation (the last complete one, or the one just killed if it finished)."""
+    rng = random.Random(20261123 + int(sig))
+    out = tmp_path / "out"
+    script = tmp_path / "writer.py"
+    script.write_text(_WRITER)
+    env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
+    subprocess.run([sys.executable, str(script), str(out), "0"], check=True, env=env,
+                   cwd=tmp_path, capture_output=True)
+    done = 0
+    for gen in range(1, 9):
+        proc = subprocess.Popen([sys.executable, str(script), str(out), str(gen)], env=env,
+                                cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        time.sleep(rng.uniform(0.05, 0.6))
+        proc.send_signal(sig)
+        stdout, _ = proc.communicate(timeout=30)
+        finished = b"done" in stdout
+        names = ("summary.json", "timeseries.csv", "a.csv", "b.csv")
+        gens = {json.loads((out / n).read_text().rstrip())["generation"] for n in names}
+        assert len(gens) == 1, f"mixed generations {gens} after {sig!r}"
+        if finished:
+            done = gen
+        assert gens == {done}
+    # what the killed processes left beside out is cleaned by the next writer
+    subprocess.run([sys.executable, str(script), str(out), "99"], check=True, env=env,
+                   cwd=tmp_path, capture_output=True)
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".out.")] == []
