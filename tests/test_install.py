@@ -1,8 +1,15 @@
-"""The installed package: dependency versions, bdsim block discovery, the .pth hook."""
+"""The installed package: dependency versions, bdsim block discovery, the .pth hook.
+
+Every helper process starts in a fresh empty folder: started from the checkout's
+parent folder, ``python -c`` would put that folder first on ``sys.path``, and a
+checkout named ``unidyn`` (``git clone``'s default) would then be imported as a
+namespace package instead of the installed one.
+"""
 
 import os
 import subprocess
 import sys
+import tempfile
 import textwrap
 from pathlib import Path
 
@@ -16,8 +23,9 @@ BLOCKS = ["DYNAMICUNICYCLE", "KINEMATICUNICYCLE", "KINEMATICCONTROLLER",
 
 def _run(code, env=None):
     full = {**os.environ, "MPLBACKEND": "Agg", **(env or {})}
-    return subprocess.run([sys.executable, "-c", textwrap.dedent(code)], capture_output=True,
-                          text=True, env=full, cwd=str(ROOT.parent), timeout=300)
+    with tempfile.TemporaryDirectory(prefix="unidyn-cwd-") as cwd:
+        return subprocess.run([sys.executable, "-c", textwrap.dedent(code)],
+                              capture_output=True, text=True, env=full, cwd=cwd, timeout=300)
 
 
 def test_bdsim_with_toolboxes_has_unicycle_vehicleplot_and_our_blocks():
