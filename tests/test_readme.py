@@ -1,28 +1,351 @@
-"""The README's 15-line diagram runs as written and does what it says."""
+"""Every fenced block of README.md, and every example in the command line's ``--help``
+texts, runs as written, so the README cannot drift from the code.
 
+- ``python`` blocks run in a fresh interpreter, one per block, in an empty temporary
+  working folder holding a copy of ``examples/`` (files they write land there);
+- ``sh`` blocks run line by line, in order, in one such folder per block: ``unidyn ...``
+  as ``python -m unidyn ...``, ``python``/``.venv/bin/python`` as this interpreter, so
+  every relative ``--out`` lands in the temporary folder. The set-up commands
+  (``python3 -m venv .venv``, ``.venv/bin/pip install -e ...``, the test-suite run) are
+  checked for their shape here and really run by ``tests/test_fresh_clone.py``;
+  ``[...]`` marks an optional part of a command and is left out;
+- ``toml`` blocks are parsed and run (a sweep if they have ``[grid]``, else a scenario);
+- ``csv`` blocks are read by the identification log reader.
+
+A block preceded by ``<!-- include: PATH -->`` must equal the file PATH (relative to
+the checkout) character for character, and the file is what runs. A block that is not
+meant to run (e.g. output shown) must be preceded by ``<!-- not-run: reason -->``.
+Commands that take more than a few seconds (the full Section 5 script, the Fig. 11
+sweep, the bdsim diagram for 200 s) are in the slow tier.
+"""
+
+import os
 import re
+import shlex
+import shutil
+import subprocess
+import sys
+import textwrap
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import pytest
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10
+    import tomli as tomllib
+
+ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+LANGS = ("python", "sh", "toml", "csv")
+#: substrings of commands that take more than a few seconds
+SLOW = ("--paper-fig11", "--engine bdsim", "paper_section5.py")
+TIMEOUT = 600
 
 
-def _snippet():
-    text = README.read_text()
-    section = text.split("## A diagram in 15 lines", 1)[1]
-    return re.search(r"```python\n(.*?)```", section, re.S).group(1)
+@dataclass
+class Block:
+    lang: str
+    code: str
+    line: int        # line of the opening fence
+    section: str     # the heading it sits under
+    marker: str      # the HTML comment just before it, if any
+
+    @property
+    def id(self):
+        words = re.sub(r"[^a-z0-9]+", "-", self.section.lower()).strip("-")
+        return f"L{self.line}-{self.lang}-{words[:30]}"
 
 
-def test_the_fifteen_line_diagram_runs_and_tracks():
-    code = _snippet()
-    assert len([l for l in code.splitlines() if l.strip()]) <= 16
-    ns = {}
-    exec(compile(code, "README.md", "exec"), ns)  # the README's own code, as a user runs it
-    out = ns["out"]
-    q = np.asarray(out[".ywatch"][0])
-    t = np.asarray(out.t)
+def readme_blocks():
+    blocks, section, marker = [], "", ""
+    lines = README.read_text(encoding="utf-8").splitlines()
+    i = 0
+    while i < len(lines):
+        line = lines[i]
+        if line.startswith("#"):
+            section = line.lstrip("#").strip()
+        m = re.match(r"^(\s*)```(\S*)\s*$", line)
+        if m:
+            start, lang, indent = i, m.group(2), len(m.group(1))
+            body = []
+            i += 1
+            while not re.match(r"^\s*```\s*$", lines[i]):
+                body.append(lines[i][indent:])
+                i += 1
+            prev = next((lines[j].strip() for j in range(start - 1, -1, -1) if lines[j].strip()), "")
+            blocks.append(Block(lang, "\n".join(body) + "\n", start + 1, section,
+                                prev if prev.startswith("<!--") else ""))
+        i += 1
+    return blocks
+
+
+BLOCKS = readme_blocks()
+
+
+def _marker(block, kind):
+    m = re.match(rf"<!--\s*{kind}:\s*(.*?)\s*-->", block.marker)
+    return m.group(1) if m else None
+
+
+def test_every_block_has_a_known_language_or_a_not_run_reason():
+    assert BLOCKS, "no fenced blocks found in README.md"
+    for b in BLOCKS:
+        reason = _marker(b, "not-run")
+        if reason is not None:
+            assert len(reason) > 5, f"README.md:{b.line}: say why the block is not run"
+        else:
+            assert b.lang in LANGS, (f"README.md:{b.line}: a ```{b.lang} block is neither run "
+                                     f"nor marked <!-- not-run: reason -->")
+    not_run = [b for b in BLOCKS if _marker(b, "not-run") is not None]
+    assert len(not_run) <= 3, "keep blocks that are not run rare"
+
+
+def test_included_blocks_equal_their_files():
+    for b in BLOCKS:
+        path = _marker(b, "include")
+        if path is not None:
+            assert (ROOT / path).read_text(encoding="utf-8") == b.code, \
+                f"README.md:{b.line} differs from {path}"
+
+
+# ------------------------------------------------------------------------ workspace
+
+def _workspace(tmp):
+    """An empty folder outside the checkout with a copy of examples/ (its data files)."""
+    shutil.copytree(ROOT / "examples", tmp / "examples",
+                    ignore=shutil.ignore_patterns("*.ipynb", ".ipynb_checkpoints", "__pycache__"))
+    return tmp
+
+
+def _env(extra=None):
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH",)}
+    env["MPLBACKEND"] = "Agg"
+    env.update(extra or {})
+    return env
+
+
+def _run(argv, cwd, env=None):
+    r = subprocess.run(argv, cwd=cwd, capture_output=True, text=True, env=_env(env),
+                       timeout=TIMEOUT)
+    return r
+
+
+def _runnable(kind):
+    blocks = [b for b in BLOCKS if b.lang == kind and _marker(b, "not-run") is None]
+    return [pytest.param(b, id=b.id) for b in blocks]
+
+
+# -------------------------------------------------------------------------- python
+
+#: Checks appended to a python block (after the README's code, which runs unchanged).
+PY_CHECKS = {
+    "A diagram in 15 lines": """
+import numpy as _np
+_t = _np.asarray(out.t); _q = _np.asarray(out.y)
+_np.savez("readme_check.npz", t=_t, q=_q)
+""",
+}
+
+
+@pytest.mark.parametrize("block", _runnable("python"))
+def test_python_block_runs(block, tmp_path):
+    ws = _workspace(tmp_path)
+    code = block.code
+    path = _marker(block, "include")
+    if path is not None:
+        code = (ROOT / path).read_text(encoding="utf-8")
+    code += PY_CHECKS.get(block.section, "")
+    script = ws / "readme_block.py"
+    script.write_text(code, encoding="utf-8")
+    r = _run([sys.executable, str(script)], ws)
+    assert r.returncode == 0, f"README.md:{block.line} ({block.section}):\n{r.stdout}\n{r.stderr}"
+    if block.section == "A diagram in 15 lines":
+        _check_fifteen_lines(block, ws, r)
+
+
+def _check_fifteen_lines(block, ws, r):
+    lines = block.code[:block.code.index("out = sim.run")].splitlines()
+    assert len([l for l in lines if l.strip()]) <= 16  # the diagram, up to sim.run
+    # the output is the printed pose alone: bdsim's notices and reports are silenced
+    assert r.stderr.strip() == "", r.stderr
+    assert re.fullmatch(r"t = 60 s: h = \(-?\d+\.\d{3}, -?\d+\.\d{3}\) m, psi = -?\d+\.\d{2} rad\n",
+                        r.stdout), r.stdout
+    data = np.load(ws / "readme_check.npz")
+    t, q = data["t"], data["q"]
+    # the printed pose is the last sample, and the path tracks the figure eight
+    x, y = (float(v) for v in re.findall(r"-?\d+\.\d{3}", r.stdout)[:2])
+    assert abs(x - q[-1, 0]) < 1e-3 and abs(y - q[-1, 1]) < 1e-3
     h_d = np.stack([np.sin(0.5 * t), np.cos(0.25 * t) - 1], -1)
     err = np.linalg.norm(h_d - q[:, :2], axis=1)
     assert abs(err[0] - 0.2) < 1e-9
     assert np.mean(err[t > 40]) < 0.02     # exact compensation: tracks like the kinematic case
+    assert (ws / "path.png").stat().st_size > 5000
+
+
+# ------------------------------------------------------------------------------ sh
+
+def _commands(block):
+    """The commands of a sh block: (text, argv, env) with comments and [...] removed."""
+    out = []
+    for raw in block.code.splitlines():
+        text = re.sub(r"\s+\[[^\]]*\]", "", raw)   # optional parts, [--flag value]
+        words = shlex.split(text, comments=True)
+        if not words:
+            continue
+        for part in _split_and(words):
+            out.append((raw.strip(), part))
+    return out
+
+
+def _split_and(words):
+    parts, cur = [], []
+    for w in words:
+        if w == "&&":
+            parts.append(cur)
+            cur = []
+        else:
+            cur.append(w)
+    parts.append(cur)
+    return parts
+
+
+def _translate(words):
+    """(kind, argv, env): kind is 'run', 'venv', 'pip' or 'pytest'."""
+    env = {}
+    while words and re.fullmatch(r"[A-Z_][A-Z0-9_]*=.*", words[0]):
+        k, v = words[0].split("=", 1)
+        env[k] = v
+        words = words[1:]
+    cmd, args = words[0], words[1:]
+    if cmd == "unidyn":
+        return "run", [sys.executable, "-m", "unidyn", *args], env
+    if cmd in ("python3", "python") and args[:2] == ["-m", "venv"]:
+        return "venv", args, env
+    if cmd in (".venv/bin/pip", "pip"):
+        return "pip", args, env
+    if cmd in ("python", "python3", ".venv/bin/python"):
+        if args[:2] == ["-m", "pytest"]:
+            return "pytest", args, env
+        return "run", [sys.executable, *args], env
+    raise AssertionError(f"README command {' '.join(words)!r}: unknown program {cmd!r}")
+
+
+def _check_shape(kind, args):
+    if kind == "venv":
+        assert args == ["-m", "venv", ".venv"], args
+    elif kind == "pip":
+        assert args[0] == "install" and args[1] == "-e", args
+        spec = args[2]
+        m = re.fullmatch(r"\.(?:\[([a-z,]+)\])?", spec)
+        assert m, spec
+        extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"][
+            "optional-dependencies"]
+        for e in (m.group(1) or "").split(","):
+            assert not e or e in extras, f"README installs unknown extra {e!r}"
+    elif kind == "pytest":
+        assert args[:2] == ["-m", "pytest"], args
+
+
+def _sh_params():
+    params = []
+    for b in BLOCKS:
+        if b.lang != "sh" or _marker(b, "not-run") is not None:
+            continue
+        for k, (text, words) in enumerate(_commands(b)):
+            slow = any(s in " ".join(words) for s in SLOW)
+            params.append(pytest.param(b, k, id=f"{b.id}-{k}",
+                                       marks=[pytest.mark.slow] if slow else []))
+    return params
+
+
+@pytest.fixture(scope="module")
+def sh_workspaces(tmp_path_factory):
+    """One working folder per sh block, shared by its commands, with the indices run."""
+    return {}
+
+
+@pytest.mark.parametrize("block,k", _sh_params())
+def test_sh_command_runs(block, k, sh_workspaces, tmp_path_factory):
+    if block.line not in sh_workspaces:
+        sh_workspaces[block.line] = (_workspace(tmp_path_factory.mktemp("sh")), set())
+    ws, done = sh_workspaces[block.line]
+    commands = _commands(block)
+    # earlier commands of the block first (a later one may read what they wrote)
+    for j in range(k + 1):
+        if j in done:
+            continue
+        text, words = commands[j]
+        kind, argv, env = _translate(words)
+        if kind != "run":
+            _check_shape(kind, argv)
+        elif j == k or not any(s in " ".join(words) for s in SLOW):
+            done.add(j)
+            r = _run(argv, ws, env)
+            assert r.returncode == 0, (f"README.md:{block.line}: {text}\n"
+                                       f"{r.stdout[-2000:]}\n{r.stderr[-3000:]}")
+            assert "Traceback" not in r.stderr, r.stderr
+        done.add(j)
+
+
+# ---------------------------------------------------------------------------- toml
+
+@pytest.mark.parametrize("block", _runnable("toml"))
+def test_toml_block_parses_and_runs(block, tmp_path):
+    ws = _workspace(tmp_path)
+    data = tomllib.loads(block.code)
+    path = ws / "readme_block.toml"
+    path.write_text(block.code, encoding="utf-8")
+    what = "sweep" if ("grid" in data or "base" in data) else "run"
+    r = _run([sys.executable, "-m", "unidyn", what, str(path), "--out", str(ws / "out")], ws)
+    assert r.returncode == 0, f"README.md:{block.line}:\n{r.stdout}\n{r.stderr}"
+    assert (ws / "out" / ("metrics.csv" if what == "sweep" else "summary.json")).is_file()
+
+
+# ----------------------------------------------------------------------------- csv
+
+@pytest.mark.parametrize("block", _runnable("csv"))
+def test_csv_block_is_read_by_the_log_reader(block, tmp_path):
+    from unidyn.identification import load_log
+    path = _marker(block, "include")
+    if path is not None:
+        file_text = (ROOT / path).read_text(encoding="utf-8")
+        assert file_text.startswith(block.code), f"README.md:{block.line} is not the start of {path}"
+        log = load_log(ROOT / path)
+    else:
+        csv_path = tmp_path / "block.csv"
+        csv_path.write_text(block.code, encoding="utf-8")
+        log = load_log(csv_path)
+    assert len(log["t"]) >= 20 and np.all(np.diff(log["t"]) > 0)
+
+
+# -------------------------------------------------------------------- --help texts
+
+def _epilog_commands():
+    from unidyn.cli import _parser
+    parser = _parser()
+    subs = [a for a in parser._actions if hasattr(a, "choices") and isinstance(a.choices, dict)]
+    found = []
+    for name, sub in (subs[0].choices.items() if subs else []):
+        for line in textwrap.dedent(sub.epilog or "").splitlines():
+            line = line.strip().removeprefix("$ ")
+            if line.startswith("unidyn "):
+                found.append(pytest.param(name, line, id=f"{name}-{len(found)}",
+                                          marks=[pytest.mark.slow] if any(s in line for s in SLOW)
+                                          else []))
+    return found
+
+
+EPILOG_COMMANDS = _epilog_commands()
+
+
+@pytest.mark.skipif(not EPILOG_COMMANDS, reason="the --help texts show no example commands")
+@pytest.mark.parametrize("name,line", EPILOG_COMMANDS or [("-", "-")])
+def test_help_example_runs(name, line, tmp_path):
+    ws = _workspace(tmp_path)
+    words = shlex.split(re.sub(r"\s+\[[^\]]*\]", "", line), comments=True)
+    kind, argv, env = _translate(words)
+    r = _run(argv, ws, env)
+    assert r.returncode == 0, f"unidyn {name} --help: {line}\n{r.stdout}\n{r.stderr}"
