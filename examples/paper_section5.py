@@ -1,83 +1,158 @@
 """Reproduce Section 5 of Martins et al. (2017): the four simulations of Figs. 3-10.
 
 Runs the paper's four cases through the bdsim diagram of Fig. 2, writes each
-run's time series, summary and figures, a side-by-side figure of the four
-cases, and prints the paper's claims beside the measured numbers.
+run's time series, summary and figures, a figure of the four cases
+(section5.png), the adaptive case before and after updating (fig9_adaptive.png),
+and prints the paper's claims beside the measured numbers (claims.md).
 
     python examples/paper_section5.py --out out/section5
+
+Like the command line, it refuses to replace results already in --out unless
+--overwrite is given, and writes the folder all-or-nothing: an error or Ctrl-C
+leaves what was there before.
 """
 
 import argparse
+import sys
 import time
-from pathlib import Path
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
 
 import unidyn  # noqa: E402
+from unidyn import figstyle  # noqa: E402
+from unidyn.figstyle import REFERENCE, START, label  # noqa: E402
+from unidyn.outdir import staged_output  # noqa: E402
 from unidyn.paper import format_claims, section5_claims  # noqa: E402
-from unidyn.plots import save_figures  # noqa: E402
+from unidyn.plots import (equal_limits, plot_error, plot_path, reference_once,  # noqa: E402
+                          save_figures)  # noqa: E402
 
-TITLES = {1: "kinematic robot (Figs. 3-4)", 2: "dynamic robot, no compensation (Figs. 5-6)",
-          3: "exact compensation (Figs. 7-8)", 4: "adaptive compensation (Figs. 9-10)"}
+TITLES = {1: "1: kinematic robot (paper's Figs. 3-4)",
+          2: "2: dynamic robot, no compensation (Figs. 5-6)",
+          3: "3: exact compensation (Figs. 7-8)",
+          4: "4: adaptive compensation (Figs. 9-10)"}
+CASE_NAMES = {1: "kinematic", 2: "uncompensated", 3: "compensated", 4: "adaptive"}
+OWNED = ("section5.png", "fig9_adaptive.png", "claims.md") + tuple(
+    f"case{n}_{c}" for n, c in CASE_NAMES.items())
+
+
+def _dip(r, within=3.0):
+    """The early minimum of the error, or None: the reference, starting at the origin
+    at 0.5 m/s, passes the robot, which starts at rest 0.2 m ahead of it (a dynamic
+    robot needs time to speed up; the kinematic one moves at once and has no dip)."""
+    m = r.t <= within
+    e = r.error[m]
+    i = int(np.argmin(e))
+    if i == 0 or i == len(e) - 1:
+        return None
+    return float(r.t[m][i]), float(e[i])
+
+
+@figstyle.styled
+def section5_figure(results, path):
+    """Path (left) and distance error (right) of the four cases, one row each."""
+    fig, axes = plt.subplots(4, 2, figsize=(figstyle.PAGE, 8.6),
+                             gridspec_kw={"width_ratios": [1, 2.3]})
+    for n, r in results.items():
+        pa, ea = axes[n - 1]
+        plot_path(r, ax=pa, legend=False, label="path of h")
+        plot_error(r, ax=ea)
+        ea.set_title(TITLES[n], loc="left")
+        if n < 4:
+            ea.set_xlabel("")
+            pa.set_xlabel("")
+        dip = _dip(r)
+        if n == 3 and dip is not None:
+            # the first seconds, zoomed into the empty upper right of case 3's panel
+            ins = ea.inset_axes([0.46, 0.3, 0.5, 0.42])
+            m = r.t <= 3.0
+            ins.plot(r.t[m], r.error[m], color="C0")
+            ins.plot(*dip, "v", color="C3", ms=4)
+            ins.set_xlim(0, 3)
+            ins.set_ylim(0, 1.1 * float(r.error[m].max()))
+            ins.tick_params(labelsize=6)
+            ins.set_xlabel(label("t", "s"), fontsize=6, labelpad=1)
+            ins.set_title(f"first 3 s: at t = {dip[0]:.1f} s the reference (from the origin)\n"
+                          "passes the robot, at rest 0.2 m ahead (cases 2-4)",
+                          fontsize=6, loc="left", pad=2)
+        t_on = r.scenario.adapt_from
+        if n == 4 and t_on < r.t[-1]:
+            ea.axvline(t_on, color="0.4", lw=0.8, ls=":")
+            ea.annotate("adaptation on", xy=(t_on, ea.get_ylim()[1]), xytext=(3, -2),
+                        textcoords="offset points", va="top", fontsize=7, color="0.3")
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside upper center", ncol=3, frameon=False)
+    return figstyle.save(fig, path)
+
+
+@figstyle.styled
+def fig9_figure(r4, path):
+    """Fig. 9: the adaptive case's path before and after updating starts, and its error."""
+    t_on = r4.scenario.adapt_from
+    fig, axes = plt.subplots(1, 3, figsize=(figstyle.PAGE, 2.9),
+                             gridspec_kw={"width_ratios": [1, 1, 1.7]})
+    ref, period = reference_once(r4)
+    for ax, (lo, hi, title) in zip(axes[:2], ((0, t_on, f"before updating (0-{t_on:g} s)"),
+                                              (t_on, r4.t[-1],
+                                               f"after updating ({t_on:g}-{r4.t[-1]:g} s)"))):
+        m = (r4.t >= lo) & (r4.t <= hi)
+        ax.plot(ref[:, 0], ref[:, 1], **REFERENCE,
+                label="reference" + (f" (one period, {period:.1f} s)" if period else ""))
+        ax.plot(r4.pose[m, 0], r4.pose[m, 1], color="C0", lw=0.9, label="path of h")
+        ax.plot(r4.pose[m][0, 0], r4.pose[m][0, 1], **START, zorder=5,
+                label="start of the interval")
+        ax.set_title(title)
+        ax.set_xlabel(label("x", "m"))
+        ax.set_ylabel(label("y", "m"))
+        equal_limits(ax)
+    plot_error(r4, ax=axes[2])
+    axes[2].axvline(t_on, color="0.4", lw=0.8, ls=":")
+    axes[2].annotate("adaptation on", xy=(t_on, axes[2].get_ylim()[1]), xytext=(3, -2),
+                     textcoords="offset points", va="top", fontsize=7, color="0.3")
+    axes[2].set_title("distance error")
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside upper center", ncol=3, frameon=False)
+    return figstyle.save(fig, path)
 
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", default="out/section5", help="output folder")
     p.add_argument("--T", type=float, default=200.0, help="duration, s (paper: 200)")
+    p.add_argument("--overwrite", action="store_true", help="replace results already in --out")
     args = p.parse_args(argv)
-    out = Path(args.out)
-    results = {}
-    for n in (1, 2, 3, 4):
-        t0 = time.perf_counter()
-        sc = unidyn.Scenario.paper(n, T=args.T)
-        r = unidyn.simulate(sc)
-        results[n] = r
-        folder = out / f"case{n}_{sc.case}"
-        r.save(folder)
-        save_figures(r, folder)
-        print(f"case {n} {sc.case:14s} IAE = {r.metrics['iae']:7.3f} m·s   "
-              f"final error = {r.error[-1]:.4f} m   ({time.perf_counter() - t0:.1f} s)")
-
-    # Figs. 3, 5, 7, 9(b) side by side, and Fig. 9(a): before / after updating
-    fig, axes = plt.subplots(2, 4, figsize=(16, 7))
-    for n, r in results.items():
-        r.plot_path(ax=axes[0, n - 1])
-        axes[0, n - 1].set_title(TITLES[n], fontsize=9)
-        r.plot_error(ax=axes[1, n - 1])
-        axes[1, n - 1].set_ylim(0, 0.8)
-    fig.tight_layout()
-    fig.savefig(out / "section5.png", dpi=100)
-    plt.close(fig)
-
-    r4 = results[4]
-    t_on = r4.scenario.adapt_from
-    fig, axes = plt.subplots(1, 3, figsize=(14, 4))
-    for ax, (lo, hi, title) in zip(axes[:2], ((0, t_on, "before parameter updating"),
-                                              (t_on, r4.t[-1], "after parameter updating"))):
-        m = (r4.t >= lo) & (r4.t <= hi)
-        ax.plot(r4.reference[m, 0], r4.reference[m, 1], "k--", lw=1, label="reference")
-        ax.plot(r4.pose[m, 0], r4.pose[m, 1], lw=1, label="actual")
-        ax.set_title(title)
-        ax.set_aspect("equal", adjustable="datalim")
-        ax.legend(fontsize="small")
-    r4.plot_error(ax=axes[2])
-    axes[2].axvline(t_on, color="k", lw=0.8, ls=":")
-    fig.tight_layout()
-    fig.savefig(out / "fig9_adaptive.png", dpi=100)
-    plt.close(fig)
-
-    if args.T >= 200:
-        claims = section5_claims(*(results[n] for n in (1, 2, 3, 4)))
-        table = format_claims(claims)
-        (out / "claims.md").write_text(table + "\n")
-        print()
-        print(table)
-    print(f"\nfigures and data in {out}/")
+    try:
+        with staged_output(args.out, overwrite=args.overwrite, results=OWNED,
+                           what="Section 5 results") as stage:
+            out = stage.path
+            results = {}
+            for n in (1, 2, 3, 4):
+                t0 = time.perf_counter()
+                sc = unidyn.Scenario.paper(n, T=args.T)
+                r = unidyn.simulate(sc)
+                results[n] = r
+                folder = out / f"case{n}_{sc.case}"
+                r.save(folder)
+                save_figures(r, folder)
+                print(f"case {n} {sc.case:14s} IAE = {r.metrics['iae']:7.3f} m·s   "
+                      f"final error = {r.error[-1]:.4f} m   ({time.perf_counter() - t0:.1f} s)")
+            section5_figure(results, out / "section5.png")
+            if results[4].scenario.adapt_from < args.T:
+                fig9_figure(results[4], out / "fig9_adaptive.png")
+            if args.T >= 200:
+                table = format_claims(section5_claims(*(results[n] for n in (1, 2, 3, 4))))
+                (out / "claims.md").write_text(table + "\n")
+                print()
+                print(table)
+    except unidyn.ValidationError as err:
+        print(f"paper_section5.py: error: {err}", file=sys.stderr)
+        return 2
+    print(f"\nfigures and data in {stage.final}/")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

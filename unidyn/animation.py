@@ -168,7 +168,7 @@ def _body(L):
 
 
 def animate(result, path, fps=20, speedup=None, trail=True, frames=None, *, robot_size=None,
-            reference=True, dpi=80, figsize=(5.5, 5.0), title=None) -> Path:
+            reference=True, dpi=100, figsize=(5.5, 5.6), title=None) -> Path:
     r"""Write an animation of one or more runs to ``path`` (``.gif`` or ``.mp4``).
 
     Each frame shows the reference path (dashed) and the current desired
@@ -198,13 +198,13 @@ def animate(result, path, fps=20, speedup=None, trail=True, frames=None, *, robo
     :type trail: bool or float
     :param frames: number of frames, integer >= 1; exclusive with ``speedup``
     :type frames: int, optional
-    :param robot_size: length of the drawn robot, m, > 0; default 7 % of the drawing's extent
+    :param robot_size: length of the drawn robot, m, > 0; default 9 % of the drawing's extent
     :type robot_size: float, optional
     :param reference: draw the reference path when the run has one, defaults to True
     :type reference: bool
-    :param dpi: resolution, dots per inch, > 0, defaults to 80
+    :param dpi: resolution, dots per inch, > 0, defaults to 100
     :type dpi: float
-    :param figsize: figure size (width, height), inches, defaults to (5.5, 5)
+    :param figsize: figure size (width, height), inches, defaults to (5.5, 5.6)
     :type figsize: array_like(2)
     :param title: text shown before the time stamp, defaults to none
     :type title: str, optional
@@ -262,7 +262,7 @@ def animate(result, path, fps=20, speedup=None, trail=True, frames=None, *, robo
     pts = np.vstack(pts)
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     span = float(max(hi - lo))
-    L = robot_size if robot_size is not None else (0.07 * span if span > 0 else 0.3)
+    L = robot_size if robot_size is not None else (0.09 * span if span > 0 else 0.3)
     a_max = max(m.a for m in motions)
     margin = 0.6 * L + a_max + 0.05 * span
     body = _body(L)
@@ -273,7 +273,7 @@ def animate(result, path, fps=20, speedup=None, trail=True, frames=None, *, robo
 
     fig = Figure(figsize=figsize, dpi=dpi)
     FigureCanvasAgg(fig)
-    left, right, bottom, top = 0.14, 0.96, 0.2, 0.92
+    left, right, bottom, top = 0.14, 0.96, 0.27, 0.93
     fig.subplots_adjust(left=left, right=right, top=top, bottom=bottom)
     ax = fig.add_subplot(1, 1, 1)
     # the view: the drawing plus margins, widened in x or y to the shape of the axes so
@@ -289,8 +289,8 @@ def animate(result, path, fps=20, speedup=None, trail=True, frames=None, *, robo
     ax.set_xlim(centre[0] - width / 2, centre[0] + width / 2)
     ax.set_ylim(centre[1] - height / 2, centre[1] + height / 2)
     ax.set_aspect("equal", adjustable="box")
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
     ax.grid(alpha=0.3)
 
     drawn_refs = []
@@ -306,7 +306,7 @@ def animate(result, path, fps=20, speedup=None, trail=True, frames=None, *, robo
         drawn_refs.append(m.reference)
         ax.plot(m.reference[:, 0], m.reference[:, 1], "k--", lw=0.8,
                 label="reference" if len(drawn_refs) == 1 else None)
-        (mark,) = ax.plot([], [], "kx", ms=6)
+        (mark,) = ax.plot([], [], "x", color="k", ms=9, mew=1.8, zorder=6)
         ref_marks.append(mark)
     artists = []
     for k, m in enumerate(motions):
@@ -315,11 +315,25 @@ def animate(result, path, fps=20, speedup=None, trail=True, frames=None, *, robo
         poly = Polygon(body, closed=True, fc=color, ec="k", lw=0.6, alpha=0.85, zorder=3)
         ax.add_patch(poly)
         (stick,) = ax.plot([], [], "-", color="k", lw=0.8, zorder=4)
-        (dot,) = ax.plot([], [], "o", color="k", ms=3, zorder=5)
+        (dot,) = ax.plot([], [], "o", color="k", mfc="white", mew=1.2, ms=6, zorder=5)
         artists.append((line, poly, stick, dot))
-    if any(m.label for m in motions) or drawn_refs:
-        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=3, fontsize="small",
-                  frameon=False)
+    # every marker explained: the reference and its moving point, each robot's trail,
+    # and (once) what the triangle and the dot are
+    from matplotlib.lines import Line2D
+    handles = []
+    if drawn_refs:
+        handles.append(Line2D([], [], color="k", ls="--", lw=0.8, label="reference"))
+        handles.append(Line2D([], [], ls="none", marker="x", color="k", ms=8, mew=1.8,
+                              label="desired position $h_d(t)$"))
+    for k, m in enumerate(motions):
+        if m.label:
+            handles.append(Line2D([], [], color=f"C{k}", lw=1.2, label=f"path of h: {m.label}"))
+    handles.append(Line2D([], [], ls="none", marker=(3, 0, -90), ms=9, mfc="C0", mec="k",
+                          mew=0.6, label="robot (axle centre, heading)"))
+    handles.append(Line2D([], [], ls="none", marker="o", color="k", mfc="white", mew=1.2, ms=6,
+                          label="point h"))
+    ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2,
+              fontsize=8, frameon=False, handletextpad=0.4, columnspacing=1.0)
     stamp = ax.set_title("")
     dynamic = [stamp] + [a for group in artists for a in group] + [m for m in ref_marks if m]
 
@@ -351,6 +365,9 @@ def animate(result, path, fps=20, speedup=None, trail=True, frames=None, *, robo
                 for i, tf in enumerate(times):
                     update(i, tf)
                     writer.grab_frame()
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the usual mode
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):
