@@ -320,65 +320,119 @@ def _cmd_properties(args) -> int:
 
 
 def _parse_columns(text: str) -> dict:
+    """--columns NAME=COLUMN,... as a mapping; names are t, u_ref, w_ref, u, w."""
+    from .identification import COLUMNS
     out = {}
     for part in text.split(","):
         part = part.strip()
         if not part:
             continue
         k, sep, v = part.partition("=")
-        if not sep or not k.strip() or not v.strip():
+        k, v = k.strip(), v.strip()
+        if not sep or not k or not v:
             raise ValidationError(f"--columns expects NAME=COLUMN pairs separated by commas "
-                                  f"(e.g. t=time,u=v_meas), got {part!r}")
-        out[k.strip()] = v.strip()
+                                  f"(e.g. t=time,u=v_meas), got {part[:60]!r}")
+        if k not in COLUMNS:
+            raise ValidationError(f"--columns: unknown name {k[:40]!r} in {part[:60]!r}; the "
+                                  f"names are {', '.join(COLUMNS)} (e.g. --columns t=time,u=v_meas)")
+        if k in out:
+            raise ValidationError(f"--columns names {k!r} twice")
+        out[k] = v
+    if not out:
+        raise ValidationError("--columns is empty; expected NAME=COLUMN pairs, e.g. "
+                              "--columns t=time,u=v_meas")
     return out
+
+
+def _cli_words(text: str) -> str:
+    """The library's argument names in a message, as this command's options."""
+    for lib, cli in (("commands='linear'", "--commands linear"),
+                     ("commands='held'", "--commands held"),
+                     ("delay='auto'", "--delay auto"),
+                     ("method='output-error'", "--method output-error"),
+                     ("use a longer log or a shorter window", "use a longer log or a "
+                                                             "smaller --window")):
+        text = text.replace(lib, cli)
+    return text
 
 
 def _cmd_identify(args) -> int:
     from . import identification as ident
-    log = Path(args.log)
-    if not log.exists():
-        raise FileNotFoundError(f"log {log} does not exist")
-    columns = _parse_columns(args.columns) if args.columns else None
+    from .outdir import staged_output
+    logs = [Path(p) for p in args.log]
+    for p in logs:
+        if not p.exists():
+            raise FileNotFoundError(f"log {p} does not exist")
+        if p.is_dir():
+            raise ValidationError(f"log {p} is a folder, not a CSV file")
+    if args.validate and args.no_validate:
+        raise _UsageError("--validate and --no-validate exclude each other")
+    vlog = Path(args.validate) if args.validate else None
+    if vlog is not None and not vlog.exists():
+        raise FileNotFoundError(f"validation log {vlog} does not exist")
+    columns = _parse_columns(args.columns) if args.columns is not None else None
+    delay = 0.0
+    if args.delay is not None:
+        text = args.delay.strip()
+        try:
+            delay = float(text)
+        except ValueError:
+            delay = text if text.lower() == "auto" or text.lower().endswith(
+                ("sample", "samples")) else None
+        if delay is None or (isinstance(delay, float) and not delay >= 0):
+            raise ValidationError(f"--delay expects seconds >= 0 (0.1), samples ('1 samples') "
+                                  f"or auto, got {text[:40]!r}")
+    kwargs = {"columns": columns, "commands": args.commands, "delay": delay,
+              "method": args.method, "validate": False}
+    for k in ("smoothing", "window", "name"):
+        if getattr(args, k) is not None:
+            kwargs[k] = getattr(args, k)
     out = Path(args.out)
-    _check_out(out, args.overwrite, names=("theta.json",),
-               artefacts=("theta.json", "validation.png", "validation.json"))
-    kwargs = {"columns": columns}
-    if args.smoothing is not None:
-        kwargs["smoothing"] = args.smoothing
-    if args.window is not None:
-        kwargs["window"] = args.window
-    if args.name is not None:
-        kwargs["name"] = args.name
-    res = ident.identify(str(log), **kwargs)
-    path = res.save(out)
-    print(res.summary() if hasattr(res, "summary") else res.theta)
-    print(f"written    {path}")
-    validate = getattr(ident, "validate", None)
-    plot = getattr(ident, "plot_validation", None)
-    if validate is not None:
-        vlog = Path(args.validate) if args.validate else log
-        if not vlog.exists():
-            raise FileNotFoundError(f"validation log {vlog} does not exist")
-        report = validate(res, str(vlog), columns=columns)
-        what = "held-out log" if args.validate else "the same log (in-sample)"
-        fit = getattr(report, "fit", None)
-        if isinstance(fit, dict):
+    staging = staged_output(out, overwrite=args.overwrite, results=("theta.json",),
+                            what="identification results",
+                            owned=("theta.json", "validation.json", "validation.png"))
+    with staging as stage:
+        try:
+            res = ident.identify(*(str(p) for p in logs), **kwargs)
+        except ident.MissingColumnsError as err:
+            have = ", ".join(repr(a[:40]) for a in err.available[:12]) or "no columns"
+            want = ",".join(f"{k}=..." for k in err.missing)
+            raise ValidationError(f"log {err.source} has no column(s) "
+                                  f"{', '.join(repr(err.mapped[k]) for k in err.missing)}"
+                                  f"; it has {have}. Pass --columns {want} to map the "
+                                  f"log's names") from None
+        except ValidationError as err:
+            raise ValidationError(_cli_words(str(err))) from None
+        path = res.save(stage.path)
+        print(_cli_words(res.summary()))
+        if not args.no_validate:
+            report = ident.validate(res, str(vlog), columns=columns) if vlog else \
+                ident._validation_report(res.theta, *_joined(ident, logs, columns), res.commands,
+                                         res.delay)
+            what = "held-out log" if vlog else "the same log(s) (in-sample)"
             print(f"validation on {what}: NRMSE fit "
-                  + ", ".join(f"{k} {v:.1f} %" for k, v in fit.items()))
-        if hasattr(report, "as_dict"):
-            from .result import write_atomic
-            write_atomic(out / "validation.json",
-                         json.dumps({**report.as_dict(), "log": str(vlog),
-                                     "in_sample": not args.validate}, indent=2) + "\n")
-        if plot is not None:
+                  + ", ".join(f"{k} {v:.1f} %" for k, v in report.fit.items()))
+            (stage.path / "validation.json").write_text(
+                json.dumps({**report.as_dict(), "log": [str(vlog)] if vlog else
+                            [str(p) for p in logs], "in_sample": vlog is None},
+                           indent=2, allow_nan=False) + "\n")
             import matplotlib.pyplot as plt
-            axes = plot(report)
+            axes = ident.plot_validation(report)
             fig = axes[0].figure
             fig.tight_layout()
-            fig.savefig(out / "validation.png", dpi=110)
+            fig.savefig(stage.path / "validation.png", dpi=110)
             plt.close(fig)
-            print(f"written    {out / 'validation.png'}")
+    final = stage.final or out
+    print(f"written    {final / path.name}")
+    if not args.no_validate:
+        print(f"written    {final / 'validation.json'}, {final / 'validation.png'}")
     return 0
+
+
+def _joined(ident, logs, columns):
+    """The logs read and joined as identify() joins them: (arrays, pieces)."""
+    D, segs, _, _ = ident._gather([str(p) for p in logs], columns, None)
+    return D, segs
 
 
 # ------------------------------------------------------------------------ parser
@@ -449,19 +503,37 @@ def _parser() -> argparse.ArgumentParser:
                                                 "(default: the paper's for the robot)")
     pr.set_defaults(func=_cmd_properties)
 
-    i = sub.add_parser("identify", help="identify theta1..theta6 from a log",
-                       description="Least-squares identification of theta from a CSV log with "
-                       "columns t, u_ref, w_ref, u, w; writes theta.json (and a validation "
-                       "figure) into --out.")
-    i.add_argument("log", metavar="LOG.csv")
+    i = sub.add_parser("identify", help="identify theta1..theta6 from one or more logs",
+                       description="Identify theta1..theta6 of Eq. (2) from CSV logs of one "
+                       "robot with columns t, u_ref, w_ref, u, w (other columns are ignored; "
+                       "--columns maps other names). Commands are taken as held from their "
+                       "time stamp to the next (--commands linear for smooth ones); gaps in "
+                       "the time stamps split a log. Writes theta.json, validation.json and "
+                       "validation.png into --out.")
+    i.add_argument("log", nargs="+", metavar="LOG.csv", help="one or more logs of one robot")
     i.add_argument("--columns", metavar="NAME=COLUMN,...",
-                   help="map t, u_ref, w_ref, u, w to the log's column names")
+                   help="map t, u_ref, w_ref, u, w to the log's column names, "
+                        "e.g. t=time,u=v_meas,w=omega_meas")
     i.add_argument("--out", required=True, metavar="DIR")
-    i.add_argument("--smoothing", choices=("filter", "savgol"))
-    i.add_argument("--window", type=float, help="filter / fit window, s")
+    i.add_argument("--commands", choices=("held", "linear"), default="held",
+                   help="held (default): each command acts from its time stamp until the "
+                        "next, as robot firmware applies it; linear: commands vary linearly "
+                        "between samples")
+    i.add_argument("--delay", metavar="SECONDS|auto",
+                   help="input delay: seconds (0.1), samples ('1 samples') or auto to "
+                        "estimate it (default 0)")
+    i.add_argument("--method", choices=("output-error", "equation-error"),
+                   default="output-error",
+                   help="output-error (default): fit simulated velocities to the measured "
+                        "ones; equation-error: least squares on Eq. (11) (smooth commands)")
+    i.add_argument("--smoothing", choices=("filter", "savgol"),
+                   help="equation-error derivative handling")
+    i.add_argument("--window", type=float, help="equation-error filter / fit window, s")
     i.add_argument("--name", help="name of the identified parameter set")
     i.add_argument("--validate", metavar="HELDOUT.csv",
-                   help="validate on this log (default: the identification log, in-sample)")
+                   help="validate on this log (default: the identification logs, in-sample)")
+    i.add_argument("--no-validate", action="store_true",
+                   help="skip the validation simulation and figure")
     i.add_argument("--overwrite", action="store_true", help="replace a theta.json in DIR")
     i.set_defaults(func=_cmd_identify)
     return p
