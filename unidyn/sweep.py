@@ -788,37 +788,51 @@ def _numeric_axis(sweep: Sweep):
 
 def plot_metrics(sweep: Sweep, rows, path, metric: str = "iae"):
     """IAE (or another metric) against the first numeric axis, one line per combination
-    of the other axes; log scale when the values span more than a decade."""
+    of the other axes (a variant by its label); log scale with plain tick labels when
+    the values span more than a decade. In unidyn's figure style (:mod:`unidyn.figstyle`)."""
     import matplotlib.pyplot as plt
+
+    from . import figstyle
     choice("metric", metric, METRICS)
     x_axis = _numeric_axis(sweep)
     others = [a for a in sweep.axes if a != x_axis]
-    fig, ax = plt.subplots(figsize=(7, 4))
-    lines = {}
-    for r in rows:
-        key = tuple(_cell(r[a]) for a in others)
-        x = r[x_axis] if x_axis else r["index"]
-        y = r[metric] if r["complete"] else math.nan
-        lines.setdefault(key, []).append((x, y))
-    for key, pts in lines.items():
-        pts.sort()
-        xs, ys = zip(*pts)
-        label = ", ".join(f"{a}={k}" for a, k in zip(others, key)) or None
-        ax.plot(xs, ys, "o-" if len(pts) < 30 else "-", ms=3, lw=1.2, label=label)
-    vals = np.array([r[metric] for r in rows if r["complete"]], dtype=float)
-    vals = vals[np.isfinite(vals)]
-    if vals.size and vals.min() > 0 and vals.max() / vals.min() > 10:
-        ax.set_yscale("log")
-    ax.set_xlabel(x_axis or "point index")
-    ax.set_ylabel(metric.upper() if metric != "error_final" else "final error [m]")
-    ax.set_title(sweep.name or "sweep", fontsize=10)
-    ax.grid(alpha=0.3, which="both")
-    if 1 < len(lines) <= 12:
-        ax.legend(fontsize="small")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return Path(path)
+    with figstyle.style():
+        fig, ax = plt.subplots(figsize=figstyle.size(1, 0.75))
+        lines = {}
+        for r in rows:
+            key = tuple(_cell(r[a]) for a in others)
+            x = r[x_axis] if x_axis else r["index"]
+            y = r[metric] if r["complete"] else math.nan
+            lines.setdefault(key, []).append((x, y))
+        for key, pts in lines.items():
+            pts.sort()
+            xs, ys = zip(*pts)
+            label = ", ".join(str(k) if a == "variant" else f"{a} = {k}"
+                              for a, k in zip(others, key)) or None
+            ax.plot(xs, ys, "o-" if len(pts) < 30 else "-", ms=3, label=label)
+        vals = np.array([r[metric] for r in rows if r["complete"]], dtype=float)
+        vals = vals[np.isfinite(vals)]
+        if vals.size and vals.min() > 0 and vals.max() / vals.min() > 10:
+            figstyle.plain_log_axis(ax, "y")
+        elif vals.size:
+            figstyle.ylim_from_data(ax, floor=0 if vals.min() >= 0 else None)
+        ax.set_xlabel(_AXIS_LABELS.get(x_axis, x_axis) if x_axis else "point index")
+        ax.set_ylabel(_METRIC_LABELS[metric])
+        ax.set_title(sweep.name or "sweep")
+        ax.grid(True, which="major")
+        if 1 < len(lines) <= 12:
+            figstyle.legend(ax, fallback="below")
+        return figstyle.save(fig, path)
+
+
+#: Axis labels of the metrics (units as in :func:`unidyn.result.metrics`).
+_METRIC_LABELS = {"iae": "IAE (m·s)", "ise": "ISE (m²·s)", "itae": "ITAE (m·s²)",
+                  "energy": "control effort ∫(u² + ω²) dt", "error_final": "final error (m)"}
+#: Axis labels of the special sweep keys and common numeric fields.
+_AXIS_LABELS = {"kxy": "$k_x = k_y$ (1/s)", "kx": "$k_x$ (1/s)", "ky": "$k_y$ (1/s)",
+                "ku": "$k_u$ (1/s)", "kw": "$k_\\omega$ (1/s)", "a": "a (m)", "T": "T (s)",
+                "theta_hat_scale": "$\\hat\\theta(0)\\,/\\,\\theta$",
+                "adapt_from": "adaptation on at (s)", "seed": "noise seed"}
 
 
 # ------------------------------------------------------------------ the paper's Fig. 11
@@ -963,20 +977,23 @@ def format_fig11_claims(claims, title: str | None = None) -> str:
 
 
 def plot_fig11(metrics, path, title: str | None = None):
-    """IAE against k = kx = ky for the four cases, log y, as the paper's Fig. 11."""
+    """IAE against k = kx = ky for the four cases, log y with plain tick labels (1, 2,
+    5, 10, 20), as the paper's Fig. 11. In unidyn's figure style (:mod:`unidyn.figstyle`)."""
     import matplotlib.pyplot as plt
+
+    from . import figstyle
     ks, tab = _fig11_table(metrics)
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    for lab, desc in FIG11_CASES.items():
-        ys = [tab[lab][k] if math.isfinite(tab[lab][k]) else math.nan for k in ks]
-        ax.plot(ks, ys, "o-" if len(ks) < 30 else "-", ms=3, lw=1.3, label=desc)
-    ax.set_yscale("log")
-    ax.set_xlabel("$k_x = k_y$")
-    ax.set_ylabel("IAE [m·s]")
-    ax.set_title(title or "IAE against the kinematic controller's gains (Fig. 11)", fontsize=10)
-    ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize="small")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return Path(path)
+    with figstyle.style():
+        fig, ax = plt.subplots(figsize=figstyle.size(1, 0.95))
+        for (lab, desc), mk in zip(FIG11_CASES.items(), ("o", "s", "^", "D")):
+            ys = [tab[lab][k] if math.isfinite(tab[lab][k]) else math.nan for k in ks]
+            ax.plot(ks, ys, "-", marker=mk, ms=2.5, markevery=max(1, len(ks) // 12),
+                    label=desc)
+        figstyle.plain_log_axis(ax, "y")
+        ax.set_xlabel("$k_x = k_y$ (1/s)")
+        ax.set_ylabel("IAE (m·s)")
+        ax.set_title(title or "IAE against the kinematic controller's gain (Fig. 11)")
+        ax.grid(True, which="major")
+        ax.grid(True, which="minor", axis="y", alpha=0.2)
+        figstyle.legend(ax, outside="below")
+        return figstyle.save(fig, path)
