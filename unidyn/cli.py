@@ -397,7 +397,7 @@ def _cmd_identify(args) -> int:
         except ident.MissingColumnsError as err:
             have = ", ".join(repr(a[:40]) for a in err.available[:12]) or "no columns"
             want = ",".join(f"{k}=..." for k in err.missing)
-            raise ValidationError(f"log {err.source} has no column(s) "
+            raise ValidationError(f"log {err.source} is missing column(s) "
                                   f"{', '.join(repr(err.mapped[k]) for k in err.missing)}"
                                   f"; it has {have}. Pass --columns {want} to map the "
                                   f"log's names") from None
