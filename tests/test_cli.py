@@ -95,8 +95,62 @@ def test_out_folder_with_results_is_refused_without_overwrite(paper1, capsys):
     before = (paper1 / "summary.json").read_bytes()
     code, out, err = run_cli(capsys, "run", "--paper", "2", "--T", "1", "--out", paper1)
     assert code == 2
-    assert_one_line_error(err, "already holds results", "--overwrite")
+    assert_one_line_error(err, "already holds run results", "timeseries.csv, summary.json",
+                          "--overwrite")
     assert (paper1 / "summary.json").read_bytes() == before
+
+
+def _files(folder):
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
+
+
+def test_a_failed_overwrite_keeps_the_old_results(tmp_path, capsys):
+    out = tmp_path / "X"
+    assert run_cli(capsys, "run", "--set", "T=2", "--out", out)[0] == 0
+    before = _files(out)
+    code, text, err = run_cli(capsys, "run", "--set", "kx=1e300", "--set", "ky=1e300",
+                              "--overwrite", "--out", out)
+    assert code == 2 and "unidyn: error:" in err and "batch engine" in err
+    # what would have been replaced is said up front, and nothing was
+    assert "replacing" in err and "timeseries.csv, summary.json, path.png" in err
+    assert _files(out) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["X"]  # no staging folder left
+
+
+def test_an_overwrite_says_what_it_replaced(tmp_path, capsys):
+    out = tmp_path / "X"
+    assert run_cli(capsys, "run", "--set", "T=1", "--out", out)[0] == 0
+    (out / "notes.txt").write_text("mine")
+    code, text, _ = run_cli(capsys, "run", "--set", "T=2", "--case", "compensated",
+                            "--overwrite", "--out", out)
+    assert code == 0
+    assert "replaced   the previous timeseries.csv, summary.json" in text
+    assert "theta_hat.png" in text  # the adaptive run's figure, gone now
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        ["notes.txt", "timeseries.csv", "summary.json", "path.png", "error.png",
+         "positions.png", "velocities.png"])
+    assert json.loads((out / "summary.json").read_text())["scenario"]["T"] == 2.0
+
+
+def test_run_summary_names_engine_and_backend(paper1, tmp_path, capsys):
+    code, text, _ = run_cli(capsys, "run", "--from", paper1, "--out", tmp_path / "r")
+    summary = json.loads((tmp_path / "r" / "summary.json").read_text())
+    line = next(ln for ln in text.splitlines() if ln.startswith("engine"))
+    assert code == 0 and f"{summary['engine']} ({summary['backend']})" in line
+
+
+@pytest.mark.parametrize("how", ["set", "file"])
+def test_a_huge_name_is_refused_before_anything_is_written(tmp_path, capsys, how):
+    name = "n" * 3_000_000
+    if how == "set":
+        argv = ["run", "--T", "1", "--set", f"name={name}", "--out", tmp_path / "o"]
+    else:
+        (tmp_path / "s.toml").write_text(f'name = "{name}"\nT = 1\n')
+        argv = ["run", tmp_path / "s.toml", "--out", tmp_path / "o"]
+    code, text, err = run_cli(capsys, *argv)
+    assert code == 2 and text == ""
+    assert_one_line_error(err, "name is 3000000 characters long", "at most 200")
+    assert not (tmp_path / "o").exists()
 
 
 def test_overwrite_replaces_results_and_stale_files(tmp_path, capsys):

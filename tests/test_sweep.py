@@ -5,6 +5,8 @@ import csv
 import io
 import json
 import math
+import os
+import sys
 
 import numpy as np
 import pytest
@@ -214,15 +216,157 @@ def test_resume_drops_a_line_cut_short(tmp_path):
     assert csv_rows(cut) == csv_rows(tmp_path / "whole")
 
 
+def crash_after(monkeypatch, n_chunks, exc=RuntimeError("simulated crash")):
+    """Make run_sweep's chunk runner raise after ``n_chunks`` real chunks."""
+    real = sw._run_chunk
+    calls = []
+
+    def run(*args, **kw):
+        calls.append(1)
+        if len(calls) > n_chunks:
+            raise exc
+        return real(*args, **kw)
+
+    monkeypatch.setattr(sw, "_run_chunk", run)
+    return lambda: monkeypatch.setattr(sw, "_run_chunk", real)
+
+
 def test_a_different_sweep_in_the_same_folder_is_refused(tmp_path):
     run_sweep(small_sweep(), tmp_path, progress=False)
+    before = (tmp_path / "metrics.csv").read_bytes()
     other = small_sweep().with_base(T=2.0)
+    with pytest.raises(ValidationError, match="different sweep") as exc:
+        run_sweep(other, tmp_path, progress=False)
+    assert "base.T" in str(exc.value) and "8 finished row(s)" in str(exc.value)
+    assert "points 0-7" in str(exc.value) and "--overwrite" in str(exc.value)
+    with pytest.raises(ValidationError, match="another engine"):
+        run_sweep(small_sweep(), tmp_path, engine="bdsim", progress=False)
+    # starting over deletes finished rows, so it needs overwrite too
+    for s in (other, small_sweep()):
+        with pytest.raises(ValidationError, match="8 finished row") as exc:
+            run_sweep(s, tmp_path, resume=False, progress=False)
+        assert "overwrite" in str(exc.value)
+    assert (tmp_path / "metrics.csv").read_bytes() == before
+    run = run_sweep(other, tmp_path, overwrite=True, progress=False)
+    assert run.ran == 8 and run.replaced == tuple(range(8)) and len(csv_rows(tmp_path)) == 9
+    assert json.loads((tmp_path / "sweep.json").read_text())["sweep"]["base"]["T"] == 2.0
+    assert [p.name for p in tmp_path.parent.iterdir() if p.name.startswith(f".{tmp_path.name}")] == []
+
+
+def test_sweep_id_is_the_definition_not_the_engine_or_columns():
+    a, b = small_sweep(), small_sweep()
+    assert sw.sweep_id(a) == sw.sweep_id(b) and sw.sweep_id(a).startswith("sha256:")
+    changed = [a.with_base(T=2.0), small_sweep(substeps=5), a.with_base(robot="p3dx")]
+    ids = {sw.sweep_id(s) for s in changed} | {sw.sweep_id(a)}
+    assert len(ids) == 4  # same columns, different sweeps
+    assert all(s.columns == a.columns for s in changed)
+
+
+def test_rows_without_sweep_json_are_tied_to_their_sweep(tmp_path):
+    s = small_sweep()
+    run_sweep(s, tmp_path, chunk_size=3, progress=False)
+    before = (tmp_path / "metrics.csv").read_bytes()
+    (tmp_path / "sweep.json").unlink()
+    other = s.with_base(T=2.0)  # the same columns, another T
     with pytest.raises(ValidationError, match="different sweep"):
         run_sweep(other, tmp_path, progress=False)
-    with pytest.raises(ValidationError, match="different sweep"):
-        run_sweep(small_sweep(), tmp_path, engine="bdsim", progress=False)
-    run = run_sweep(other, tmp_path, resume=False, progress=False)
-    assert run.ran == 8 and len(csv_rows(tmp_path)) == 9
+    run = run_sweep(s, tmp_path, progress=False)  # the same sweep still resumes
+    assert run.skipped == 8 and run.ran == 0
+    assert (tmp_path / "metrics.csv").read_bytes() == before
+    (tmp_path / "sweep.json").unlink()
+    (tmp_path / sw.ID_NAME).unlink()
+    for t in (s, other):  # rows with no record of their sweep are never adopted
+        with pytest.raises(ValidationError, match="unknown origin") as exc:
+            run_sweep(t, tmp_path, progress=False)
+        assert "8 finished row(s)" in str(exc.value)
+    assert (tmp_path / "metrics.csv").read_bytes() == before
+    assert run_sweep(other, tmp_path, overwrite=True, progress=False).ran == 8
+
+
+def test_an_interrupted_restart_keeps_the_old_rows(tmp_path, monkeypatch):
+    out = tmp_path / "o"
+    run_sweep(small_sweep(), out, chunk_size=2, progress=False)
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    (out / "notes.txt").write_text("mine")
+    restore = crash_after(monkeypatch, 2)
+    for kw in ({"resume": False}, {}):
+        with pytest.raises(RuntimeError, match="simulated crash"):
+            run_sweep(small_sweep().with_base(T=2.0) if not kw else small_sweep().with_base(T=3.0),
+                      out, chunk_size=2, progress=False, overwrite=True, **kw)
+        assert {p.name: p.read_bytes() for p in out.iterdir() if p.name != "notes.txt"} == before
+    for exc in (KeyboardInterrupt(),):
+        restore()
+        restore = crash_after(monkeypatch, 1, exc)
+        with pytest.raises(KeyboardInterrupt):
+            run_sweep(small_sweep(), out, chunk_size=2, resume=False, overwrite=True,
+                      progress=False)
+        assert {p.name: p.read_bytes() for p in out.iterdir() if p.name != "notes.txt"} == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["o"]  # no staging folder left
+    restore()
+    run = run_sweep(small_sweep(), out, chunk_size=2, resume=False, overwrite=True,
+                    progress=False)
+    assert run.ran == 8 and (out / "notes.txt").read_text() == "mine"
+    assert (out / "metrics.csv").read_bytes() == before["metrics.csv"]  # same sweep, same rows
+
+
+def test_a_sweep_that_fails_before_its_first_row_leaves_nothing(tmp_path, monkeypatch):
+    restore = crash_after(monkeypatch, 0)
+    with pytest.raises(RuntimeError):
+        run_sweep(small_sweep(), tmp_path / "new", progress=False)
+    assert not (tmp_path / "new").exists()
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "notes.txt").write_text("x")
+    with pytest.raises(RuntimeError):
+        run_sweep(small_sweep(), tmp_path / "mine", progress=False)
+    assert [p.name for p in (tmp_path / "mine").iterdir()] == ["notes.txt"]
+    restore()
+    pytest.importorskip("distributed")
+    with pytest.raises(ValidationError, match="cannot connect"):
+        run_sweep(small_sweep(), tmp_path / "dask", progress=False,
+                  dask_address="tcp://127.0.0.1:9")
+    assert not (tmp_path / "dask").exists()
+
+
+def test_the_folder_lock_refuses_a_second_writer_and_names_its_pid(tmp_path):
+    out = tmp_path / "o"
+    out.mkdir()
+    with sw.FolderLock(out):
+        assert (out / sw.LOCK_NAME).read_text().strip() == str(os.getpid())
+        with pytest.raises(sw.FolderInUse, match=f"PID {os.getpid()}") as exc:
+            run_sweep(small_sweep(), out, progress=False)
+        assert "another unidyn process" in str(exc.value)
+        assert not (out / "metrics.csv").exists()
+    assert not (out / sw.LOCK_NAME).exists()  # released and removed
+    # a lock file left by a process that is gone (no flock held) is taken over
+    (out / sw.LOCK_NAME).write_text("999999999\n")
+    assert run_sweep(small_sweep(), out, progress=False).ran == 8
+    assert not (out / sw.LOCK_NAME).exists()
+
+
+def test_incomplete_points_have_empty_metrics(tmp_path):
+    from unidyn.scenario import Scenario
+    from unidyn.trajectories import FigureEight, FunctionTrajectory
+    f8 = FigureEight()
+
+    def nan_after_2s(t):
+        p = f8.position(t)
+        return (np.array([np.nan, p[1]]) if t > 2.0 else p), f8.velocity(t)
+
+    bad = Scenario.paper(3, T=4.0, noise=None,
+                         trajectory=FunctionTrajectory(nan_after_2s, acceleration=f8.acceleration))
+    good = Scenario.paper(3, T=4.0, noise=None)
+    rows = sw._run_chunk([(0, {"k": 1}, bad), (1, {"k": 2}, good)], "batch", 10)
+    columns = ["index", "k", "case", *sw.METRICS, "complete"]
+    path = tmp_path / "metrics.csv"
+    path.write_text(sw._rows_text(columns, rows))
+    lines = path.read_text().splitlines()
+    assert lines[1] == "0,1,compensated,,,,,,false"  # no partial metrics, ever
+    back = read_metrics(path)
+    assert back[0]["complete"] is False and all(back[0][m] is None for m in sw.METRICS)
+    ref = simulate_batch([good])[0].metrics  # the compiled engine alone; numpy beside `bad`
+    assert back[1]["complete"] is True
+    assert [back[1][m] for m in sw.METRICS] == pytest.approx([ref[m] for m in sw.METRICS],
+                                                             rel=1e-6)
 
 
 def test_sampled_points_run_through_bdsim_in_a_batch_sweep(tmp_path):
@@ -261,13 +405,24 @@ def test_bad_run_arguments(tmp_path):
         run_sweep(small_sweep(), tmp_path, dask_address=42, progress=False)
 
 
-def test_hand_written_progress_bar():
-    buf = io.StringIO()
-    bar = sw._Bar(10, initial=2, file=buf)
-    bar.update(3)
-    bar.close()
-    text = buf.getvalue()
-    assert "2/10" in text and "5/10 (50 %)" in text and text.endswith("\n")
+def test_progress_is_a_tqdm_bar_on_a_terminal_and_quiet_elsewhere(tmp_path, monkeypatch):
+    pytest.importorskip("tqdm")
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    term = Terminal()
+    monkeypatch.setattr(sys, "stderr", term)
+    run_sweep(small_sweep(), tmp_path / "a", chunk_size=4, progress=True)
+    assert "sweep: 100%" in term.getvalue() and "8/8" in term.getvalue()
+    pipe = io.StringIO()  # not a terminal: nothing
+    monkeypatch.setattr(sys, "stderr", pipe)
+    run_sweep(small_sweep(), tmp_path / "b", chunk_size=4, progress=True)
+    assert pipe.getvalue() == ""
+    monkeypatch.setattr(sys, "stderr", term := Terminal())
+    run_sweep(small_sweep(), tmp_path / "c", chunk_size=4, progress=False)
+    assert term.getvalue() == ""
 
 
 # ---------------------------------------------------------------------- Fig. 11
@@ -317,10 +472,16 @@ def test_fig11_claims_outside_the_sweep_and_incomplete_runs():
     claims = fig11_claims(synthetic([3, 2], [2, 1], [2, 1], [1, 0.5], ks))
     assert claims[0].holds is None and claims[1].holds is None
     assert "n/a" in sw.format_fig11_claims(claims)
-    rows = synthetic([3, 2], [2, 1], [2, 1], [1, 0.5], ks)
-    rows[-1]["complete"] = False  # (d) at k = 5 diverged: counts as infinite IAE
-    assert fig11_claims(rows)[-1].holds is False
-    with pytest.raises(ValidationError, match="no rows for case"):
+    rows = synthetic([3, 2], [2, 1], [2, 1], [9, 0.5], ks)
+    assert fig11_claims(rows)[-1].holds is False  # (d) is not lowest at k = 2
+    rows[4]["complete"], rows[4]["iae"] = False, None  # (c) at k = 2 did not complete
+    claims = fig11_claims(rows)
+    # left out, and counted: k = 2 drops from every comparison that needs (c)
+    assert claims[-1].holds is True and "lowest at 1 of 1 k" in claims[-1].measured
+    assert "1 incomplete point(s) left out (c at k = 2)" in claims[-1].measured
+    assert "1 incomplete point(s) left out (c at k = 2)" in claims[3].measured
+    assert "left out" not in claims[2].measured  # (b) against (a) uses every k
+    with pytest.raises(ValidationError, match="no complete rows for case"):
         fig11_claims([r for r in rows if r["variant"] != "c"])
 
 
@@ -349,9 +510,14 @@ def test_cli_sweep_file_resume_and_no_resume(tmp_path, capsys):
     assert main(["sweep", str(f), "--out", str(out), "--no-progress"]) == 0
     assert "3 already done" in capsys.readouterr().out
     assert main(["sweep", str(f), "--out", str(out), "--T", "2", "--no-progress"]) == 2
-    assert "different sweep" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "different sweep" in err and "base.T" in err and "--overwrite" in err
+    assert main(["sweep", str(f), "--out", str(out), "--no-resume", "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "3 finished row(s)" in err and "points 0-2" in err and "--overwrite" in err
     assert main(["sweep", str(f), "--out", str(out), "--T", "2", "--no-resume",
-                 "--no-progress"]) == 0
+                 "--overwrite", "--no-progress"]) == 0
+    assert "replaced   the previous sweep" in capsys.readouterr().out
     rows = read_metrics(out)
     assert len(rows) == 3 and all(math.isfinite(r["iae"]) for r in rows)
     with open(out / "metrics.csv", newline="") as fh:

@@ -26,6 +26,8 @@ from ._validate import ValidationError
 
 __all__ = ["main"]
 
+#: The longest scenario name a run accepts (it titles every figure).
+MAX_NAME = 200
 _RESULT_FILES = ("timeseries.csv", "summary.json")
 # everything a run writes, removed before an --overwrite so no stale file survives
 _RUN_ARTEFACTS = _RESULT_FILES + ("path.png", "error.png", "positions.png", "velocities.png",
@@ -34,6 +36,14 @@ _RUN_ARTEFACTS = _RESULT_FILES + ("path.png", "error.png", "positions.png", "vel
 
 class _UsageError(Exception):
     """A command-line usage error (reported on one line, exit status 2)."""
+
+
+class _RunFailed(Exception):
+    """A run that produced nothing to write (one line, exit status 1)."""
+
+
+class _Interrupted(KeyboardInterrupt):
+    """Ctrl-C, with what it left behind (one line, exit status 130)."""
 
 
 class _Parser(argparse.ArgumentParser):
@@ -135,6 +145,9 @@ def _build_scenario(args):
         except ValidationError as err:
             raise ValidationError(f"--set {item}: {err}") from None
     sc = Scenario.from_dict(d)
+    if len(sc.name) > MAX_NAME:
+        raise ValidationError(f"name is {len(sc.name)} characters long; at most {MAX_NAME} "
+                              f"are allowed (it titles the figures)")
     if paper_name and sc.name == paper_name and sc.case != Scenario.paper(args.paper).case:
         sc = sc.replace(name="")  # the paper's name no longer describes the run
     return sc, engine
@@ -171,7 +184,13 @@ def _import_animation():
 
 # ------------------------------------------------------------------------ commands
 
+def _listing(folder: Path, names) -> str:
+    held = [n for n in names if (folder / n).exists()]
+    return ", ".join(held)
+
+
 def _cmd_run(args) -> int:
+    from .outdir import staged_output
     sc, engine_from = _build_scenario(args)
     engine = args.engine or engine_from or "auto"
     if engine not in ("bdsim", "batch", "auto"):
@@ -179,40 +198,82 @@ def _cmd_run(args) -> int:
     if engine == "auto":  # the batch engine where it applies: same numbers, far faster
         engine = "batch" if sc.control == "continuous" else "bdsim"
     out = Path(args.out)
-    _check_out(out, args.overwrite)
     animation = _import_animation() if args.animate else None
-    t0 = time.perf_counter()
-    if engine == "batch":
-        from .batch import simulate_batch
-        result = simulate_batch([sc])[0]
-    else:
-        from .runner import SimulationError, simulate
-        try:
-            result = simulate(sc)
-        except SimulationError as err:
-            if err.result is None:
-                raise
-            result = err.result  # written below, marked incomplete
-    wall = time.perf_counter() - t0
-    result.save(out)
-    from .plots import save_figures
-    save_figures(result, out)
-    if animation is not None:
-        animation.animate(result, out / "animation.gif")
-    m = result.metrics
-    print(f"case       {sc.case}" + (f"  ({sc.name})" if sc.name else ""))
+    # the new results are written beside `out` and swapped in only once complete; an
+    # error or an interrupt leaves `out` as it was
+    staging = staged_output(out, overwrite=args.overwrite, results=_RESULT_FILES,
+                            what="run results", owned=_RUN_ARTEFACTS)
+    try:
+        stage, result, wall, replaced = _run_staged(staging, sc, engine, out, animation)
+    except KeyboardInterrupt:
+        raise _Interrupted(f"{out} is as it was before this run") from None
+    return _run_summary(sc, out, stage, result, wall, replaced, animation)
+
+
+def _run_staged(staging, sc, engine, out, animation):
+    with staging as stage:
+        replaced = _listing(out, _RUN_ARTEFACTS) if stage.held else ""
+        if replaced:
+            print(f"unidyn: replacing {out}/ ({replaced}) once the new run is written; "
+                  f"kept as they are if it fails or is interrupted", file=sys.stderr, flush=True)
+        t0 = time.perf_counter()
+        if engine == "batch":
+            from .batch import simulate_batch
+            result = simulate_batch([sc])[0]
+        else:
+            from .runner import SimulationError, simulate
+            try:
+                result = simulate(sc)
+            except SimulationError as err:
+                if err.result is None:
+                    raise _RunFailed(f"the run failed before its first sample: {err}; "
+                                     f"{out} is unchanged") from None
+                result = err.result  # written below, marked incomplete
+        wall = time.perf_counter() - t0
+        if not result.complete:
+            stage.incomplete(result.message or "the run stopped early")
+        result.save(stage.path)
+        from .plots import save_figures
+        save_figures(result, stage.path)
+        if animation is not None:
+            animation.animate(result, stage.path / "animation.gif")
+    return stage, result, wall, replaced
+
+
+def _run_summary(sc, out, stage, result, wall, replaced, animation) -> int:
+    final = out if Path(stage.final) == out.absolute() else stage.final
+    print(f"case       {sc.case}" + (f"  ({_short_name(sc.name)})" if sc.name else ""))
     print(f"robot      {sc.robot.name}")
-    print(f"engine     {engine}, T = {sc.T:g} s, noise "
+    backend = getattr(result, "backend", "")
+    print(f"engine     {result.engine}" + (f" ({backend})" if backend else "")
+          + f", T = {sc.T:g} s, noise "
           + ("off" if sc.noise is None else f"seed {sc.noise.seed}"))
-    print(f"IAE        {m['iae']:.6g} m·s")
-    print(f"error(T)   {m['error_final']:.6g} m")
+    if result.complete:
+        m = result.metrics
+        print(f"IAE        {m['iae']:.6g} m·s")
+        print(f"error(T)   {m['error_final']:.6g} m")
+    else:
+        t_end = float(result.t[-1]) if len(result.t) else 0.0
+        print(f"result     INCOMPLETE: stopped at t = {t_end:g} s of {sc.T:g} s: "
+              f"{' '.join(str(result.message).split())}")
+        print("metrics    none (an incomplete run has no IAE; summary.json holds the partial "
+              "ones under partial_metrics)")
     print(f"wall time  {wall:.2f} s")
-    print(f"written    {out}/ (timeseries.csv, summary.json, figures"
+    print(f"written    {final}/ (timeseries.csv, summary.json, figures"
           + (", animation.gif" if animation is not None else "") + ")")
+    if replaced and final == out:
+        print(f"replaced   the previous {replaced}")
+    elif stage.held and final != out:
+        print(f"kept       {out}/ as it was: an incomplete run does not replace complete "
+              f"results")
     if not result.complete:
         print(f"unidyn: warning: the run stopped early: {result.message}", file=sys.stderr)
         return 1
     return 0
+
+
+def _short_name(name: str, limit: int = 80) -> str:
+    return name if len(name) <= limit else name[:limit - 3] + "..."
 
 
 def _parse_gains(text: str):
@@ -267,15 +328,26 @@ def _cmd_sweep(args) -> int:
     if out.exists() and not out.is_dir():
         raise ValidationError(f"--out {out} is a file, not a folder")
     n = len(spec)
-    print(f"sweep: {spec.name or args.sweep}: {n} points, engine {args.engine}"
-          + (f", Dask at {args.dask}" if args.dask else ""), flush=True)
-    run = sw.run_sweep(spec, out, engine=args.engine, chunk_size=args.chunk_size,
-                       resume=not args.no_resume, progress=not args.no_progress,
-                       dask_address=args.dask)
+    client, close = (None, None) if args.dask is None else sw.connect_dask(args.dask, "--dask")
+    try:
+        print(f"sweep: {_short_name(spec.name or str(args.sweep))}: {n} points, engine "
+              f"{args.engine}" + (f", Dask at {args.dask}" if args.dask else ""), flush=True)
+        run = sw.run_sweep(spec, out, engine=args.engine, chunk_size=args.chunk_size,
+                           resume=not args.no_resume, progress=not args.no_progress,
+                           dask_address=client, overwrite=args.overwrite)
+    finally:
+        if close is not None:
+            close()
     print(f"ran {run.ran} points" + (f", {run.skipped} already done (resumed)"
                                      if run.skipped else "")
           + f" in {run.seconds:.1f} s; written {out}/ (metrics.csv, sweep.json, metrics.png)")
+    if run.replaced:
+        print(f"replaced   the previous sweep in {out}/ ({sw._rows_named(run.replaced)})")
     if run.failed:
+        print(f"incomplete {len(run.failed)} of {len(run.rows)} point(s) did not complete "
+              f"(complete = false, empty metrics; left out of summaries): points "
+              f"{', '.join(map(str, run.failed[:10]))}" + (", ..." if len(run.failed) > 10
+                                                           else ""))
         print(f"unidyn: warning: {len(run.failed)} point(s) did not complete: "
               f"{', '.join(map(str, run.failed[:10]))}", file=sys.stderr)
     if args.paper_fig11:
@@ -486,9 +558,15 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("--chunk-size", type=int, metavar="N", help="points per chunk")
     s.add_argument("--substeps", type=int, metavar="N",
                    help="RK4 steps per sample interval of the batch engine (default 10)")
-    s.add_argument("--dask", metavar="ADDRESS", help="run the chunks on this Dask scheduler")
+    s.add_argument("--dask", metavar="ADDRESS",
+                   help="run the chunks on Dask: 'local' (worker processes on this machine) "
+                        "or a scheduler address (tcp://host:8786)")
     s.add_argument("--no-resume", action="store_true",
-                   help="start over instead of skipping the points already in DIR")
+                   help="start over instead of skipping the points already in DIR (with "
+                        "finished rows there, needs --overwrite)")
+    s.add_argument("--overwrite", action="store_true",
+                   help="allow the finished rows in DIR to be replaced (by a different sweep, "
+                        "or with --no-resume); they are kept until the new sweep has finished")
     s.add_argument("--no-progress", action="store_true", help="no progress bar")
     s.set_defaults(func=_cmd_sweep)
 
@@ -547,9 +625,13 @@ def main(argv=None) -> int:
         return int(args.func(args) or 0)
     except SystemExit as exc:  # --help, --version
         return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
-    except KeyboardInterrupt:
-        print("unidyn: interrupted", file=sys.stderr)
+    except KeyboardInterrupt as err:
+        detail = f": {err}" if isinstance(err, _Interrupted) and str(err) else ""
+        print(f"unidyn: interrupted{detail}", file=sys.stderr)
         return 130
+    except _RunFailed as err:
+        _err(err)
+        return 1
     except (ValidationError, _UsageError, MissingDependency) as err:
         _err(err)
         return 2

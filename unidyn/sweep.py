@@ -58,7 +58,7 @@ from .result import write_atomic
 __all__ = ["Sweep", "Point", "SweepRun", "run_sweep", "read_metrics", "plot_metrics",
            "paper_fig11", "fig11_claims", "format_fig11_claims", "plot_fig11", "Fig11Claim",
            "FIG11_CASES", "SPECIAL_KEYS", "METRICS", "ENGINES", "MissingDependency",
-           "read_toml"]
+           "read_toml", "sweep_id", "connect_dask", "FolderLock", "FolderInUse"]
 
 #: Keys that are not Scenario fields but set one or more of them.
 SPECIAL_KEYS = ("kxy", "theta_hat_scale", "seed")
@@ -71,6 +71,8 @@ ENGINES = ("batch", "bdsim")
 DEFAULT_CHUNK = {"batch": 40, "bdsim": 1}
 #: A sweep with more points than this is refused (almost surely a typo in a range).
 MAX_POINTS = 1_000_000
+#: The longest sweep name accepted (it titles the figures and names every point).
+MAX_NAME = 200
 
 _TOP_KEYS = ("name", "base", "grid", "variants", "substeps")
 _CONFLICTS = {"kxy": ("kx", "ky"), "theta_hat_scale": ("theta_hat0",)}
@@ -312,6 +314,9 @@ class Sweep:
         s = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
         if not isinstance(self.name, str):
             raise ValidationError(f"name must be a string, got {self.name!r}")
+        if len(self.name) > MAX_NAME:
+            raise ValidationError(f"name is {len(self.name)} characters long; at most "
+                                  f"{MAX_NAME} are allowed (it titles the figures)")
         from .batch import MAX_SUBSTEPS
         if (isinstance(self.substeps, bool) or not isinstance(self.substeps, (int, np.integer))
                 or not 1 <= self.substeps <= MAX_SUBSTEPS):
@@ -399,6 +404,8 @@ class Sweep:
                     layers.append((f"variants[{v['label']}]", v))
                 layers.append(("grid", dict(zip(axes, combo))))
                 desc = ", ".join(f"{k}={_cell(x)}" for k, x in params.items())
+                if len(desc) > MAX_NAME:
+                    desc = desc[:MAX_NAME - 3] + "..."
                 try:
                     sc = _build(layers, name=(f"{self.name} " if self.name else "")
                                 + f"#{index}" + (f" ({desc})" if desc else ""))
@@ -456,7 +463,9 @@ class SweepRun:
     :ivar ran: points simulated by this call
     :ivar skipped: points already in metrics.csv (resumed)
     :ivar seconds: wall time of this call
-    :ivar failed: indices of points that did not complete
+    :ivar failed: indices of points that did not complete (empty metrics)
+    :ivar replaced: indices of the rows of an earlier sweep that this one replaced
+        (``overwrite=True``)
     """
 
     out_dir: Path
@@ -465,11 +474,20 @@ class SweepRun:
     skipped: int
     seconds: float
     failed: list
+    replaced: tuple = ()
 
 
 def _row(index, params, case, metrics, complete) -> dict:
-    return {"index": index, **params, "case": case, **{m: metrics[m] for m in METRICS},
-            "complete": bool(complete)}
+    """One row of metrics.csv. A point that did not complete has empty (``None``)
+    metrics: the metrics of a partial run are not a result."""
+    complete = bool(complete)
+    return {"index": index, **params, "case": case,
+            **{m: (_metric(metrics[m]) if complete else None) for m in METRICS},
+            "complete": complete}
+
+
+def _metric(v):
+    return None if v is None else float(v)
 
 
 def _run_chunk(points, engine: str, substeps: int) -> list:
@@ -489,7 +507,7 @@ def _run_chunk(points, engine: str, substeps: int) -> list:
             rows[j] = _row(index, params, sc.case, r.metrics, r.complete)
         except (RuntimeError, ArithmeticError) as err:
             print(f"unidyn: warning: sweep point {index} failed: {err}", file=sys.stderr)
-            rows[j] = _row(index, params, sc.case, {m: math.nan for m in METRICS}, False)
+            rows[j] = _row(index, params, sc.case, {m: None for m in METRICS}, False)
     if batch:
         from .batch import simulate_batch
         results = simulate_batch([points[j][2] for j in batch], substeps=substeps)
@@ -497,43 +515,6 @@ def _run_chunk(points, engine: str, substeps: int) -> list:
             index, params, sc = points[j]
             rows[j] = _row(index, params, sc.case, r.metrics, r.complete)
     return rows
-
-
-class _Bar:
-    """A minimal progress bar on stderr (used when tqdm is not installed)."""
-
-    def __init__(self, total, initial=0, desc="sweep", file=None):
-        self.total, self.n, self.desc = total, initial, desc
-        self.file = file or sys.stderr
-        self.t0 = time.monotonic()
-        self.start = initial
-        self._draw()
-
-    def update(self, k):
-        self.n += k
-        self._draw()
-
-    def _draw(self):
-        frac = self.n / self.total if self.total else 1.0
-        width = 30
-        fill = int(round(width * frac))
-        done = self.n - self.start
-        eta = ""
-        if done > 0 and self.n < self.total:
-            rate = (time.monotonic() - self.t0) / done
-            eta = f" eta {_fmt_seconds(rate * (self.total - self.n))}"
-        self.file.write(f"\r{self.desc} [{'#' * fill}{'.' * (width - fill)}] "
-                        f"{self.n}/{self.total} ({100 * frac:.0f} %){eta}   ")
-        self.file.flush()
-
-    def close(self):
-        self.file.write("\n")
-        self.file.flush()
-
-
-def _fmt_seconds(s: float) -> str:
-    s = int(round(s))
-    return f"{s // 60}m{s % 60:02d}s" if s >= 60 else f"{s}s"
 
 
 class _NoBar:
@@ -545,13 +526,16 @@ class _NoBar:
 
 
 def _progress_bar(enabled, total, initial):
+    """A tqdm progress bar on stderr, or nothing when disabled, when stderr is not a
+    terminal (a log file, a pipe, a test) or when tqdm is not installed."""
     if not enabled or not sys.stderr.isatty():
         return _NoBar()
     try:
         from tqdm import tqdm
     except ImportError:
-        return _Bar(total, initial)
-    return tqdm(total=total, initial=initial, desc="sweep", unit="pt", file=sys.stderr)
+        return _NoBar()
+    return tqdm(total=total, initial=initial, desc="sweep", unit="pt", file=sys.stderr,
+                dynamic_ncols=True)
 
 
 def _read_rows(path: Path, columns: list):
@@ -598,7 +582,7 @@ def _parse_row(rec: dict) -> dict:
         if k == "index":
             out[k] = int(v)
         elif k in METRICS:
-            out[k] = float(v)
+            out[k] = None if v == "" else float(v)  # empty: the point did not complete
         elif k == "complete":
             if v not in ("true", "false"):
                 raise ValueError(v)
@@ -612,7 +596,8 @@ def _parse_row(rec: dict) -> dict:
 
 def read_metrics(path) -> list:
     """The rows of a sweep's metrics.csv (a file or the sweep's folder), sorted by index:
-    dicts with ``index`` (int), the axes, ``case``, the metrics (float) and ``complete`` (bool)."""
+    dicts with ``index`` (int), the axes, ``case``, the metrics (float; ``None`` for a
+    point that did not complete) and ``complete`` (bool)."""
     path = Path(path)
     if path.is_dir():
         path = path / "metrics.csv"
@@ -639,48 +624,307 @@ def _rows_text(columns, rows) -> str:
     return buf.getvalue()
 
 
-def _dask_client(address):
+def connect_dask(address, option: str = "dask_address"):
+    """A ``distributed.Client`` for ``address`` and a function that closes what was
+    opened here.
+
+    :param address: ``"local"`` (a cluster of worker processes on this machine, at
+        most two), a scheduler address (``"tcp://host:8786"``) or a
+        ``distributed.Client`` (used as it is and left open)
+    :param option: how the caller names the address in messages (``"--dask"``)
+    :raises ValidationError: the address is not a string, or no scheduler answers there
+    """
     try:
         import distributed
     except ImportError:
         raise MissingDependency("running a sweep on Dask needs dask.distributed "
                                 "(pip install 'unidyn[dask]')") from None
     if isinstance(address, distributed.Client):
-        return address, False
-    if not isinstance(address, str) or not address:
-        raise ValidationError(f"dask_address must be a scheduler address (e.g. "
-                              f"'tcp://host:8786') or a distributed.Client, got {address!r}")
+        return address, lambda: None
+    if not isinstance(address, str) or not address.strip():
+        raise ValidationError(f"{option} must be 'local' or a scheduler address (e.g. "
+                              f"'tcp://host:8786'), or a distributed.Client; got {address!r}")
+    address = address.strip()
+    if address == "local":
+        import logging
+        workers = max(1, min(2, os.cpu_count() or 1))
+        logging.getLogger("distributed").setLevel(logging.ERROR)
+        cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1,
+                                           processes=True, dashboard_address=None)
+        client = distributed.Client(cluster)
+
+        def close():
+            client.close()
+            cluster.close()
+
+        return client, close
     try:
-        return distributed.Client(address, timeout="10s"), True
-    except (OSError, TimeoutError) as err:
-        raise OSError(f"cannot connect to the Dask scheduler at {address}: {err}") from None
+        client = distributed.Client(address, timeout="5s")
+    except (OSError, TimeoutError, ValueError, TypeError) as err:
+        detail = " ".join(str(err).split()) or type(err).__name__
+        raise ValidationError(f"{option} {address}: cannot connect to a Dask scheduler there "
+                              f"({detail[:300]}); give the address of a running scheduler "
+                              f"(tcp://host:8786) or 'local'") from None
+    return client, client.close
+
+
+#: The lock file that marks a sweep folder as being written.
+LOCK_NAME = ".unidyn.lock"
+#: The file beside metrics.csv that records which sweep its rows belong to.
+ID_NAME = ".sweep-id"
+#: Files whose presence means a folder holds a sweep's results.
+_SWEEP_RESULTS = ("metrics.csv", "sweep.json")
+#: Every file a sweep writes (none of them is carried over when a sweep starts over).
+_SWEEP_OWNED = ("metrics.csv", "sweep.json", "metrics.png", "claims.md", "fig11.png", ID_NAME)
+
+
+class FolderInUse(ValidationError):
+    """Another process is writing the output folder (it holds the folder's lock)."""
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, ValueError):
+        return True
+    return True
+
+
+class FolderLock:
+    """An exclusive lock on a folder, held by this process: the file ``.unidyn.lock``
+    holding its PID, locked with ``fcntl.flock`` (released by the system when the
+    process dies, so a lock left by a killed process is simply taken over). Where
+    ``fcntl`` is missing the file is created exclusively and a lock whose PID is not
+    running is taken over."""
+
+    def __init__(self, folder, option: str = "out_dir"):
+        self.path = Path(folder) / LOCK_NAME
+        self._fd = None
+        try:
+            import fcntl
+        except ImportError:  # pragma: no cover - not POSIX
+            fcntl = None
+        for _ in range(100):
+            if fcntl is not None and self._try_flock(fcntl):
+                break
+            if fcntl is None and self._try_exclusive():
+                break
+        else:  # pragma: no cover - the lock file keeps vanishing under us
+            raise FolderInUse(f"{folder}: cannot take the lock {self.path}")
+        os.ftruncate(self._fd, 0)
+        os.write(self._fd, f"{os.getpid()}\n".encode())
+        os.fsync(self._fd)
+
+    def _holder(self, fd=None) -> str:
+        for _ in range(20):  # the holder writes its PID just after locking
+            try:
+                if fd is not None:
+                    text = os.pread(fd, 64, 0).decode(errors="replace")
+                else:
+                    text = self.path.read_text(errors="replace")
+            except OSError:
+                text = ""
+            if text.strip().isdigit():
+                return text.strip()
+            time.sleep(0.01)
+        return "unknown"
+
+    def _busy(self, pid: str):
+        folder = self.path.parent
+        return FolderInUse(f"{folder} is being written by another unidyn process (PID {pid}, "
+                           f"lock {self.path}); wait for it to finish or choose another "
+                           f"output folder")
+
+    def _try_flock(self, fcntl) -> bool:
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            pid = self._holder(fd)
+            os.close(fd)
+            raise self._busy(pid) from None
+        try:  # a holder that released meanwhile removed the file: lock the new one
+            same = os.stat(self.path).st_ino == os.fstat(fd).st_ino
+        except FileNotFoundError:
+            same = False
+        if not same:
+            os.close(fd)
+            return False
+        self._fd = fd
+        return True
+
+    def _try_exclusive(self) -> bool:  # pragma: no cover - not POSIX
+        try:
+            self._fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o644)
+            return True
+        except FileExistsError:
+            pid = self._holder()
+            if pid.isdigit() and _pid_alive(int(pid)):
+                raise self._busy(pid) from None
+            try:
+                self.path.unlink()  # left by a process that is gone
+            except FileNotFoundError:
+                pass
+            return False
+
+    def release(self) -> None:
+        if self._fd is None:
+            return
+        try:
+            try:
+                if os.stat(self.path).st_ino == os.fstat(self._fd).st_ino:
+                    self.path.unlink()
+            except FileNotFoundError:
+                pass
+        finally:
+            os.close(self._fd)
+            self._fd = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.release()
+
+
+def sweep_id(sweep: Sweep) -> str:
+    """A hash of a sweep's full definition (its base, grid, variants, name and substeps,
+    and the first point's complete scenario, so changed defaults count), the same
+    whatever the engine: ``"sha256:..."``."""
+    import hashlib
+    text = json.dumps({"sweep": sweep.to_dict(), "first": sweep.points()[0].scenario.to_dict()},
+                      sort_keys=True, separators=(",", ":"), default=str)
+    return "sha256:" + hashlib.sha256(text.encode()).hexdigest()
 
 
 def _spec_record(sweep: Sweep, engine: str) -> dict:
     from . import __version__
     return {"unidyn_version": __version__, "engine": engine, "points": len(sweep),
-            "columns": sweep.columns, "sweep": sweep.to_dict()}
+            "id": sweep_id(sweep), "columns": sweep.columns, "sweep": sweep.to_dict()}
+
+
+def _differences(old, new, where="") -> list:
+    """The dotted keys where two plain-data sweep definitions differ."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        out = []
+        for k in sorted(set(old) | set(new), key=str):
+            out += _differences(old.get(k), new.get(k), f"{where}.{k}" if where else str(k))
+        return out
+    return [] if old == new else [where or "the definition"]
+
+
+def _finished_rows(csv_path: Path) -> list:
+    """The indices of the rows in a metrics.csv, whatever its columns."""
+    try:
+        with open(csv_path, newline="") as fh:
+            reader = csv.reader(fh)
+            header = next(reader, None) or []
+            at = header.index("index") if "index" in header else 0
+            out = []
+            for rec in reader:
+                try:
+                    out.append(int(rec[at]))
+                except (ValueError, IndexError):
+                    pass
+            return out
+    except (OSError, UnicodeDecodeError, csv.Error):
+        return []
+
+
+def _what_is_held(out: Path, record: dict) -> tuple:
+    """What ``out`` holds: ``(state, detail)`` with state ``"none"`` (no sweep),
+    ``"same"``, ``"engine"`` (this sweep with another engine), ``"different"`` or
+    ``"unknown"`` (rows that no record ties to a sweep)."""
+    spec_path, csv_path, id_path = out / "sweep.json", out / "metrics.csv", out / ID_NAME
+    if not spec_path.exists() and not csv_path.exists():
+        return "none", ""
+    if spec_path.exists():
+        try:
+            old = json.loads(spec_path.read_text())
+            if not isinstance(old, dict):
+                raise ValueError("not a table")
+        except (ValueError, UnicodeDecodeError) as err:
+            return "unknown", f"its sweep.json is not valid JSON ({err})"
+        if "id" in old:
+            same = old["id"] == record["id"]
+        else:  # written before sweeps had an id: compare the definitions
+            same = old.get("sweep") == record["sweep"]
+        if not same:
+            diff = _differences(old.get("sweep"), record["sweep"])
+            return "different", ("it differs in " + ", ".join(diff[:5])
+                                 + (", ..." if len(diff) > 5 else "")
+                                 if diff and diff != ["the definition"] else
+                                 "its definition differs")
+        if old.get("engine") != record["engine"]:
+            return "engine", f"it was run with engine {old.get('engine')!r}"
+        return "same", ""
+    try:
+        held = id_path.read_text().split()
+    except (OSError, UnicodeDecodeError):
+        held = []
+    if not held:
+        return "unknown", "no sweep.json or .sweep-id records which sweep its rows belong to"
+    if held[0] != record["id"]:
+        return "different", "its .sweep-id names another sweep (sweep.json is missing)"
+    if held[1:2] != [record["engine"]]:
+        return "engine", f"it was run with engine {' '.join(held[1:2]) or 'unknown'!r}"
+    return "same", ""
+
+
+def _rows_named(indices) -> str:
+    indices = sorted(indices)
+    if not indices:
+        return "no finished rows"
+    runs, start = [], indices[0]
+    for a, b in zip(indices, indices[1:] + [None]):
+        if b != a + 1:
+            runs.append(f"{start}" if start == a else f"{start}-{a}")
+            start = b
+    text = ", ".join(runs[:8]) + (", ..." if len(runs) > 8 else "")
+    return f"{len(indices)} finished row(s) in metrics.csv (points {text})"
 
 
 def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | None = None,
-              resume: bool = True, progress: bool = True, dask_address=None) -> SweepRun:
+              resume: bool = True, progress: bool = True, dask_address=None,
+              overwrite: bool = False) -> SweepRun:
     """Run every point of ``sweep``, writing into ``out_dir``:
 
-    - ``sweep.json``: the spec, engine and library version (written first)
+    - ``sweep.json``: the spec, its id (:func:`sweep_id`), engine and library
+      version (written first); ``.sweep-id``: the id and engine again, so rows
+      never lose their record
     - ``metrics.csv``: one row per finished point (columns :attr:`Sweep.columns`),
-      appended and flushed after each chunk, rewritten sorted by index at the end
+      appended and flushed after each chunk, rewritten sorted by index at the end;
+      a point that did not complete has ``complete = false`` and empty metrics
     - ``metrics.png``: IAE against the first numeric axis (:func:`plot_metrics`)
+
+    Finished rows are never deleted without ``overwrite``:
+
+    - ``resume=True`` (default): the points already in ``metrics.csv`` are
+      skipped. A folder that holds a different sweep, this sweep run with another
+      engine, or rows with no record of their sweep is refused unless ``overwrite``,
+      which starts over as below.
+    - ``resume=False``: start over. A folder with finished rows is refused unless
+      ``overwrite``.
+    - starting over where there are finished rows writes the new sweep into a fresh
+      folder beside ``out_dir`` and swaps it in only when every point has run: an
+      error or an interrupt leaves the old sweep as it was (the new rows are
+      discarded).
+
+    While it runs, the folder is locked (``.unidyn.lock``, holding the PID): a
+    second process writing the same folder is refused with :class:`FolderInUse`.
+    A sweep that fails before its first row leaves no files behind.
 
     :param engine: ``"batch"`` (one :func:`~unidyn.batch.simulate_batch` call per chunk;
         sampled-control points run through :func:`unidyn.simulate`) or ``"bdsim"``
     :param chunk_size: points per chunk (default 40 for batch, 1 for bdsim)
-    :param resume: skip the points already in ``metrics.csv`` (the folder must hold the
-        same sweep and engine); ``False`` starts over
-    :param progress: show a progress bar on stderr (only when it is a terminal;
-        tqdm when installed)
-    :param dask_address: a Dask scheduler address or a ``distributed.Client``: the
-        chunks run on its workers (which need unidyn installed), and rows are written
-        as they arrive
+    :param resume: skip the points already in ``metrics.csv``; ``False`` starts over
+    :param progress: show a tqdm progress bar on stderr (only when it is a terminal)
+    :param dask_address: ``"local"`` (a local cluster), a Dask scheduler address or a
+        ``distributed.Client``: the chunks run on its workers (which need unidyn
+        installed), and rows are written as they arrive (see :func:`connect_dask`)
+    :param overwrite: allow finished rows to be replaced
     :return: :class:`SweepRun`
     """
     t0 = time.perf_counter()
@@ -691,25 +935,71 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
         chunk_size = DEFAULT_CHUNK[engine]
     if isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer)) or chunk_size < 1:
         raise ValidationError(f"chunk_size must be an integer >= 1, got {chunk_size!r}")
+    chunk_size = int(chunk_size)
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ValidationError(f"output folder {out} is a file")
-    out.mkdir(parents=True, exist_ok=True)
-    columns = sweep.columns
     record = _spec_record(sweep, engine)
-    csv_path, spec_path = out / "metrics.csv", out / "sweep.json"
+    client, close = (None, None) if dask_address is None else connect_dask(dask_address)
+    created = not out.exists()
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        with FolderLock(out) as lock:
+            try:
+                state, detail = _what_is_held(out, record)
+                rows_held = _finished_rows(out / "metrics.csv") if state != "none" else []
+                if state == "same" and resume:
+                    return _run_in(sweep, out, record, engine, chunk_size, progress, client,
+                                   t0, resume=True)
+                if rows_held and not overwrite:
+                    raise ValidationError(_refusal(out, state, detail, rows_held, resume))
+                if not rows_held:  # nothing finished to lose: start over in place
+                    return _run_in(sweep, out, record, engine, chunk_size, progress, client,
+                                   t0, resume=False)
+                from .outdir import staged_output
+                with staged_output(out, overwrite=True, results=_SWEEP_RESULTS,
+                                   what="sweep results", owned=_SWEEP_OWNED) as stage:
+                    run = _run_in(sweep, stage.path, record, engine, chunk_size, progress,
+                                  client, t0, resume=False)
+                run.out_dir = out
+                run.replaced = tuple(rows_held)
+                return run
+            except BaseException:
+                if created:
+                    lock.release()
+                    _remove_if_empty(out)
+                raise
+    finally:
+        if close is not None:
+            close()
 
+
+def _refusal(out, state, detail, rows, resume) -> str:
+    held = _rows_named(rows)
+    if state in ("same", "none") and not resume:
+        return (f"{out} holds {held}; starting over (resume=False, --no-resume) would "
+                f"delete them: add overwrite=True (--overwrite) to replace them once the new "
+                f"sweep has finished, or choose another output folder")
+    what = {"engine": "this sweep run with another engine",
+            "different": "a different sweep",
+            "unknown": "sweep rows of unknown origin"}.get(state, "a sweep")
+    return (f"{out} holds {what} ({detail}): {held}; pass overwrite=True (--overwrite) to "
+            f"replace them once this sweep has finished, or choose another output folder")
+
+
+def _remove_if_empty(folder: Path) -> None:
+    try:
+        folder.rmdir()
+    except OSError:
+        pass
+
+
+def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume) -> SweepRun:
+    """Run the sweep in ``out`` (locked by the caller or private): resume from its rows,
+    or start it afresh."""
+    columns = sweep.columns
+    csv_path, spec_path, id_path = out / "metrics.csv", out / "sweep.json", out / ID_NAME
     done = {}
-    if resume and spec_path.exists():
-        try:
-            old = json.loads(spec_path.read_text())
-        except ValueError as err:
-            raise ValidationError(f"{spec_path} is not valid JSON ({err}); use another "
-                                  f"output folder or resume=False (--no-resume)") from None
-        if old.get("sweep") != record["sweep"] or old.get("engine") != engine:
-            raise ValidationError(f"{out} holds a different sweep (its sweep.json differs in "
-                                  f"the spec or engine); use another output folder or "
-                                  f"resume=False (--no-resume) to start over")
     if resume and csv_path.exists():
         rows, clean = _read_rows(csv_path, columns)
         valid = {p.index for p in sweep.points()}
@@ -717,21 +1007,21 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
         if not clean:  # drop a line cut short by an interruption
             write_atomic(csv_path, _rows_text(columns, sorted(done.values(),
                                                               key=lambda r: r["index"])))
-    elif csv_path.exists():
-        csv_path.unlink()
+    written = []  # files this call created, removed again if it fails before a row
+    if not done:
+        write_atomic(csv_path, _rows_text(columns, []))
+        written.append(csv_path)
+    write_atomic(id_path, f"{record['id']} {record['engine']}\n")
     write_atomic(spec_path, json.dumps({**record, "finished": False}, indent=2) + "\n")
+    written += [id_path, spec_path]
 
     pending = [p for p in sweep.points() if p.index not in done]
     chunks = [[tuple(p) for p in pending[i:i + chunk_size]]
               for i in range(0, len(pending), chunk_size)]
     new_rows = []
     bar = _progress_bar(progress, len(sweep), len(done))
-    new_file = not csv_path.exists() or csv_path.stat().st_size == 0
     try:
         with open(csv_path, "a", newline="") as fh:
-            if new_file:
-                csv.writer(fh, lineterminator="\n").writerow(columns)
-                fh.flush()
 
             def take(rows):
                 _write_rows(fh, columns, rows)
@@ -740,11 +1030,19 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
                 new_rows.extend(rows)
                 bar.update(len(rows))
 
-            if dask_address is None:
+            if client is None:
                 for chunk in chunks:
                     take(_run_chunk(chunk, engine, sweep.substeps))
             elif chunks:
-                _run_on_dask(dask_address, chunks, engine, sweep.substeps, take)
+                _run_on_dask(client, chunks, engine, sweep.substeps, take)
+    except BaseException:
+        if not done and not new_rows:  # nothing finished: leave nothing behind
+            for p in written:
+                try:
+                    p.unlink()
+                except FileNotFoundError:
+                    pass
+        raise
     finally:
         bar.close()
 
@@ -762,8 +1060,7 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
                     seconds=seconds, failed=failed)
 
 
-def _run_on_dask(address, chunks, engine, substeps, take):
-    client, own = _dask_client(address)
+def _run_on_dask(client, chunks, engine, substeps, take):
     from distributed import as_completed
     futures = client.map(_run_chunk, chunks, engine=engine, substeps=substeps, pure=False)
     try:
@@ -772,9 +1069,6 @@ def _run_on_dask(address, chunks, engine, substeps, take):
     except BaseException:
         client.cancel(futures)
         raise
-    finally:
-        if own:
-            client.close()
 
 
 # ----------------------------------------------------------------------- plotting
@@ -891,22 +1185,36 @@ class Fig11Claim:
     holds: bool | None
 
 
-def _fig11_table(metrics) -> tuple[list, dict]:
+def _fig11_rows(metrics) -> tuple[list, dict, list]:
+    """(ks, table, skipped): the gains every case has a complete point for, IAE by case
+    and gain, and the (case, gain) of every point that did not complete (left out)."""
     rows = read_metrics(metrics) if isinstance(metrics, (str, os.PathLike)) else list(metrics)
     table = {lab: {} for lab in FIG11_CASES}
+    skipped = []
     for r in rows:
         if "variant" not in r or "kxy" not in r:
             raise ValidationError("fig11_claims needs rows with 'variant' and 'kxy' "
                                   "(the metrics of paper_fig11())")
         if r["variant"] in table:
-            ok = r.get("complete", True) and math.isfinite(float(r["iae"]))
-            table[r["variant"]][float(r["kxy"])] = float(r["iae"]) if ok else math.inf
+            if not r.get("complete", True) or r.get("iae") is None:
+                skipped.append((r["variant"], float(r["kxy"])))
+                continue
+            table[r["variant"]][float(r["kxy"])] = float(r["iae"])
     missing = [lab for lab, v in table.items() if not v]
     if missing:
-        raise ValidationError(f"fig11_claims: no rows for case(s) {', '.join(missing)}")
+        raise ValidationError(f"fig11_claims: no complete rows for case(s) {', '.join(missing)}"
+                              + (f" ({len(skipped)} incomplete point(s) left out)"
+                                 if skipped else ""))
     ks = sorted(set.intersection(*(set(v) for v in table.values())))
     if not ks:
-        raise ValidationError("fig11_claims: the four cases share no value of kxy")
+        raise ValidationError("fig11_claims: the four cases share no value of kxy with "
+                              "complete points")
+    return ks, table, sorted(skipped)
+
+
+def _fig11_table(metrics) -> tuple[list, dict]:
+    """(ks, table) of :func:`_fig11_rows`: points that did not complete are left out."""
+    ks, table, _ = _fig11_rows(metrics)
     return ks, table
 
 
@@ -919,16 +1227,30 @@ def fig11_claims(metrics) -> list:
     """Compare Fig. 11 metrics (rows of :func:`read_metrics`, or the path of a
     metrics.csv) with what the paper says of its Fig. 11.
 
-    Incomplete runs count as IAE = inf. Claims about one k (k = 1, 23) need that k
-    in the sweep; otherwise they are reported with ``holds = None``.
+    Points that did not complete have no IAE: they are left out, and every claim
+    they would have entered says how many were left out and where. Claims about one
+    k (k = 1, 23) need that k in the sweep; otherwise they are reported with
+    ``holds = None``.
     :return: list of :class:`Fig11Claim`
     """
-    ks, tab = _fig11_table(metrics)
+    ks, tab, skipped = _fig11_rows(metrics)
     a, b, c, d = (tab[x] for x in "abcd")
+
+    def left_out(labels, at=None) -> str:
+        pts = [(lab, k) for lab, k in skipped if lab in labels and (at is None or k == at)]
+        if not pts:
+            return ""
+        where = ", ".join(f"{lab} at k = {k:g}" for lab, k in pts[:6])
+        more = f", ... ({len(pts)} in all)" if len(pts) > 6 else ""
+        return f"; {len(pts)} incomplete point(s) left out ({where}{more})"
+
     out = []
     if 1.0 in a:
         out.append(Fig11Claim("(a) IAE above 8 at k = 1", "IAE_a(k = 1) > 8",
                               f"IAE_a(1) = {a[1.0]:.3f}", a[1.0] > 8))
+    elif ("a", 1.0) in skipped:
+        out.append(Fig11Claim("(a) IAE above 8 at k = 1", "IAE_a(k = 1) > 8",
+                              "the run at k = 1 did not complete" + left_out("a", 1.0), None))
     else:
         out.append(Fig11Claim("(a) IAE above 8 at k = 1", "IAE_a(k = 1) > 8",
                               "k = 1 not in the sweep", None))
@@ -944,7 +1266,7 @@ def fig11_claims(metrics) -> list:
         "(a) smallest IAE, 1.24, at k = 23",
         "minimum of (a) at 18 <= k <= 28, value within 1.24 ± 25 %",
         f"minimum {a[ka]:.3f} at k = {ka:g}{where}{at23}"
-        + ("" if covers else " (k = 23 is outside the sweep)"),
+        + ("" if covers else " (k = 23 is outside the sweep)") + left_out("a"),
         (18 <= ka <= 28 and abs(a[ka] - 1.24) <= 0.25 * 1.24) if covers else None))
     for lab, series in (("b", b), ("c", c)):
         bad = [k for k in ks if not series[k] < a[k]]
@@ -953,7 +1275,7 @@ def fig11_claims(metrics) -> list:
             f"({lab}) below (a) for every k", f"IAE_{lab}(k) < IAE_a(k) at every k swept",
             f"below at {len(ks) - len(bad)} of {len(ks)} k"
             + (f"; not at k = {_kl(bad)}" if bad else "")
-            + f"; largest IAE_{lab}/IAE_a = {ratio:.3f}",
+            + f"; largest IAE_{lab}/IAE_a = {ratio:.3f}" + left_out(("a", lab)),
             not bad))
     bad = [k for k in ks if not d[k] < min(a[k], b[k], c[k])]
     worst = max(ks, key=lambda k: d[k] - min(a[k], b[k], c[k]))
@@ -961,7 +1283,8 @@ def fig11_claims(metrics) -> list:
         "(d) lowest for every k", "IAE_d(k) < IAE of (a), (b) and (c) at every k swept",
         f"lowest at {len(ks) - len(bad)} of {len(ks)} k"
         + (f"; not at k = {_kl(bad)} (at k = {worst:g}: d {d[worst]:.3f}, "
-           f"best other {min(a[worst], b[worst], c[worst]):.3f})" if bad else ""),
+           f"best other {min(a[worst], b[worst], c[worst]):.3f})" if bad else "")
+        + left_out("abcd"),
         not bad))
     return out
 
