@@ -429,6 +429,7 @@ def _cli_words(text: str) -> str:
 
 
 def _cmd_identify(args) -> int:
+    import warnings
     from . import identification as ident
     from .outdir import staged_output
     logs = [Path(p) for p in args.log]
@@ -465,12 +466,14 @@ def _cmd_identify(args) -> int:
                             owned=("theta.json", "validation.json", "validation.png"))
     with staging as stage:
         try:
-            res = ident.identify(*(str(p) for p in logs), **kwargs)
+            with warnings.catch_warnings():   # the summary prints them
+                warnings.simplefilter("ignore", ident.IdentificationWarning)
+                res = ident.identify(*(str(p) for p in logs), **kwargs)
         except ident.MissingColumnsError as err:
             have = ", ".join(repr(a[:40]) for a in err.available[:12]) or "no columns"
             want = ",".join(f"{k}=..." for k in err.missing)
             raise ValidationError(f"log {err.source} is missing column(s) "
-                                  f"{', '.join(repr(err.mapped[k]) for k in err.missing)}"
+                                  f"{', '.join(repr(err.mapped[k][:40]) for k in err.missing)}"
                                   f"; it has {have}. Pass --columns {want} to map the "
                                   f"log's names") from None
         except ValidationError as err:

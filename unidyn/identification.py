@@ -93,6 +93,7 @@ import csv
 import json
 import math
 import os
+import warnings as _warnings_mod
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -104,7 +105,8 @@ from ._validate import ValidationError, choice, nonnegative, positive, real, vec
 from .model import NO_LIMITS, PAPER_LIMITS, Limits, unicycle_deriv
 from .parameters import RobotParameters
 
-__all__ = ["IdentificationResult", "ValidationReport", "MissingColumnsError", "identify",
+__all__ = ["IdentificationResult", "ValidationReport", "MissingColumnsError",
+           "IdentificationWarning", "identify",
            "load_log", "segments", "excitation", "simulate_log", "split_log", "validate",
            "plot_validation", "COLUMNS", "SMOOTHING_METHODS", "COMMAND_CONVENTIONS", "METHODS"]
 
@@ -133,6 +135,17 @@ _AUTO_BAND = 1.2
 
 
 # --------------------------------------------------------------------------- logs
+
+class IdentificationWarning(UserWarning):
+    """A reason not to trust an identified parameter as much as its interval says."""
+
+
+def _emit(res):
+    """Issue the result's warnings as :class:`IdentificationWarning` and return it."""
+    for text in res.warnings:
+        _warnings_mod.warn(text, IdentificationWarning, stacklevel=3)
+    return res
+
 
 class MissingColumnsError(ValidationError):
     """A log lacks columns that identification needs.
@@ -183,18 +196,22 @@ def _decode(path: Path, raw: bytes) -> str:
             line = raw[:err.start].count("\n".encode("utf-16-le")) + 1
             raise ValidationError(f"log: {path} line {line}: the file starts with a UTF-16 "
                                   f"byte-order mark but is not valid UTF-16") from None
+    if b"\x00" in raw:
+        line = raw[:raw.index(b"\x00")].count(b"\n") + 1
+        raise ValidationError(f"log: {path} line {line}: a NUL byte: "
+                              f"the file is not text (binary, or UTF-16 without a byte-order "
+                              f"mark); save the log as UTF-8 CSV")
     try:
         return raw.decode("utf-8-sig")
     except UnicodeDecodeError as err:
         first = err
-    if b"\x00" not in raw:
-        try:
-            return raw.decode("cp1252")
-        except UnicodeDecodeError:
-            pass
-        if not any(0x80 <= b <= 0x9f for b in raw):
-            return raw.decode("latin-1")
-    pos = first.start if b"\x00" not in raw else raw.index(b"\x00")
+    try:
+        return raw.decode("cp1252")
+    except UnicodeDecodeError:
+        pass
+    if not any(0x80 <= b <= 0x9f for b in raw):
+        return raw.decode("latin-1")
+    pos = first.start
     line = raw[:pos].count(b"\n") + 1
     bad = raw[pos:pos + 4]
     raise ValidationError(f"log: {path} line {line}: bytes {bad!r} are not text (neither "
@@ -244,6 +261,10 @@ def _read_csv(path: Path, wanted=None) -> tuple[dict, list]:
             if line.strip() and not line.lstrip().startswith("#")]
     rows = csv.reader((line for _, line in body), delimiter=delim)
     for (n, _), row in zip(body, rows):
+        if len(row) > len(header):
+            raise ValidationError(f"log: {path} line {n} has {len(row)} fields, the header "
+                                  f"{len(header)} (a decimal comma, or an unquoted separator "
+                                  f"in a field?)")
         if len(row) < need:
             raise ValidationError(f"log: {path} line {n} has {len(row)} field(s); column "
                                   f"{header[need - 1]!r} is field {need} of the header's "
@@ -611,13 +632,13 @@ def _lstsq(X: np.ndarray, y: np.ndarray, lag: int, E: np.ndarray | None = None):
 
 # ------------------------------------------------- simulation with commands as logged
 
-def _sim_segments(theta, t, u_ref, w_ref, starts, stops, v0, delay, linear, nsub, out):
+def _sim_segments(theta, t, u_ref, w_ref, starts, stops, v0, delay, linear, hmax, out):
     """Integrate Eq. (2) over each segment [starts[s], stops[s]) of a log, from
     the velocities v0[s], with the logged commands held from their time stamp to
     the next (``linear`` false) or interpolated linearly between them, delayed by
     ``delay`` seconds; writes the velocities at the time stamps into out (N, 2).
 
-    Classical RK4 with ``nsub`` steps per sample interval; every instant at which
+    Classical RK4 with steps of at most ``hmax`` seconds; every instant at which
     the (delayed) command jumps or kinks is a step boundary, so the integration
     never crosses a discontinuity and keeps its fourth order. Before a
     segment's first time stamp (plus the delay) its first command is in force.
@@ -643,8 +664,10 @@ def _sim_segments(theta, t, u_ref, w_ref, starts, stops, v0, delay, linear, nsub
                 nxt = tb
                 if j + 1 < b and t[j + 1] + delay < tb - eps:
                     nxt = t[j + 1] + delay
+                if cur + eps < t[j] + delay < nxt:     # a linear ramp starts (first command)
+                    nxt = t[j] + delay
                 span = nxt - cur
-                n = int(math.ceil(nsub * span / dtk - 1e-6))
+                n = int(math.ceil(span / hmax - 1e-6))
                 if n < 1:
                     n = 1
                 h = span / n
@@ -698,31 +721,32 @@ except ImportError:  # pragma: no cover - exercised where numba is absent
     FAST = False
 
 
-def _substeps(theta, dt_max) -> int:
-    """RK4 steps per sample interval: at most a sixth of the faster time constant."""
+def _step(theta, dt) -> float:
+    """The longest RK4 step: a tenth of the faster time constant (local error
+    about (h / tau)^5 / 120 = 1e-7 of the velocity), and at most the median
+    sample interval ``dt``."""
     th = np.asarray(theta, dtype=float)
     tau = min(th[0] / th[3], th[1] / th[5]) if th[3] > 0 and th[5] > 0 else th[0]
     if not tau > 0 or not math.isfinite(tau):
-        return 4
-    return int(min(1000, max(1, math.ceil(6.0 * dt_max / tau))))
+        return dt / 4
+    return float(min(dt, tau / 10.0))
 
 
-def _simulate_held(theta, t, u_ref, w_ref, segs, v0, delay=0.0, linear=False, nsub=None,
+def _simulate_held(theta, t, u_ref, w_ref, segs, v0, delay=0.0, linear=False, hmax=None,
                    out=None):
     """Velocities (N, 2) of Eq. (2) over the segments ``segs`` [(start, stop)], see
     :func:`_sim_segments`; rows outside the segments are left as they are (NaN)."""
     theta = np.ascontiguousarray(theta, dtype=float)
     starts = np.array([a for a, _ in segs], dtype=np.int64)
     stops = np.array([b for _, b in segs], dtype=np.int64)
-    if nsub is None:
-        dtm = max(float(np.max(t[b - 1] - t[a])) / max(b - a - 1, 1) for a, b in segs)
-        dtmax = max(float(np.max(np.diff(t[a:b]))) if b - a > 1 else dtm for a, b in segs)
-        nsub = _substeps(theta, dtmax)
+    if hmax is None:
+        steps = [np.diff(t[a:b]) for a, b in segs if b - a > 1]
+        hmax = _step(theta, float(np.median(np.concatenate(steps))) if steps else 1.0)
     if out is None:
         out = np.full((t.size, 2), np.nan)
     _sim_compiled(theta, t, u_ref, w_ref, starts, stops,
                   np.ascontiguousarray(v0, dtype=float).reshape(-1, 2), float(delay),
-                  bool(linear), int(nsub), out)
+                  bool(linear), float(hmax), out)
     return out
 
 
@@ -979,7 +1003,7 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
             delay=delay, segments=len(segs), n_logs=len(logs))
         if validate:
             res = _with_validation(res, D, segs)
-        return res
+        return _emit(res)
 
     # ---- output error: start, fit, intervals, checks
     theta0, start_kind, m0 = _start(D, segs, linear, delay, delay_auto, dt_med, smoothing,
@@ -1030,7 +1054,7 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
         v0=oe["v0"])
     if validate:
         res = _with_validation(res, D, segs)
-    return res
+    return _emit(res)
 
 
 def _ci(theta, stderr):
@@ -1175,8 +1199,7 @@ def _oe_fit(D, segs, theta0, sig, linear, delay, est_delay, dt_med, v0=None,
     nseg = len(segs)
     idx = np.concatenate([np.arange(a, b) for a, b in segs])
     Y = np.stack([u[idx], w[idx]], axis=1)
-    dtmax = max(float(np.max(np.diff(t[a:b]))) for a, b in segs)
-    nsub = _substeps(theta0, dtmax)
+    hmax = _step(theta0, dt_med)
     if v0 is None:
         v0 = np.array([[u[a], w[a]] for a, _ in segs])
     nd = 1 if est_delay else 0
@@ -1198,10 +1221,10 @@ def _oe_fit(D, segs, theta0, sig, linear, delay, est_delay, dt_med, v0=None,
     def sim(p, which=None):
         th, dl, vv = unpack(p)
         if which is None:
-            _simulate_held(th, t, u_ref, w_ref, segs, vv, dl, linear, nsub, out=buf)
+            _simulate_held(th, t, u_ref, w_ref, segs, vv, dl, linear, hmax, out=buf)
         else:
             _simulate_held(th, t, u_ref, w_ref, [segs[which]], vv[which:which + 1], dl,
-                           linear, nsub, out=buf)
+                           linear, hmax, out=buf)
         return buf[idx]
 
     def fun(p):
@@ -1236,8 +1259,8 @@ def _oe_fit(D, segs, theta0, sig, linear, delay, est_delay, dt_med, v0=None,
     p = _levenberg_marquardt(fun, jac, p0, lb, ub, max_nfev)
     th, dl, vv = unpack(p)
     # a faster robot than the start needs more RK4 steps: refine once
-    if _substeps(th, dtmax) > nsub:
-        nsub = _substeps(th, dtmax)
+    if _step(th, dt_med) < 0.8 * hmax:
+        hmax = _step(th, dt_med)
         p = _levenberg_marquardt(fun, jac, p, lb, ub, max_nfev)
         th, dl, vv = unpack(p)
     S = sim(p)
@@ -1847,6 +1870,9 @@ def _simulate_stepwise(theta, t, u_ref, w_ref, x0, limits, linear, delay):
 
     r = ode(rhs).set_integrator("dop853", rtol=1e-10, atol=1e-12, nsteps=100000)
     brk = np.union1d(t, t[(t + delay > t[0]) & (t + delay < t[-1])] + delay)
+    # a delayed time stamp that meets another one to rounding is the same instant
+    brk = brk[np.concatenate([[True], np.diff(brk) > 1e-9 * float(np.median(np.diff(t)))])]
+    brk[-1] = t[-1]
     X = np.empty((n, 5))
     X[0] = x0
     x = np.asarray(x0, dtype=float)
