@@ -340,3 +340,24 @@ def test_bad_arguments_name_the_parameter(short_log):
                         ({"validate": "no"}, "validate"), ({"gap": 0}, "gap")):
         with pytest.raises(ValidationError, match=msg):
             ident.identify(short_log, **kwargs)
+
+
+# ------------------------------------------------------------------ coverage (slow tier)
+
+@pytest.mark.slow
+@pytest.mark.parametrize("dt", [0.1, 0.02])
+def test_95_percent_intervals_cover_the_truth_at_least_85_percent_of_the_time(dt):
+    """40 noise seeds on one held-command log of the hauler (all six identifiable)."""
+    truth = ROBOTS["hauler"].theta
+    covered, z = [], []
+    for seed in range(40):
+        res = ident.identify(noisy(clean_log("hauler", dt), 100 + seed), validate=False,
+                             check_commands=False)
+        assert not any("unidentified" in w for w in res.warnings), res.warnings
+        covered.append((res.ci95[:, 0] <= truth) & (truth <= res.ci95[:, 1]))
+        z.append((res.theta.theta - truth) / res.stderr)
+    rate = np.mean(covered, axis=0)
+    assert np.all(rate >= 0.85), f"coverage {rate}"
+    # the standard errors are the spread of the estimates, neither far too small nor large
+    spread = np.std(z, axis=0)
+    assert np.all((spread > 0.7) & (spread < 1.3)), f"std of the errors in stderrs {spread}"
