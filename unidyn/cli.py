@@ -53,8 +53,19 @@ class _Parser(argparse.ArgumentParser):
 
 # ------------------------------------------------------------------------ helpers
 
+#: An error message's words longer than this are shortened (a 1 MB value named in a
+#: message would bury what the message says).
+_LONGEST_WORD = 120
+
+
+def _shorten(word: str) -> str:
+    if len(word) <= _LONGEST_WORD:
+        return word
+    return f"{word[:60]}...[{len(word)} characters]...{word[-20:]}"
+
+
 def _err(message: str) -> None:
-    message = " ".join(str(message).split())  # one line
+    message = " ".join(_shorten(w) for w in str(message).split())  # one line, readable
     print(f"unidyn: error: {message}", file=sys.stderr)
 
 

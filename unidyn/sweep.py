@@ -360,6 +360,9 @@ class Sweep:
             label = v.get("label")
             if not isinstance(label, str) or not label:
                 raise ValidationError(f"{where} needs a label (a non-empty string), got {label!r}")
+            if len(label) > MAX_NAME:
+                raise ValidationError(f"{where}.label is {len(label)} characters long; at most "
+                                      f"{MAX_NAME} are allowed (it names rows and legends)")
             if label in labels:
                 raise ValidationError(f"{where}: label {label!r} is used twice")
             labels.add(label)

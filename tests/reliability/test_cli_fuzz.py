@@ -449,3 +449,55 @@ def test_zz_report_example_counts(capsys):
         for name, n in MAX_EXAMPLES.items():
             ends = ", ".join(f"exit {k}: {v}" for k, v in sorted(OUTCOMES[name].items()))
             print(f"  {name:30s} {EXAMPLES[name]:4d} passed / max_examples {n:3d}  ({ends})")
+
+
+# ------------------------------------------------------------------- long strings
+
+_MB = 1_000_000
+
+
+@pytest.mark.parametrize("text, key", [
+    pytest.param(f'name = "{"n" * 3 * _MB}"\n', "name is 3000000 characters long",
+                 id="name 3 MB"),
+    pytest.param(f'case = "{"x" * _MB}"\n', "case must be one of", id="case 1 MB"),
+    pytest.param(f'robot = "{"x" * _MB}"\n', "robot", id="robot 1 MB"),
+    pytest.param(f'vd_dot = "{"x" * _MB}"\n', "vd_dot", id="vd_dot 1 MB"),
+    pytest.param(f'trajectory = {{type = "{"x" * _MB}"}}\n', "trajectory type",
+                 id="trajectory.type 1 MB"),
+    pytest.param(f'{"k" * 100_000} = 1\n', "unknown scenario field", id="key 100 kB"),
+    pytest.param(f'[noise]\n{"s" * 100_000} = 1\n', "noise", id="noise key 100 kB"),
+])
+def test_long_strings_in_run_files(capsys, tmp_path, text, key):
+    """A huge string is refused before anything is written, with a short message that
+    names the key (the value itself is shortened, not echoed in full)."""
+    status, out, err = _cli(capsys, tmp_path, "run", text)
+    assert status == 2, err[:300]
+    line = err.strip().splitlines()[-1]
+    assert key in line, line[:300]
+    assert len(line) < 1000, len(line)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("text, key", [
+    pytest.param(f'name = "{"n" * 3 * _MB}"\n[grid]\nkxy = [1]\n',
+                 "name is 3000000 characters long", id="name 3 MB"),
+    pytest.param(f'[grid]\nkxy = [1]\n[[variants]]\nlabel = "{"x" * _MB}"\n',
+                 "variants[0].label is 1000000 characters long", id="label 1 MB"),
+    pytest.param(f'[grid]\nrobot = ["{"x" * _MB}"]\n', "robot", id="grid.robot 1 MB"),
+    pytest.param(f'[grid]\n{"a" * 100_000} = [1]\n', "grid: unknown key", id="axis 100 kB"),
+    pytest.param(f'[base]\ncase = "{"x" * _MB}"\n', "case must be one of", id="base.case 1 MB"),
+])
+def test_long_strings_in_sweep_files(capsys, tmp_path, text, key):
+    status, out, err = _cli(capsys, tmp_path, "sweep", text)
+    assert status == 2, err[:300]
+    line = err.strip().splitlines()[-1]
+    assert key in line and len(line) < 1000, line[:300]
+    assert not out.exists()
+
+
+def test_a_huge_name_given_with_set_is_refused(capsys, tmp_path):
+    status = main(["run", "--T", "0.5", "--set", "name=" + "n" * 3 * _MB,
+                   "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert status == 2 and "name is 3000000 characters long" in err and len(err) < 1000
+    assert not (tmp_path / "o").exists()

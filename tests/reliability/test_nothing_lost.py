@@ -1,0 +1,331 @@
+"""Nothing is lost: the command line under real signals, in real processes.
+
+Every test starts ``python -m unidyn`` in a subprocess (in a temporary folder, so
+the checkout's own folder name plays no part), sends SIGINT (Ctrl-C) or SIGKILL
+at a seeded-random moment, and then looks at the output folder: it holds either
+the results it held before, byte for byte, or complete new ones; never neither,
+never a mix. Sweeps interrupted at random rows and resumed give a metrics.csv
+byte-identical to an uninterrupted sweep; two sweeps started into one folder do
+not both write it.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.reliability
+
+RUN_FILES = {"timeseries.csv", "summary.json", "path.png", "error.png", "positions.png",
+             "velocities.png"}
+SWEEP_TOML = """name = "nothing lost"
+[base]
+case = "adaptive"
+T = {T}
+noise = {{position_std = 0.01, velocity_std = 0.0141, seed = 0}}
+[grid]
+kxy = {gains}
+seed = [0, 1]
+"""
+
+
+def _no_sigint_ignore():  # a shell's background job may inherit SIGINT ignored
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+def start(cwd: Path, *args) -> subprocess.Popen:
+    env = dict(os.environ, MPLBACKEND="Agg", PYTHONUNBUFFERED="1")
+    return subprocess.Popen([sys.executable, "-m", "unidyn", *map(str, args)], cwd=cwd,
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, preexec_fn=_no_sigint_ignore)
+
+
+def finish(p: subprocess.Popen, timeout=180):
+    out, err = p.communicate(timeout=timeout)
+    return p.returncode, out, err
+
+
+def cli(cwd: Path, *args, timeout=180):
+    return finish(start(cwd, *args), timeout)
+
+
+def files(folder: Path) -> dict:
+    """The files of ``folder`` and their bytes, but for the lock file (a SIGKILL leaves
+    it behind; the next writer takes it over, as a test below checks)."""
+    if not folder.is_dir():
+        return {}
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir())
+            if p.is_file() and p.name != ".unidyn.lock"}
+
+
+def leftovers(parent: Path, name: str) -> list:
+    """Staging or backup folders of ``parent/name`` left behind."""
+    return [p.name for p in parent.iterdir() if p.name.startswith(f".{name}.")]
+
+
+def complete_run(folder: Path, T: float) -> bool:
+    """A complete run of duration T: both result files, every figure, consistent."""
+    got = files(folder)
+    if not RUN_FILES <= set(got):
+        return False
+    summary = json.loads(got["summary.json"])
+    rows = got["timeseries.csv"].decode().strip().splitlines()
+    return (summary["complete"] is True and summary["scenario"]["T"] == T
+            and len(rows) == 1 + summary["samples"] and float(rows[-1].split(",")[0]) == T)
+
+
+def kill_at_random(p: subprocess.Popen, rng: random.Random, low: float, high: float, sig,
+                   after_line: bool = False):
+    """Send ``sig`` at a random moment in [low, high] s from now (or, with
+    ``after_line``, from the first line on stderr: the run has started writing)."""
+    first = p.stderr.readline() if after_line else ""
+    time.sleep(rng.uniform(low, high))
+    if p.poll() is None:
+        p.send_signal(sig)
+    code, out, err = finish(p)
+    return code, out, first + err
+
+
+def loading(code: int, err: str) -> bool:
+    """Ctrl-C while Python was still importing the package, before any unidyn code
+    ran: Python's own traceback, nothing started, nothing written."""
+    return (code == -signal.SIGINT and err.strip().endswith("KeyboardInterrupt")
+            and "_run_module_as_main" in err and "unidyn/cli.py" not in err)
+
+
+# --------------------------------------------------------------------------- run
+
+@pytest.mark.slow
+def test_an_interrupted_overwrite_keeps_the_old_run_or_writes_the_new(tmp_path):
+    rng = random.Random(20261123)
+    assert cli(tmp_path, "run", "--set", "T=2", "--out", "X")[0] == 0
+    old = files(tmp_path / "X")
+    t0 = time.monotonic()
+    assert cli(tmp_path, "run", "--set", "T=3", "--out", "Y")[0] == 0
+    took = time.monotonic() - t0  # how long a run takes here: kill within it
+    outcomes = []
+    for sig in (signal.SIGINT, signal.SIGKILL, signal.SIGINT):
+        p = start(tmp_path, "run", "--set", "T=3", "--overwrite", "--out", "X")
+        code, _, err = kill_at_random(p, rng, 0.0, 0.8 * took, sig, after_line=True)
+        assert err.startswith("unidyn: replacing X/ (timeseries.csv, summary.json, path.png")
+        now = files(tmp_path / "X")
+        if now == old:
+            outcomes.append("old")
+            if sig == signal.SIGINT and code == 130:
+                assert "X is as it was before this run" in err
+        else:
+            assert complete_run(tmp_path / "X", 3.0), (code, err, sorted(now))
+            outcomes.append("new")
+            old = now
+            assert cli(tmp_path, "run", "--set", "T=2", "--overwrite", "--out", "X")[0] == 0
+            old = files(tmp_path / "X")
+        # -SIGINT: Ctrl-C as Python was shutting down, after the command had finished
+        assert code in (0, 130, -signal.SIGINT, -signal.SIGKILL), (code, err)
+        assert "Traceback" not in err
+    # whatever a kill left beside X is cleaned up by the next command writing there
+    assert cli(tmp_path, "run", "--set", "T=1", "--overwrite", "--out", "X")[0] == 0
+    assert leftovers(tmp_path, "X") == [] and complete_run(tmp_path / "X", 1.0)
+    print(outcomes)
+
+
+def test_an_interrupted_first_run_leaves_nothing_or_everything(tmp_path):
+    rng = random.Random(7)
+    for i, sig in enumerate((signal.SIGINT, signal.SIGKILL, signal.SIGINT)):
+        p = start(tmp_path, "run", "--set", "T=2", "--out", f"R{i}")
+        code, _, err = kill_at_random(p, rng, 0.3, 4.0, sig)
+        got = files(tmp_path / f"R{i}")
+        assert got == {} or complete_run(tmp_path / f"R{i}", 2.0), (code, err, sorted(got))
+        assert "Traceback" not in err or loading(code, err), err
+
+
+def test_ctrl_c_during_a_long_bdsim_run_stops_quickly_and_keeps_the_old_results(tmp_path):
+    rng = random.Random(4)
+    assert cli(tmp_path, "run", "--paper", "4", "--T", "1", "--engine", "batch",
+               "--out", "Y")[0] == 0
+    old = files(tmp_path / "Y")
+    p = start(tmp_path, "run", "--paper", "4", "--engine", "bdsim", "--overwrite", "--out", "Y")
+    time.sleep(rng.uniform(3.0, 5.0))  # the 200 s run is well under way
+    assert p.poll() is None
+    t0 = time.monotonic()
+    p.send_signal(signal.SIGINT)
+    code, out, err = finish(p)
+    assert time.monotonic() - t0 < 5.0
+    assert code == 130, err
+    assert "interrupted" in err and "Y is as it was before this run" in err
+    assert "Traceback" not in err and "IAE" not in out
+    assert files(tmp_path / "Y") == old and leftovers(tmp_path, "Y") == []
+
+
+# ------------------------------------------------------------------------- sweeps
+
+def sweep_file(folder: Path, T=30, gains="[0.5, 1.0, 2.0, 4.0, 8.0, 16.0]") -> Path:
+    f = folder / "sweep.toml"
+    f.write_text(SWEEP_TOML.format(T=T, gains=gains))
+    return f
+
+
+def rows_in(path: Path) -> int:
+    try:
+        return max(0, len(path.read_text().splitlines()) - 1)
+    except FileNotFoundError:
+        return 0
+
+
+def kill_after_rows(p, path: Path, rows: int, sig, timeout=120) -> tuple:
+    """Send ``sig`` once metrics.csv holds at least ``rows`` rows (or the sweep ended)."""
+    t_end = time.monotonic() + timeout
+    while p.poll() is None and rows_in(path) < rows and time.monotonic() < t_end:
+        time.sleep(0.005)
+    if p.poll() is None:
+        p.send_signal(sig)
+    return finish(p)
+
+
+@pytest.mark.parametrize("engine, T, gains, chunk", [
+    ("batch", 30, "[0.5, 1.0, 2.0, 4.0, 8.0, 16.0]", 2),
+    pytest.param("bdsim", 1, "[1.0, 4.0]", 1, marks=pytest.mark.slow),
+], ids=["batch", "bdsim"])
+def test_sweeps_killed_at_random_rows_resume_byte_identical(tmp_path, engine, T, gains, chunk):
+    rng = random.Random(11)
+    f = sweep_file(tmp_path, T, gains)
+    common = ["--engine", engine, "--chunk-size", chunk, "--no-progress"]
+    code, out, err = cli(tmp_path, "sweep", f, "--out", "whole", *common)
+    assert code == 0, err
+    whole = (tmp_path / "whole" / "metrics.csv").read_bytes()
+    n = rows_in(tmp_path / "whole" / "metrics.csv")
+    cuts = 0
+    for sig in (signal.SIGKILL, signal.SIGINT, signal.SIGKILL):
+        at = rng.randint(1, n - 1)
+        p = start(tmp_path, "sweep", f, "--out", "cut", *common)
+        code, _, err = kill_after_rows(p, tmp_path / "cut" / "metrics.csv", at, sig)
+        assert "Traceback" not in err, err
+        kept = rows_in(tmp_path / "cut" / "metrics.csv")
+        cuts += kept < n
+        if sig == signal.SIGINT:
+            assert code in (0, 130), err
+    code, out, err = cli(tmp_path, "sweep", f, "--out", "cut", *common)
+    assert code == 0, err
+    assert (tmp_path / "cut" / "metrics.csv").read_bytes() == whole
+    assert cuts >= 1  # at least one kill landed mid-sweep
+    assert not (tmp_path / "cut" / ".unidyn.lock").exists()
+
+
+@pytest.mark.slow
+def test_a_killed_restart_keeps_the_old_rows_or_writes_all_new_ones(tmp_path):
+    rng = random.Random(3)
+    f = sweep_file(tmp_path)
+    common = ["--chunk-size", "2", "--no-progress"]
+    assert cli(tmp_path, "sweep", f, "--out", "S", *common)[0] == 0
+    old = files(tmp_path / "S")
+    g = tmp_path / "other.toml"
+    g.write_text(SWEEP_TOML.format(T=20, gains="[0.5, 1.0, 2.0, 4.0, 8.0, 16.0]"))
+    assert cli(tmp_path, "sweep", g, "--out", "S2", *common)[0] == 0
+    new = (tmp_path / "S2" / "metrics.csv").read_bytes()
+    # deleting finished rows needs --overwrite, and the refusal names them
+    for args in ((g,), (f, "--no-resume")):
+        code, _, err = cli(tmp_path, "sweep", *args, "--out", "S", *common)
+        assert code == 2 and "12 finished row(s)" in err and "--overwrite" in err, err
+        assert files(tmp_path / "S") == old
+    seen = set()
+    for sig in (signal.SIGKILL, signal.SIGINT, signal.SIGKILL):
+        p = start(tmp_path, "sweep", g, "--out", "S", "--overwrite", *common)
+        # the new rows go to a staging folder: kill at a random moment of the run
+        code, _, err = kill_at_random(p, rng, 0.5, 6.0, sig)
+        assert "Traceback" not in err or loading(code, err), err
+        got = files(tmp_path / "S")
+        if got == old:
+            seen.add("old")
+        else:
+            assert got["metrics.csv"] == new, (code, err)
+            seen.add("new")
+            break
+    print(seen)
+    assert cli(tmp_path, "sweep", g, "--out", "S", "--overwrite", *common)[0] == 0
+    assert (tmp_path / "S" / "metrics.csv").read_bytes() == new
+    assert leftovers(tmp_path, "S") == [] and not (tmp_path / "S" / ".unidyn.lock").exists()
+
+
+@pytest.mark.slow
+def test_two_sweeps_into_one_folder_never_both_write_it(tmp_path):
+    f = sweep_file(tmp_path, T=1, gains="[1.0, 2.0, 4.0]")
+    common = ["--engine", "bdsim", "--no-progress"]
+    a = start(tmp_path, "sweep", f, "--out", "S", *common)
+    lock = tmp_path / "S" / ".unidyn.lock"
+    t_end = time.monotonic() + 60
+    while not lock.exists() and a.poll() is None and time.monotonic() < t_end:
+        time.sleep(0.01)
+    assert a.poll() is None, finish(a)
+    code_b, _, err_b = cli(tmp_path, "sweep", f, "--out", "S", *common)
+    code_a, _, err_a = finish(a)
+    assert code_a == 0, err_a
+    assert code_b == 2 and f"PID {a.pid}" in err_b and "another unidyn process" in err_b
+    assert len(err_b.strip().splitlines()) == 1
+    code, out, _ = cli(tmp_path, "sweep", f, "--out", "whole", *common)
+    assert code == 0
+    # one writer: every row once, as an uninterrupted sweep writes them
+    assert (tmp_path / "S" / "metrics.csv").read_bytes() == \
+        (tmp_path / "whole" / "metrics.csv").read_bytes()
+    with open(tmp_path / "S" / "metrics.csv", newline="") as fh:
+        idx = [r["index"] for r in csv.DictReader(fh)]
+    assert idx == [str(i) for i in range(6)]
+
+
+def test_a_failed_sweep_start_leaves_no_folder(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[grid]\nkxy = [1, -2]\n")
+    code, _, err = cli(tmp_path, "sweep", bad, "--out", "A", "--no-progress")
+    assert code == 2 and "kxy" in err and not (tmp_path / "A").exists()
+    f = sweep_file(tmp_path, T=1, gains="[1.0]")
+    code, _, err = cli(tmp_path, "sweep", f, "--out", "B", "--dask", "tcp://127.0.0.1:9",
+                       "--no-progress")
+    assert code == 2 and "--dask" in err and "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "B").exists()
+
+
+# ---------------------------------------------------------------------- identify
+
+def write_log(path: Path, seed: int, T=40.0):
+    from unidyn import identification as ident
+    exc = ident.excitation(T, 0.05, robot="p3dx")
+    log = ident.simulate_log("p3dx", exc, noise_std=0.005, seed=seed)
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["t", "u_ref", "w_ref", "u", "w"])
+        for row in zip(*(log[k] for k in ("t", "u_ref", "w_ref", "u", "w"))):
+            w.writerow([repr(float(x)) for x in row])
+
+
+@pytest.mark.slow
+def test_an_interrupted_identify_keeps_the_old_theta(tmp_path):
+    rng = random.Random(5)
+    write_log(tmp_path / "a.csv", 1)
+    write_log(tmp_path / "b.csv", 2)
+    code, _, err = cli(tmp_path, "identify", "a.csv", "--out", "I")
+    assert code == 0, err
+    old = files(tmp_path / "I")
+    t0 = time.monotonic()
+    assert cli(tmp_path, "identify", "b.csv", "--out", "J")[0] == 0
+    took = time.monotonic() - t0
+    new_theta = json.loads((tmp_path / "J" / "theta.json").read_text())
+    for sig in (signal.SIGINT, signal.SIGKILL, signal.SIGINT):
+        p = start(tmp_path, "identify", "b.csv", "--overwrite", "--out", "I")
+        code, _, err = kill_at_random(p, rng, 0.2, 1.2 * took, sig)
+        got = files(tmp_path / "I")
+        assert got == old or json.loads(got["theta.json"]) == new_theta, (code, err)
+        assert "Traceback" not in err or loading(code, err), err
+        if got != old:
+            break
+    # a log that cannot be identified leaves theta.json as it was
+    (tmp_path / "bad.csv").write_text("t,u_ref\n0,1\n")
+    before = files(tmp_path / "I")
+    code, _, err = cli(tmp_path, "identify", "bad.csv", "--overwrite", "--out", "I")
+    assert code == 2 and files(tmp_path / "I") == before
