@@ -102,7 +102,7 @@ def test_error_panel_limits_come_from_the_data(adaptive_run):
 
 
 def test_theta_hat_panels_show_each_estimate_and_its_true_value(adaptive_run):
-    axes = plot_theta_hat(adaptive_run)
+    axes = plot_theta_hat(adaptive_run, panels=True)
     theta = adaptive_run.scenario.robot.theta
     for i, ax in enumerate(axes):
         lo, hi = ax.get_ylim()
@@ -113,10 +113,9 @@ def test_theta_hat_panels_show_each_estimate_and_its_true_value(adaptive_run):
         assert span > 0.5 * (hi - lo)
     plt.close(axes[0].figure)
     # one axis: ratios only for the true values not near zero (theta3, theta5 are ~1e-3)
-    fig, ax = plt.subplots()
-    plot_theta_hat(adaptive_run, ax=ax)
+    ax = plot_theta_hat(adaptive_run)
     names = [l.get_label() for l in ax.get_lines()]
-    plt.close(fig)
+    plt.close(ax.figure)
     assert names[:4] == [r"$\hat\theta_1$", r"$\hat\theta_2$", r"$\hat\theta_4$",
                          r"$\hat\theta_6$"]
 

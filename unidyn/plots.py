@@ -180,22 +180,24 @@ def _theta_units():
 
 
 @figstyle.styled
-def plot_theta_hat(result, ax=None, relative=True):
+def plot_theta_hat(result, ax=None, relative=True, panels=False):
     r"""The parameter estimate over time.
 
-    Without ``ax`` (or with six axes): one panel per component, :math:`\hat\theta_i`
-    against its true value (dashed), each with its own y-limits, so all six are
-    readable whatever their size. With one axis: the estimates divided by the true
-    values (``relative=True``) on one axis, leaving out the components whose true
-    value is near zero (smaller than 1 % of the largest), whose ratio would swamp
-    the rest; ``relative=False`` plots the raw estimates.
+    With ``panels=True`` (or six axes as ``ax``): one panel per component,
+    :math:`\hat\theta_i` against its true value (dashed), each with its own
+    y-limits, so all six are readable whatever their size (``theta_hat.png``);
+    returns the six axes. Otherwise one axis (``ax`` or a new one): the estimates
+    divided by the true values (``relative=True``), leaving out the components whose
+    true value is near zero (smaller than 1 % of the largest), whose ratio would
+    swamp the rest; ``relative=False`` plots the raw estimates. Returns the axis.
     """
     theta = np.asarray(result.scenario.robot.theta, dtype=float)
     th = np.asarray(result.theta_hat, dtype=float)
     t = result.t
     t_on = getattr(result.scenario, "adapt_from", None)
-    single = ax is not None and not isinstance(ax, (list, tuple, np.ndarray))
+    single = not panels and not isinstance(ax, (list, tuple, np.ndarray))
     if single:
+        ax = _ax(ax, figstyle.size(1, 0.7))
         small = np.abs(theta) < NEAR_ZERO * np.max(np.abs(theta))
         for i in range(6):
             if relative and small[i]:
@@ -275,5 +277,5 @@ def save_figures(result, folder, dpi=figstyle.DPI) -> list:
     done(plot_positions(result)[0].figure, "positions.png")
     done(plot_velocities(result)[0].figure, "velocities.png")
     if result.scenario.case == "adaptive":
-        done(plot_theta_hat(result)[0].figure, "theta_hat.png")
+        done(plot_theta_hat(result, panels=True)[0].figure, "theta_hat.png")
     return written
