@@ -42,8 +42,8 @@ def _no_sigint_ignore():  # a shell's background job may inherit SIGINT ignored
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
-def start(cwd: Path, *args) -> subprocess.Popen:
-    env = dict(os.environ, MPLBACKEND="Agg", PYTHONUNBUFFERED="1")
+def start(cwd: Path, *args, env=None) -> subprocess.Popen:
+    env = dict(os.environ, MPLBACKEND="Agg", PYTHONUNBUFFERED="1", **(env or {}))
     return subprocess.Popen([sys.executable, "-m", "unidyn", *map(str, args)], cwd=cwd,
                             env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True, preexec_fn=_no_sigint_ignore)
@@ -54,8 +54,18 @@ def finish(p: subprocess.Popen, timeout=180):
     return p.returncode, out, err
 
 
-def cli(cwd: Path, *args, timeout=180):
-    return finish(start(cwd, *args), timeout)
+def cli(cwd: Path, *args, timeout=180, env=None):
+    return finish(start(cwd, *args, env=env), timeout)
+
+
+def without_numba(folder: Path) -> dict:
+    """Environment for a child process in which ``import numba`` fails (the batch
+    engine then runs its numpy backend)."""
+    pkg = folder / "no-numba" / "numba"
+    pkg.mkdir(parents=True, exist_ok=True)
+    (pkg / "__init__.py").write_text("raise ImportError('numba hidden for this test')\n")
+    return {"PYTHONPATH": os.pathsep.join(filter(None, [str(pkg.parent),
+                                                        os.environ.get("PYTHONPATH")]))}
 
 
 def files(folder: Path) -> dict:
@@ -192,27 +202,38 @@ def kill_after_rows(p, path: Path, rows: int, sig, timeout=120) -> tuple:
 
 @pytest.mark.parametrize("engine, T, gains, chunk", [
     ("batch", 30, "[0.5, 1.0, 2.0, 4.0, 8.0, 16.0]", 2),
+    pytest.param("batch-numpy", 10, "[0.5, 2.0, 8.0]", 2, marks=pytest.mark.slow),
     pytest.param("bdsim", 1, "[1.0, 4.0]", 1, marks=pytest.mark.slow),
-], ids=["batch", "bdsim"])
+], ids=["batch", "batch-numpy", "bdsim"])
 def test_sweeps_killed_at_random_rows_resume_byte_identical(tmp_path, engine, T, gains, chunk):
+    """The uninterrupted sweep runs in one chunk (the default size); the killed ones
+    in chunks of ``chunk`` points and the last resume in chunks of ``chunk + 1``, so
+    no chunk holds the same points as another run's."""
     rng = random.Random(11)
     f = sweep_file(tmp_path, T, gains)
+    env = without_numba(tmp_path) if engine == "batch-numpy" else None
+    engine = engine.split("-")[0]
     common = ["--engine", engine, "--chunk-size", chunk, "--no-progress"]
-    code, out, err = cli(tmp_path, "sweep", f, "--out", "whole", *common)
+    code, out, err = cli(tmp_path, "sweep", f, "--out", "whole", "--engine", engine,
+                         "--chunk-size", 40, "--no-progress", env=env)
     assert code == 0, err
+    if env:
+        assert cli(tmp_path, "run", "--T", "1", "--out", "probe", env=env)[0] == 0
+        assert json.loads((tmp_path / "probe" / "summary.json").read_text())["backend"] == "numpy"
     whole = (tmp_path / "whole" / "metrics.csv").read_bytes()
     n = rows_in(tmp_path / "whole" / "metrics.csv")
     cuts = 0
     for sig in (signal.SIGKILL, signal.SIGINT, signal.SIGKILL):
         at = rng.randint(1, n - 1)
-        p = start(tmp_path, "sweep", f, "--out", "cut", *common)
+        p = start(tmp_path, "sweep", f, "--out", "cut", *common, env=env)
         code, _, err = kill_after_rows(p, tmp_path / "cut" / "metrics.csv", at, sig)
         assert "Traceback" not in err, err
         kept = rows_in(tmp_path / "cut" / "metrics.csv")
         cuts += kept < n
         if sig == signal.SIGINT:
             assert code in (0, 130), err
-    code, out, err = cli(tmp_path, "sweep", f, "--out", "cut", *common)
+    code, out, err = cli(tmp_path, "sweep", f, "--out", "cut", "--engine", engine,
+                         "--chunk-size", chunk + 1, "--no-progress", env=env)
     assert code == 0, err
     assert (tmp_path / "cut" / "metrics.csv").read_bytes() == whole
     assert cuts >= 1  # at least one kill landed mid-sweep
