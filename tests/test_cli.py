@@ -132,6 +132,30 @@ def test_an_overwrite_says_what_it_replaced(tmp_path, capsys):
     assert json.loads((out / "summary.json").read_text())["scenario"]["T"] == 2.0
 
 
+DIVERGING = ["--set", 'trajectory={type = "circle", radius = 1e300, omega = 1e300}',
+             "--set", "noise=off", "--T", "2"]
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")
+def test_an_incomplete_run_says_so_and_never_replaces_a_complete_one(tmp_path, capsys):
+    # into an empty folder: written there, marked incomplete, no IAE printed
+    code, text, err = run_cli(capsys, "run", *DIVERGING, "--out", tmp_path / "new")
+    assert code == 1 and "unidyn: warning: the run stopped early" in err
+    assert "INCOMPLETE: stopped at t = " in text and "non-finite" in text
+    assert "IAE" not in text.replace("no IAE", "")
+    summary = json.loads((tmp_path / "new" / "summary.json").read_text())
+    assert summary["complete"] is False and set(summary["metrics"].values()) == {None}
+    # beside complete results: those stay, the partial run goes to <out>.incomplete
+    out = tmp_path / "X"
+    assert run_cli(capsys, "run", "--set", "T=1", "--out", out)[0] == 0
+    before = _files(out)
+    code, text, err = run_cli(capsys, "run", *DIVERGING, "--overwrite", "--out", out)
+    assert code == 1 and _files(out) == before
+    assert f"written    {out}.incomplete/" in text and "kept" in text
+    partial = json.loads((tmp_path / "X.incomplete" / "summary.json").read_text())
+    assert partial["complete"] is False and partial["message"]
+
+
 def test_run_summary_names_engine_and_backend(paper1, tmp_path, capsys):
     code, text, _ = run_cli(capsys, "run", "--from", paper1, "--out", tmp_path / "r")
     summary = json.loads((tmp_path / "r" / "summary.json").read_text())

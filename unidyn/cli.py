@@ -252,7 +252,10 @@ def _run_staged(staging, sc, engine, out, animation):
 
 
 def _run_summary(sc, out, stage, result, wall, replaced, animation) -> int:
-    final = out if Path(stage.final) == out.absolute() else stage.final
+    final = Path(stage.final)
+    for shown in (out, out.with_name(out.name + ".incomplete")):
+        if final == shown.absolute():
+            final = shown
     print(f"case       {sc.case}" + (f"  ({_short_name(sc.name)})" if sc.name else ""))
     print(f"robot      {sc.robot.name}")
     backend = getattr(result, "backend", "")
