@@ -320,7 +320,7 @@ def test_robots_and_properties(capsys):
 def test_identify_from_a_csv_log_and_run_with_the_result(tmp_path, capsys):
     from unidyn import identification as ident
     exc = ident.excitation(40.0, 0.05, robot="p3dx")
-    log = ident.simulate_log("p3dx", exc, noise_std=0.005, seed=1)
+    log = ident.simulate_log("p3dx", exc, noise_std=0.005, seed=1, commands="held")
     path = tmp_path / "log.csv"
     with open(path, "w", newline="") as fh:
         w = csv.writer(fh)

@@ -396,6 +396,36 @@ def test_dask_route_gives_the_local_metrics(tmp_path):
     assert csv_rows(tmp_path / "address") == csv_rows(tmp_path / "local")
 
 
+@pytest.mark.slow
+def test_dask_local_starts_a_cluster_of_processes(tmp_path, capsys):
+    pytest.importorskip("distributed")
+    s = small_sweep()
+    local = run_sweep(s, tmp_path / "here", chunk_size=3, progress=False)
+    on_dask = run_sweep(s, tmp_path / "dask", chunk_size=3, progress=False,
+                        dask_address="local")
+    assert on_dask.ran == 8
+    assert csv_rows(tmp_path / "dask") == csv_rows(tmp_path / "here")
+    assert local.rows == on_dask.rows
+    f = tmp_path / "s.toml"
+    f.write_text('[base]\ncase = "uncompensated"\nT = 1\n[grid]\nkxy = [0.5, 1.0]\n')
+    assert main(["sweep", str(f), "--dask", "local", "--no-progress",
+                 "--out", str(tmp_path / "cli")]) == 0
+    assert "Dask at local" in capsys.readouterr().out
+    assert len(csv_rows(tmp_path / "cli")) == 3
+
+
+def test_a_wrong_dask_address_is_one_line_naming_the_option(tmp_path, capsys):
+    pytest.importorskip("distributed")
+    f = tmp_path / "s.toml"
+    f.write_text('[base]\nT = 1\n[grid]\nkxy = [0.5]\n')
+    code = main(["sweep", str(f), "--dask", "no-port-here", "--no-progress",
+                 "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert err.startswith("unidyn: error: --dask no-port-here: cannot connect") and "'local'" in err
+    assert not (tmp_path / "o").exists()
+
+
 def test_bad_run_arguments(tmp_path):
     with pytest.raises(ValidationError, match="engine"):
         run_sweep(small_sweep(), tmp_path, engine="fast")

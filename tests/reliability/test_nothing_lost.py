@@ -317,7 +317,7 @@ def test_a_failed_sweep_start_leaves_no_folder(tmp_path):
 def write_log(path: Path, seed: int, T=40.0):
     from unidyn import identification as ident
     exc = ident.excitation(T, 0.05, robot="p3dx")
-    log = ident.simulate_log("p3dx", exc, noise_std=0.005, seed=seed)
+    log = ident.simulate_log("p3dx", exc, noise_std=0.005, seed=seed, commands="held")
     with open(path, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["t", "u_ref", "w_ref", "u", "w"])
