@@ -911,9 +911,10 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
     every log with the logged commands applied as the robot received them, and
     adjusts theta (and each piece's initial velocities, and the input delay if
     asked) so that the simulated velocities match the measured ones
-    (``scipy.optimize.least_squares``, weighted by the noise level of each
-    channel). It starts from a least-squares estimate: for held commands the
-    exact discretisation of the linear part of Eq. (2) under a held input,
+    (Levenberg-Marquardt on the normal equations, each channel weighted by its
+    noise level; derivatives by finite differences of the compiled simulation).
+    It starts from a least-squares estimate: for held commands the exact
+    discretisation of the linear part of Eq. (2) under a held input,
     u[k+1] = a u[k] + b u_ref[k] + c w[k]^2 with a = exp(-theta4 dt / theta1),
     b = (1 - a) / theta4, c = theta3 b (and its twin for w); for linear
     commands, Eq. (11) through the state-variable filter. ``"equation-error"``
