@@ -184,8 +184,9 @@ def test_interrupted_sweep_resumes_with_identical_results(tmp_path, monkeypatch)
         return real(*args, **kw)
 
     monkeypatch.setattr(sw, "_run_chunk", crash_after_first_chunk)
-    with pytest.raises(RuntimeError, match="simulated crash"):
+    with pytest.raises(RuntimeError, match="simulated crash") as exc:
         run_sweep(s, tmp_path / "cut", chunk_size=2, progress=False)
+    assert "2 of 8 points are in" in exc.value.unidyn_detail  # what the CLI says was kept
     kept = csv_rows(tmp_path / "cut")
     assert len(kept) == 1 + 2  # header and the first chunk
     assert json.loads((tmp_path / "cut" / "sweep.json").read_text())["finished"] is False
@@ -297,9 +298,10 @@ def test_an_interrupted_restart_keeps_the_old_rows(tmp_path, monkeypatch):
     for exc in (KeyboardInterrupt(),):
         restore()
         restore = crash_after(monkeypatch, 1, exc)
-        with pytest.raises(KeyboardInterrupt):
+        with pytest.raises(KeyboardInterrupt) as err:
             run_sweep(small_sweep(), out, chunk_size=2, resume=False, overwrite=True,
                       progress=False)
+        assert "is as it was (8 finished row(s)" in err.value.unidyn_detail
         assert {p.name: p.read_bytes() for p in out.iterdir() if p.name != "notes.txt"} == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["o"]  # no staging folder left
     restore()

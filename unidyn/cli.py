@@ -643,7 +643,8 @@ def main(argv=None) -> int:
     except SystemExit as exc:  # --help, --version
         return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
     except KeyboardInterrupt as err:
-        detail = f": {err}" if isinstance(err, _Interrupted) and str(err) else ""
+        detail = str(err) if isinstance(err, _Interrupted) else getattr(err, "unidyn_detail", "")
+        detail = f": {detail}" if detail else ""
         print(f"unidyn: interrupted{detail}", file=sys.stderr)
         return 130
     except _RunFailed as err:

@@ -960,10 +960,15 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
                     return _run_in(sweep, out, record, engine, chunk_size, progress, client,
                                    t0, resume=False)
                 from .outdir import staged_output
-                with staged_output(out, overwrite=True, results=_SWEEP_RESULTS,
-                                   what="sweep results", owned=_SWEEP_OWNED) as stage:
-                    run = _run_in(sweep, stage.path, record, engine, chunk_size, progress,
-                                  client, t0, resume=False)
+                try:
+                    with staged_output(out, overwrite=True, results=_SWEEP_RESULTS,
+                                       what="sweep results", owned=_SWEEP_OWNED) as stage:
+                        run = _run_in(sweep, stage.path, record, engine, chunk_size,
+                                      progress, client, t0, resume=False)
+                except BaseException as err:
+                    _detail(err, f"{out} is as it was ({_rows_named(rows_held)}); the new "
+                                 f"sweep's rows were discarded")
+                    raise
                 run.out_dir = out
                 run.replaced = tuple(rows_held)
                 return run
@@ -988,6 +993,14 @@ def _refusal(out, state, detail, rows, resume) -> str:
             "unknown": "sweep rows of unknown origin"}.get(state, "a sweep")
     return (f"{out} holds {what} ({detail}): {held}; pass overwrite=True (--overwrite) to "
             f"replace them once this sweep has finished, or choose another output folder")
+
+
+def _detail(err: BaseException, text: str) -> None:
+    """Say on an exception what the sweep left behind (the command line prints it)."""
+    try:
+        err.unidyn_detail = text
+    except (AttributeError, TypeError):  # pragma: no cover - exceptions without a __dict__
+        pass
 
 
 def _remove_if_empty(folder: Path) -> None:
@@ -1038,13 +1051,17 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
                     take(_run_chunk(chunk, engine, sweep.substeps))
             elif chunks:
                 _run_on_dask(client, chunks, engine, sweep.substeps, take)
-    except BaseException:
+    except BaseException as err:
         if not done and not new_rows:  # nothing finished: leave nothing behind
             for p in written:
                 try:
                     p.unlink()
                 except FileNotFoundError:
                     pass
+            _detail(err, f"no point had finished; nothing was written to {out}")
+        else:  # count what the file holds: Ctrl-C may land between a write and its count
+            _detail(err, f"{len(set(_finished_rows(csv_path)))} of {len(sweep)} points are in "
+                         f"{out / 'metrics.csv'}; run the same command again to resume")
         raise
     finally:
         bar.close()

@@ -232,6 +232,11 @@ def test_sweeps_killed_at_random_rows_resume_byte_identical(tmp_path, engine, T,
         cuts += kept < n
         if sig == signal.SIGINT:
             assert code in (0, 130), err
+            # what is left is said (unless Ctrl-C came as the sweep was wrapping up)
+            assert code == 0 or "again to resume" in err or err.strip() == \
+                "unidyn: interrupted", err
+            if "again to resume" in err:
+                assert f"{kept} of {n} points are in" in err
     code, out, err = cli(tmp_path, "sweep", f, "--out", "cut", "--engine", engine,
                          "--chunk-size", chunk + 1, "--no-progress", env=env)
     assert code == 0, err
@@ -263,6 +268,9 @@ def test_a_killed_restart_keeps_the_old_rows_or_writes_all_new_ones(tmp_path):
         code, _, err = kill_at_random(p, rng, 0.5, 6.0, sig)
         assert "Traceback" not in err or loading(code, err), err
         got = files(tmp_path / "S")
+        if sig == signal.SIGINT and code == 130:  # the rows kept are said
+            assert "S is as it was (12 finished row(s)" in err or err.strip() == \
+                "unidyn: interrupted", err
         if got == old:
             seen.add("old")
         else:
