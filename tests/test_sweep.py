@@ -555,3 +555,23 @@ def test_cli_sweep_file_resume_and_no_resume(tmp_path, capsys):
     with open(out / "metrics.csv", newline="") as fh:
         assert next(csv.reader(fh)) == ["index", "kxy", "case", "iae", "ise", "itae",
                                         "energy", "error_final", "complete"]
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")
+def test_cli_sweep_marks_an_incomplete_point_and_counts_it(tmp_path, capsys):
+    f = tmp_path / "s.toml"
+    f.write_text('[base]\ncase = "compensated"\nT = 2\nnoise = "off"\n[grid]\ntrajectory = ['
+                 '{type = "circle", radius = 1.0, omega = 0.2}, '
+                 '{type = "circle", radius = 1e300, omega = 1e300}]\n')
+    code = main(["sweep", str(f), "--out", str(tmp_path / "o"), "--no-progress"])
+    out, err = capsys.readouterr()
+    assert code == 1 and "1 point(s) did not complete: 1" in err
+    assert "incomplete 1 of 2 point(s) did not complete" in out
+    lines = csv_rows(tmp_path / "o")
+    assert lines[2].endswith(",compensated,,,,,,false")  # empty metrics, never partial ones
+    rows = read_metrics(tmp_path / "o")
+    assert rows[0]["complete"] is True and rows[0]["iae"] > 0
+    assert rows[1]["complete"] is False and rows[1]["iae"] is None
+    spec = json.loads((tmp_path / "o" / "sweep.json").read_text())
+    assert spec["finished"] is True and spec["failed"] == [1]
+    assert (tmp_path / "o" / "metrics.png").stat().st_size > 1000
