@@ -415,6 +415,12 @@ BAD_VALUES = [
     ("vd_dot", "numeric", "vd_dot"),
     ("tau", 0.0, "tau"),
     ("name", 5, "name"),
+    ("log_every", 0, "log_every"),
+    ("log_every", 1.5, "log_every"),
+    ("log_every", True, "log_every"),
+    ("log_every", 3, "log_every"),  # does not divide T/Ts = 2000
+    ("x0", (1e300, 0.0, 0.0), "x0"),
+    ("x0", (0.0, 0.0, 1e300), "x0"),
 ]
 
 
@@ -543,3 +549,37 @@ def test_replace_returns_a_validated_copy():
         s.replace(T=0.05)  # Ts = 0.1 > T
     with pytest.raises(ValidationError, match="vd_dot"):
         s.replace(vd_dot="difference")  # with continuous control
+
+
+@pytest.mark.parametrize("T, Ts, lo, hi", [(1.05, 0.1, "1", "1.1"), (20.0, 0.3, "19.8", "20.1"),
+                                           (0.25, 0.1, "0.2", "0.3")])
+def test_T_must_be_a_whole_number_of_samples(T, Ts, lo, hi):
+    with pytest.raises(ValidationError) as info:
+        Scenario(T=T, Ts=Ts)
+    msg = str(info.value)
+    assert "T = " in msg and "Ts = " in msg, msg
+    assert f"T = {lo} s" in msg and f"T = {hi} s" in msg, msg  # the nearest valid T
+
+
+@pytest.mark.parametrize("T, Ts, n", [(0.3, 0.1, 3), (0.7, 0.1, 7), (20.0, 0.1, 200),
+                                      (1.0, 1 / 3, 3), (2e5, 0.02, 10_000_000)])
+def test_T_a_whole_number_of_samples_up_to_rounding_is_accepted(T, Ts, n):
+    assert Scenario(T=T, Ts=Ts).steps == n
+
+
+def test_divergence_bounds_follow_the_limits_or_the_reference():
+    from unidyn.model import NO_LIMITS
+    sc = Scenario()  # paper limits 0.75 m/s, 1.745 rad/s; figure eight of 1 m amplitude
+    pos, u, w = sc.divergence_bounds()
+    assert u == pytest.approx(0.75e6) and w == pytest.approx(1.745e6)
+    # the figure eight reaches |h_d| = sqrt(1 + 4) m (x = +-1 when y = -2 is never
+    # simultaneous; the sampled maximum lies between 2 and sqrt(5))
+    assert 2e6 <= pos <= 5 ** 0.5 * 1e6
+    free = sc.replace(limits=NO_LIMITS)
+    _, u, w = free.divergence_bounds()
+    # max |h_d'| = 0.5 m/s (x' = 0.5 cos(0.5 t)) plus the saturation l = 0.1 m/s,
+    # floored at 1 m/s; the turn rate is that speed over a = 0.2 m
+    assert u == pytest.approx(1e6) and w == pytest.approx(1.0 / 0.2 * 1e6)
+    fast = free.replace(trajectory={"type": "circle", "radius": 10.0, "omega": 0.5})
+    _, u, w = fast.divergence_bounds()
+    assert u == pytest.approx(5.1e6, rel=1e-3) and w == pytest.approx(5.1e6 / 0.2, rel=1e-3)

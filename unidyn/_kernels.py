@@ -219,28 +219,56 @@ def rhs(t, X, P, pn0, pn1, vn0, vn1, dX, sig):
         dX[12] = 0.0
 
 
+#: Why a run stopped (``status``): still running / complete, a non-finite state,
+#: |(x, y)|, |u| or |w| beyond its divergence bound, interrupted.
+OK, NONFINITE, POSITION, SPEED_U, SPEED_W, INTERRUPTED = 0, 1, 2, 3, 4, 5
+
+
 @_njit
-def _run_one(X0, P, pos_noise, vel_noise, Ts, n, m, Xs, SIG):
-    X = X0.copy()
-    k1 = np.empty(13)
+def check_state(X, bound):
+    """The status of state X against bound = [|(x, y)|, |u|, |w|] bounds."""
+    for i in range(13):
+        if not math.isfinite(X[i]):
+            return NONFINITE
+    if math.hypot(X[0], X[1]) > bound[0]:
+        return POSITION
+    if abs(X[3]) > bound[1]:
+        return SPEED_U
+    if abs(X[4]) > bound[2]:
+        return SPEED_W
+    return OK
+
+
+@_njit
+def log_row(k, n, L, stopped):
+    """Row of the logged arrays for sample k (every L-th sample, plus the sample a
+    run stopped at); -1 when sample k is not logged."""
+    if k % L == 0:
+        return k // L
+    if stopped:
+        return k // L + 1
+    return -1
+
+
+@_njit
+def _run_one(X, P, pos_noise, vel_noise, Ts, k0, k1, n, m, L, bound, Xs, SIG):
+    """Advance X (in place) over sample intervals k0..k1-1; returns (status, last
+    sample reached)."""
+    k1_ = np.empty(13)
     k2 = np.empty(13)
     k3 = np.empty(13)
     k4 = np.empty(13)
     tmp = np.empty(13)
     sig = np.empty(22)
     h = Ts / m
-    Xs[0] = X
-    signals(0.0, X, P, pos_noise[0, 0], pos_noise[0, 1], vel_noise[0, 0], vel_noise[0, 1], sig)
-    SIG[0] = sig[0:8]
-    stop = n
-    for k in range(n):
+    for k in range(k0, k1):
         p0, p1 = pos_noise[k, 0], pos_noise[k, 1]
         v0, v1 = vel_noise[k, 0], vel_noise[k, 1]
         for j in range(m):
             t = k * Ts + j * h
-            rhs(t, X, P, p0, p1, v0, v1, k1, sig)
+            rhs(t, X, P, p0, p1, v0, v1, k1_, sig)
             for i in range(13):
-                tmp[i] = X[i] + 0.5 * h * k1[i]
+                tmp[i] = X[i] + 0.5 * h * k1_[i]
             rhs(t + 0.5 * h, tmp, P, p0, p1, v0, v1, k2, sig)
             for i in range(13):
                 tmp[i] = X[i] + 0.5 * h * k2[i]
@@ -249,28 +277,44 @@ def _run_one(X0, P, pos_noise, vel_noise, Ts, n, m, Xs, SIG):
                 tmp[i] = X[i] + h * k3[i]
             rhs(t + h, tmp, P, p0, p1, v0, v1, k4, sig)
             for i in range(13):
-                X[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+                X[i] += h / 6.0 * (k1_[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
             # the speed limits are hard: a step that crosses one ends on it
             X[3] = min(max(X[3], -P[VMAX]), P[VMAX])
             X[4] = min(max(X[4], -P[VMAX + 1]), P[VMAX + 1])
-        Xs[k + 1] = X
-        # logged with interval k's measurement, as the diagram logs it before the tick
-        signals((k + 1) * Ts, X, P, p0, p1, v0, v1, sig)
-        SIG[k + 1] = sig[0:8]
-        finite = True
-        for i in range(13):
-            if not math.isfinite(X[i]):
-                finite = False
-        if not finite:
-            stop = k + 1
-            break
-    return stop
+        status = check_state(X, bound)
+        row = log_row(k + 1, n, L, status != OK)
+        if row >= 0:
+            Xs[row] = X
+            # logged with interval k's measurement, as the diagram logs it before the tick
+            signals((k + 1) * Ts, X, P, p0, p1, v0, v1, sig)
+            SIG[row] = sig[0:8]
+        if status != OK:
+            return status, k + 1
+    return OK, k1
+
+
+@_njit
+def start(X, P, pos_noise, vel_noise, bound, Xs, SIG, status):
+    """Log sample 0 of every run and check its state."""
+    sig = np.empty(22)
+    for i in range(X.shape[0]):
+        Xs[i, 0] = X[i]
+        signals(0.0, X[i], P[i], pos_noise[i, 0, 0], pos_noise[i, 0, 1],
+                vel_noise[i, 0, 0], vel_noise[i, 0, 1], sig)
+        SIG[i, 0] = sig[0:8]
+        status[i] = check_state(X[i], bound[i])
 
 
 @_parallel
-def run_batch(X0, P, pos_noise, vel_noise, Ts, n, m, Xs, SIG, stops):
-    """Integrate every run, run i with m[i] RK4 steps per interval; Xs (B, n+1, 13)
-    and SIG (B, n+1, 8) are filled in place,
-    stops[i] is the last sample index written (n when the run completed)."""
-    for i in _prange(X0.shape[0]):
-        stops[i] = _run_one(X0[i], P[i], pos_noise[i], vel_noise[i], Ts, n, m[i], Xs[i], SIG[i])
+def run_batch(X, P, pos_noise, vel_noise, Ts, k0, k1, n, m, L, bound, Xs, SIG, status, last):
+    """Advance every running run (status OK) over sample intervals k0..k1-1, run i
+    with m[i] RK4 steps per interval. X (B, 13) is updated in place; every L-th
+    sample (and the one a run stops at) is logged into Xs (B, rows, 13) and SIG
+    (B, rows, 8); status[i] says why run i stopped and last[i] is the last
+    sample it reached."""
+    for i in _prange(X.shape[0]):
+        if status[i] == OK:
+            st, lst = _run_one(X[i], P[i], pos_noise[i], vel_noise[i], Ts, k0, k1, n, m[i], L,
+                               bound[i], Xs[i], SIG[i])
+            status[i] = st
+            last[i] = lst

@@ -49,14 +49,48 @@ BACKENDS = ("auto", "numba", "numpy")
 STEP_RATE_LIMIT = 0.5
 
 
+def _regressor_scale(sc: Scenario) -> np.ndarray:
+    r"""Typical magnitudes (2, 6) of the entries of the regressor G of Eq. (14)
+    along the run, from the reference's speed and acceleration, the controller's
+    saturations and the speed limits.
+
+    With \|nu\| <= \|h_d'\| + l (Eq. 10): \|u_d\| <= U, \|w_d\| <= U/a; the
+    robot's speeds are at most the limits (or U, U/a without limits); v_d' is
+    bounded through the exact derivative of Eq. (10) (or by U/tau for the filter)."""
+    _, V, Acc = sc.reference_scale
+    U = V + max(sc.lx, sc.ly)
+    Ud, Wd = U, U / sc.a
+    vmax, wmax = sc.limits.speed
+    Vu = vmax if np.isfinite(vmax) else Ud
+    Vw = wmax if np.isfinite(wmax) else Wd
+    if sc.derivative == "filter":
+        udd, wdd = Ud / sc.tau, Wd / sc.tau
+    else:
+        nd = Acc + max(sc.kx, sc.ky) * (V + Vu + sc.a * Vw)
+        udd = Vw * U + nd
+        wdd = udd / sc.a
+    s1, s2 = udd + sc.lu, wdd + sc.lw
+    return np.array([[s1, 0.0, Wd * Vw, Ud, 0.0, 0.0],
+                     [0.0, s2, Ud * Vw + Vu * Wd, 0.0, Vu * Wd, Wd]])
+
+
 def fastest_rate(sc: Scenario) -> tuple[float, str]:
-    """The fastest decay rate (1/s) in the loop of ``sc`` and what it comes from.
+    """The fastest rate (1/s) in the loop of ``sc`` and what it comes from.
 
     The candidates are the robot's velocity loops (theta4/theta1, theta6/theta2,
     Eq. 2, with the speed-dependent term of F at the speed limit), the designed
     error dynamics of the kinematic controller (kx, ky) and of the compensator
-    (ku, kw), the derivative filter (1/tau) and, conservatively, the update law
-    (gamma_i times the square of a typical regressor entry)."""
+    (ku, kw), the derivative filter (1/tau) and, for the adaptive case, the update
+    law (Eqs. 18/20) in closed loop with the robot.
+
+    The update law's rate: linearised, theta_hat' = -Gamma G^T v + ... and
+    H v' = G theta_hat - F v (Eq. 2 with v_ref = G theta_hat, Eq. 14), so the pair
+    (theta_hat, v) has the Jacobian [[-Gamma Sigma, -Gamma G^T], [H^-1 G, -H^-1 F]].
+    For each velocity channel the eigenvalues solve lambda^2 + f lambda + q = 0 with
+    q = sum_j gamma_j G_ij^2 / theta_i (i = 1, 2); their magnitude is at most
+    max(f, sqrt(q)), and f is already a candidate. So the candidate is
+    sqrt(q1 + q2) with G at its typical magnitudes (:func:`_regressor_scale`),
+    and the leakage rate gamma_j sigma_j (Eq. 20)."""
     th = sc.robot.theta
     vmax = sc.limits.speed_max if np.isfinite(sc.limits.speed_max) else 1.0
     f22 = th[5] + abs(th[4] - th[2]) * vmax
@@ -68,8 +102,20 @@ def fastest_rate(sc: Scenario) -> tuple[float, str]:
         rates[f"compensator gains ku, kw = {sc.ku:g}, {sc.kw:g} 1/s"] = max(sc.ku, sc.kw)
         if sc.derivative == "filter":
             rates[f"derivative filter tau = {sc.tau:g} s"] = 1.0 / sc.tau
+    if sc.case == "adaptive":
+        gamma, sigma = np.array(sc.gamma), np.array(sc.sigma)
+        G = _regressor_scale(sc)
+        q = float(np.sum(gamma * (G[0] ** 2 / abs(th[0]) + G[1] ** 2 / abs(th[1]))))
+        rates[f"adaptation gain gamma = {_short(sc.gamma)} (update law with the robot, "
+              f"Eqs. 18/20)"] = float(np.sqrt(q))
+        leak = {"paper": gamma * sigma, "fx44850": sigma, "none": 0.0 * sigma}[sc.leakage]
+        rates[f"leakage gamma*sigma = {float(np.max(leak)):.3g} 1/s (Eq. 20)"] = float(np.max(leak))
     what = max(rates, key=rates.get)
     return rates[what], what
+
+
+def _short(v) -> str:
+    return "[" + ", ".join(f"{x:g}" for x in v) + "]"
 
 
 #: The most RK4 steps per sample interval the engine takes before it refuses.
@@ -94,14 +140,27 @@ def stable_substeps(sc: Scenario, substeps: int) -> int:
     return max(int(substeps), int(np.ceil(need - 1e-9)))
 
 
+#: RK4 steps the compiled engine takes per run between returns to Python: the
+#: interpreter can then handle Ctrl-C and update the progress bar (about 0.1 s).
+SLICE_STEPS = 200_000
+#: Show a progress bar (on a terminal) when a call takes at least this many RK4 steps.
+PROGRESS_STEPS = 5_000_000
+
+
 def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str = "auto",
                    progress=None) -> list:
     """Simulate many scenarios at once; returns one :class:`~unidyn.Result` per scenario,
     in order.
 
-    Scenarios are grouped by (T, Ts) and each group is integrated as one
-    vectorised system. Only continuous control is supported here (sampled
-    control runs through :func:`unidyn.simulate`).
+    Scenarios are grouped by (T, Ts, substeps, log_every) and each group is
+    integrated as one vectorised system; every run's numbers are independent of
+    which other runs share its call (bit for bit). Only continuous control is
+    supported here (sampled control runs through :func:`unidyn.simulate`).
+
+    A run that diverges (a non-finite state, or a position or speed beyond
+    :meth:`~unidyn.Scenario.divergence_bounds`) stops there and is returned with
+    ``complete=False``, the samples up to the failure, and a message naming the
+    cause; the other runs continue.
 
     :param scenarios: a sequence of :class:`~unidyn.Scenario`
     :param substeps: RK4 steps per sample interval, integer >= 1; raised
@@ -111,7 +170,12 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
         the built-in trajectories), ``"numpy"`` (vectorised numpy), or ``"auto"`` (numba
         when it can be used, else numpy). Both integrate the same equations with the
         same steps and agree to rounding.
-    :param progress: optional callable ``f(done_intervals, total_intervals)`` (numpy backend)
+    :param progress: ``None`` (default: a tqdm progress bar on stderr for long calls,
+        only when stderr is a terminal), ``False`` (none), ``True`` (always a bar), or a
+        callable ``f(done_samples, total_samples)``
+    :raises SimulationInterrupted: on Ctrl-C (a KeyboardInterrupt); its ``results``
+        hold one entry per scenario: the computed part, marked incomplete (``None``
+        for a run not yet started); ``result`` is the first of them
     """
     scs = list(scenarios)
     if not scs:
@@ -135,50 +199,146 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
         raise ValidationError("backend='numba' supports the figure_eight, circle and line "
                               "trajectories only; use backend='numpy' for a FunctionTrajectory")
     use_numba = backend == "numba" or (backend == "auto" and _kernels.AVAILABLE and compilable)
+    m_all = [stable_substeps(s, int(substeps)) for s in scs]  # refuses before any work
+    groups = {}
+    for i, s in enumerate(scs):
+        key = (s.T, s.Ts, s.log_every) if use_numba else (s.T, s.Ts, s.log_every, m_all[i])
+        groups.setdefault(key, []).append(i)
+    bar = _Progress(progress, sum(scs[i].steps * m_all[i] for i in range(len(scs))),
+                    sum(scs[g[0]].steps for g in groups.values()))
     results = [None] * len(scs)
-    for (T, Ts), idx in _group(scs).items():
-        m = np.array([stable_substeps(scs[i], int(substeps)) for i in idx])
-        loop = ClosedLoop([scs[i] for i in idx])
-        if use_numba:  # each run with its own step
-            group = _integrate_numba(loop, m, progress)
-        else:  # one vectorised step for the group: the smallest any run needs
-            m[:] = m.max()
-            group = _integrate(loop, int(m[0]), progress)
-        for j, r in enumerate(group):
-            r.substeps = int(m[j])
-            results[idx[j]] = r
+    interrupted = False
+    try:
+        for idx in groups.values():
+            loop = ClosedLoop([scs[i] for i in idx])
+            m = np.array([m_all[i] for i in idx], dtype=np.int64)
+            run = _Run(loop, m)
+            try:
+                if use_numba:
+                    _integrate_numba(run, bar)
+                else:
+                    _integrate(run, int(m[0]), bar)
+            except KeyboardInterrupt:
+                run.interrupted = True
+            for j, r in enumerate(run.results()):
+                results[idx[j]] = r
+            if run.interrupted:
+                interrupted = True
+                break
+    finally:
+        bar.close()
+    if interrupted:
+        from .runner import SimulationInterrupted
+        done = [r for r in results if r is not None]
+        raise SimulationInterrupted(
+            f"interrupted: {sum(r.complete for r in done)} of {len(scs)} run(s) complete; "
+            f"the computed part of the others is kept, marked incomplete", results=results)
     return results
 
 
-def _integrate_numba(loop: ClosedLoop, m, progress):
+class _Progress:
+    """tqdm over samples, or a user callable, or nothing."""
+
+    def __init__(self, progress, work: int, total: int):
+        self.f, self.bar, self.done, self.total = None, None, 0, total
+        if callable(progress) and not isinstance(progress, bool):
+            self.f = progress
+        elif progress is True or (progress is None and work >= PROGRESS_STEPS):
+            import sys
+
+            from tqdm import tqdm
+            self.bar = tqdm(total=total, unit="sample", desc="unidyn batch", leave=False,
+                            disable=None if progress is None else False, file=sys.stderr,
+                            mininterval=0.5)
+
+    def advance(self, n: int):
+        self.done += n
+        if self.f is not None:
+            self.f(self.done, self.total)
+        if self.bar is not None:
+            self.bar.update(n)
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
+
+
+class _Run:
+    """The logged arrays of one group of runs, filled by either backend."""
+
+    def __init__(self, loop: ClosedLoop, m):
+        self.loop, self.m = loop, m
+        n, B = loop.steps, loop.B
+        self.L = L = int(loop.scenarios[0].log_every)
+        rows = n // L + 2  # every L-th sample, plus the one a run stops at
+        self.Xs = np.full((B, rows, 13), np.nan)
+        self.SIG = np.full((B, rows, 8), np.nan)
+        self.status = np.zeros(B, dtype=np.int64)
+        self.last = np.zeros(B, dtype=np.int64)
+        self.bounds = np.array([sc.divergence_bounds() for sc in loop.scenarios])
+        self.interrupted = False
+        self.backend = ""
+
+    def results(self) -> list:
+        return _results(self)
+
+
+def _integrate_numba(run: _Run, bar):
     from . import _kernels
+    loop = run.loop
+    run.backend = "numba (compiled)"
     n, B = loop.steps, loop.B
-    Xs = np.full((B, n + 1, 13), np.nan)
-    SIG = np.full((B, n + 1, 8), np.nan)
-    stops = np.zeros(B, dtype=np.int64)
-    _kernels.run_batch(loop.initial_state(), _kernels.pack(loop), loop.pos_noise, loop.vel_noise,
-                       float(loop.Ts), int(n), np.asarray(m, dtype=np.int64), Xs, SIG, stops)
-    if progress is not None:
-        progress(n, n)
-    return _results(loop, Xs, SIG, stops, "numba (compiled)")
-
-
-def _integrate(loop: ClosedLoop, m: int, progress):
-    """The numpy backend: fills the same arrays as the compiled kernel."""
-    Ts, n, B = loop.Ts, loop.steps, loop.B
-    h = Ts / m
+    P = _kernels.pack(loop)
     X = loop.initial_state()
-    Xs = np.full((B, n + 1, 13), np.nan)
-    SIG = np.full((B, n + 1, 8), np.nan)
-    stops = np.full(B, n, dtype=np.int64)
+    _kernels.start(X, P, loop.pos_noise, loop.vel_noise, run.bounds, run.Xs, run.SIG, run.status)
+    import os
+    per_thread = -(-B // max(1, min(B, os.cpu_count() or 1)))
+    S = max(1, SLICE_STEPS // (int(run.m.max()) * per_thread))
+    k = 0
+    while k < n and (run.status == _kernels.OK).any():
+        k1 = min(n, k + S)
+        _kernels.run_batch(X, P, loop.pos_noise, loop.vel_noise, float(loop.Ts), k, k1, n,
+                           run.m, run.L, run.bounds, run.Xs, run.SIG, run.status, run.last)
+        bar.advance(k1 - k)
+        k = k1
 
-    def record(k, X, t, noise_k):
+
+def _integrate(run: _Run, m: int, bar):
+    """The numpy backend: fills the same arrays as the compiled kernel."""
+    from ._kernels import NONFINITE, OK, POSITION, SPEED_U, SPEED_W
+    loop = run.loop
+    run.backend = "numpy"
+    h = loop.Ts / m
+    X = loop.initial_state()
+    b = run.bounds
+
+    def check(X):
+        with np.errstate(invalid="ignore"):
+            return np.select(
+                [~np.isfinite(X).all(axis=1), np.hypot(X[:, 0], X[:, 1]) > b[:, 0],
+                 np.abs(X[:, 3]) > b[:, 1], np.abs(X[:, 4]) > b[:, 2]],
+                [NONFINITE, POSITION, SPEED_U, SPEED_W], OK)
+
+    def record(rows, X, t, noise_k, which):
         s = loop.signals(t, X, noise_k)
-        Xs[:, k] = X
-        SIG[:, k] = np.concatenate([s["h_d"], s["v_d"], s["v_d_dot"], s["v_ref"]], axis=1)
+        sig = np.concatenate([s["h_d"], s["v_d"], s["v_d_dot"], s["v_ref"]], axis=1)
+        for i in np.flatnonzero(which):
+            run.Xs[i, rows[i]] = X[i]
+            run.SIG[i, rows[i]] = sig[i]
 
-    record(0, X, 0.0, 0)
+    run.status[:] = check(X)
+    record(np.zeros(loop.B, dtype=int), X, 0.0, 0, np.ones(loop.B, bool))
+    with np.errstate(all="ignore"):  # a run that stopped may overflow; it is no longer logged
+        _steps(run, loop, X, m, h, check, record, bar)
+
+
+def _steps(run, loop, X, m, h, check, record, bar):
+    from ._kernels import OK
+    Ts, n, L = loop.Ts, loop.steps, run.L
     for k in range(n):
+        running = run.status == OK
+        if not running.any():
+            break
         t0 = k * Ts
         for j in range(m):
             t = t0 + j * h
@@ -189,37 +349,62 @@ def _integrate(loop: ClosedLoop, m: int, progress):
             X = X + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
             # the speed limits are hard: a step that crosses one ends on it
             X[:, 3:5] = np.clip(X[:, 3:5], -loop.vmax, loop.vmax)
+        status = np.where(running, check(X), run.status)
+        stopped = running & (status != OK)
         # the sample at the end of interval k is logged with interval k's
         # measurement, as the diagram logs it just before the clock tick
-        record(k + 1, X, (k + 1) * Ts, k)
-        if progress is not None:
-            progress(k + 1, n)
-        if not np.isfinite(Xs[:, : k + 2]).all(axis=(1, 2)).any():
-            stops[:] = k + 1  # every run has failed: stop integrating
-            break
-    return _results(loop, Xs, SIG, stops, "numpy")
+        if (k + 1) % L == 0 or stopped.any():
+            rows = np.where(stopped & ((k + 1) % L != 0), (k + 1) // L + 1, (k + 1) // L)
+            record(rows, X, (k + 1) * Ts, k, running & (stopped | ((k + 1) % L == 0)))
+        run.last[running] = k + 1
+        run.status[:] = status
+        bar.advance(1)
 
 
-def _results(loop: ClosedLoop, Xs, SIG, stops, backend: str) -> list:
-    """One Result per run from the sampled states Xs (B, n+1, 13) and signals SIG
-    (B, n+1, 8: h_d, v_d, v_d', v_ref); stops[i] is the last sample written. A run
-    with a non-finite state keeps its finite part and is marked incomplete."""
+_CAUSE = {
+    1: "non-finite state (diverged, or the loop is too stiff for the RK4 step; "
+       "unidyn.simulate with method='LSODA' can tell which)",
+    2: "diverged: the position |(x, y)| = {v:.3g} m is beyond {b:.3g} m "
+       "(1e6 times the reference's size)",
+    3: "diverged: |u| = {v:.3g} m/s is beyond {b:.3g} m/s (1e6 times the speed limit, "
+       "or the speed the controller asks for)",
+    4: "diverged: |w| = {v:.3g} rad/s is beyond {b:.3g} rad/s (1e6 times the steering "
+       "limit, or the turn rate the controller asks for)",
+}
+
+
+def _results(run: _Run) -> list:
+    """One Result per run of ``run``. A run that stopped keeps the samples up to
+    its stop (a non-finite last sample is dropped) and is marked incomplete."""
+    loop, L = run.loop, run.L
     n = loop.steps
-    t = np.arange(n + 1) * loop.Ts
     out = []
     for i, sc in enumerate(loop.scenarios):
-        X_i = Xs[i, : int(stops[i]) + 1]
-        finite = np.all(np.isfinite(X_i), axis=1)
-        complete = int(stops[i]) == n and bool(finite.all())
-        stop = len(X_i) if finite.all() else int(np.argmin(finite))
-        message = "" if complete else (f"non-finite state at t = {stop * loop.Ts:.6g} s "
-                                       f"(scenario {sc.name or sc.case})")
-        X_i = X_i[:stop]
-        S = SIG[i, :stop]
+        status, last = int(run.status[i]), int(run.last[i])
+        nrow = last // L + 1
+        t = np.arange(nrow) * (L * loop.Ts)
+        if status != 0 and last % L != 0:
+            nrow += 1
+            t = np.r_[t, last * loop.Ts]
+        X_i, S = run.Xs[i, :nrow], run.SIG[i, :nrow]
+        if status == 1:  # drop the non-finite sample
+            X_i, S, t = X_i[:-1], S[:-1], t[:-1]
+        complete = status == 0 and last == n and not run.interrupted
+        label = sc.name or sc.case
+        t_stop = last * loop.Ts
+        if complete:
+            message = ""
+        elif status == 0:
+            message = f"interrupted at t = {t_stop:.6g} s (scenario {label})"
+        else:
+            v = {2: np.hypot(*run.Xs[i, nrow - 1, 0:2]) if nrow else np.nan,
+                 3: abs(run.Xs[i, nrow - 1, 3]), 4: abs(run.Xs[i, nrow - 1, 4])}.get(status, 0.0)
+            cause = _CAUSE[status].format(v=v, b=run.bounds[i, status - 2] if status > 1 else 0.0)
+            message = f"{cause} at t = {t_stop:.6g} s (scenario {label})"
         v_ref = np.clip(S[:, 6:8], -loop.vmax[i], loop.vmax[i])
         vel = X_i[:, 3:5] if sc.case != "kinematic" else v_ref
-        out.append(Result(scenario=sc, t=t[:stop], pose=X_i[:, 0:3], velocity=vel,
+        out.append(Result(scenario=sc, t=t, pose=X_i[:, 0:3], velocity=vel,
                           reference=S[:, 0:2], v_d=S[:, 2:4], v_ref=v_ref,
                           theta_hat=X_i[:, 5:11], engine="batch", complete=complete,
-                          message=message, backend=backend))
+                          message=message, backend=run.backend, substeps=int(run.m[i])))
     return out

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import contextlib
 import io
+import math
+import time
 
 import numpy as np
 
@@ -11,7 +13,7 @@ from ._validate import ValidationError, positive
 from .result import Result
 from .scenario import Scenario
 
-__all__ = ["simulate", "SimulationError", "DEFAULT_RTOL", "DEFAULT_ATOL"]
+__all__ = ["simulate", "SimulationError", "SimulationInterrupted", "DEFAULT_RTOL", "DEFAULT_ATOL"]
 
 
 class SimulationError(RuntimeError):
@@ -24,6 +26,18 @@ class SimulationError(RuntimeError):
         self.result = result
 
 
+class SimulationInterrupted(KeyboardInterrupt):
+    """A run (or batch of runs) stopped by Ctrl-C. ``result`` is the computed part
+    of the (first) run, ``results`` that of every run (``None`` for a run not yet
+    started), each marked ``complete=False``."""
+
+    def __init__(self, message, result=None, results=None):
+        super().__init__(message)
+        self.results = list(results) if results is not None else [result]
+        self.result = result if result is not None else next(
+            (r for r in self.results if r is not None), None)
+
+
 def _root_cause(err):
     seen = []
     e = err
@@ -32,33 +46,99 @@ def _root_cause(err):
         e = e.__cause__ or e.__context__
     from unidyn.blocks._common import NonFiniteSignalError
     for e in seen:
-        if isinstance(e, (NonFiniteSignalError, ValidationError)):
+        if isinstance(e, (NonFiniteSignalError, ValidationError, GuardStop)):
             return e
     return seen[-1]
 
 DEFAULT_RTOL = 1e-8
 DEFAULT_ATOL = 1e-10
+#: The most right-hand-side evaluations the solver may make in one sample interval
+#: Ts before the run is stopped as too stiff for it (the paper's runs need about
+#: 120, adaptation gains of 1000 about 720; RK45 makes six per step).
+MAX_RHS_PER_SAMPLE = 5_000
+
+
+class GuardStop(ArithmeticError):
+    """The diagram's run guard stopped the run: a state beyond its divergence
+    bound, more solver work per sample than :data:`MAX_RHS_PER_SAMPLE`, or the
+    wall-clock limit."""
+
+
+class _Guard:
+    """Wraps the diagram's derivative so that every solver evaluation checks the
+    robot's state against ``Scenario.divergence_bounds``, counts the evaluations
+    per sample interval and watches the wall clock."""
+
+    def __init__(self, bd, robot, sc, timeout):
+        self.bd, self.robot, self.sc = bd, robot, sc
+        self.deriv = bd.deriv
+        self.bounds = sc.divergence_bounds()
+        self.k, self.count = -1, 0
+        self.deadline = None if timeout is None else time.monotonic() + timeout
+        self.timeout = timeout
+        # the robot's state is (x, y, psi[, u, w]) for unidyn's robot blocks
+        self.layout = getattr(robot, "type", "") in ("dynamicunicycle", "kinematicunicycle")
+
+    def __call__(self, t, *args, **kwargs):
+        yd = self.deriv(t, *args, **kwargs)
+        sc = self.sc
+        k = int(t / sc.Ts + 1e-9)
+        if k > self.k:  # a new sample interval (a probe of its end counts as the next)
+            self.k, self.count = k, 0
+        self.count += 1
+        if self.count > MAX_RHS_PER_SAMPLE:
+            raise GuardStop(
+                f"the solver needed more than {MAX_RHS_PER_SAMPLE} evaluations in the sample "
+                f"interval from t = {k * sc.Ts:.6g} s (a stiff or diverging loop); a stiff "
+                f"solver may resolve it: unidyn.simulate(..., method='LSODA')")
+        if self.layout:
+            x = self.bd._state_map.get(self.robot)
+            if x is not None:
+                _check_bounds(x, self.bounds, t)
+        if self.deadline is not None and time.monotonic() > self.deadline:
+            raise GuardStop(f"wall-clock limit of {self.timeout:g} s reached at t = {t:.6g} s")
+        return yd
+
+
+def _check_bounds(x, b, t):
+    r = math.hypot(x[0], x[1])
+    if not r <= b[0]:
+        raise GuardStop(f"diverged: the position |(x, y)| = {r:.3g} m is beyond {b[0]:.3g} m "
+                        f"(1e6 times the reference's size) at t = {t:.6g} s")
+    if len(x) >= 5:
+        for j, (name, unit) in ((3, ("u", "m/s")), (4, ("w", "rad/s"))):
+            if not abs(x[j]) <= b[j - 2]:
+                raise GuardStop(f"diverged: |{name}| = {abs(x[j]):.3g} {unit} is beyond "
+                                f"{b[j - 2]:.3g} {unit} (1e6 times its limit, or what the "
+                                f"controller asks for) at t = {t:.6g} s")
 
 
 def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DEFAULT_ATOL,
-             method: str = "RK45", **builder_args) -> Result:
+             method: str = "RK45", timeout: float | None = None, **builder_args) -> Result:
     """Simulate ``scenario`` with bdsim (Fig. 2 diagram, :func:`unidyn.diagrams.build_fig2`).
 
     The continuous states are integrated by ``scipy.integrate.solve_ivp``
     (``method``) with relative and absolute tolerances ``rtol``, ``atol``;
     results are sampled every ``scenario.Ts``.
 
+    :param timeout: wall-clock limit of the run, s (``None``: none). Whatever the
+        limit, the run stops with :class:`SimulationError` when the robot's state
+        leaves :meth:`~unidyn.Scenario.divergence_bounds` or the solver needs more
+        than :data:`MAX_RHS_PER_SAMPLE` evaluations in one sample interval
     :param builder_args: factories passed to :func:`unidyn.diagrams.build_fig2`
         (``robot=``, ``controller=``, ``compensator=``, ``trajectory=``)
     :return: :class:`Result`
-    :raises SimulationError: if the run stops early (for instance a block meets a
-        NaN); its ``result`` attribute holds the samples logged before the failure,
-        with ``complete=False``
+    :raises SimulationError: if the run stops early (a block meets a NaN, the state
+        diverges, the solver stalls, the wall-clock limit); its ``result`` attribute
+        holds the samples logged before the failure, with ``complete=False``
+    :raises SimulationInterrupted: on Ctrl-C, with the samples logged before it
     """
     if not isinstance(scenario, Scenario):
         raise ValidationError(f"scenario must be a unidyn.Scenario, got {type(scenario).__name__}")
     rtol = positive("rtol", rtol)
     atol = positive("atol", atol)
+    if timeout is not None:
+        timeout = positive("timeout", timeout)
     from .diagrams import build_fig2, new_simulator
 
     sim = new_simulator()
@@ -67,7 +147,9 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
     with contextlib.redirect_stdout(io.StringIO()):  # bdsim's notes on unconnected outputs
         fig.bd.compile()
     sc = scenario
+    fig.bd.deriv = _Guard(fig.bd, fig.blocks["robot"], sc, timeout)
     failure = None
+    interrupted = False
     try:
         # bdsim prints a report of a failing block; the exception carries it to the user
         with contextlib.redirect_stdout(io.StringIO()):
@@ -75,18 +157,27 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
                           solver=method, solver_args=dict(rtol=rtol, atol=atol, max_step=sc.Ts))
         t = np.asarray(out.t, dtype=float)
         y = out[".ywatch"]
-    except Exception as err:  # keep what bdsim logged before the failure
+    except (Exception, KeyboardInterrupt) as err:  # keep what bdsim logged before the failure
+        interrupted = isinstance(err, KeyboardInterrupt)
         simstate = getattr(fig.blocks["robot"], "_simstate", None)
-        if simstate is None:
-            raise
-        cause = _root_cause(err)
-        failure = (f"{sc.name or sc.case}: run stopped at t = {getattr(simstate, 't', float('nan')):.6g} s: "
+        cause = err if interrupted else _root_cause(err)
+        t_stop = getattr(simstate, "t", float("nan"))
+        failure = (f"{sc.name or sc.case}: interrupted at t = {t_stop:.6g} s" if interrupted else
+                   f"{sc.name or sc.case}: run stopped at t = {t_stop:.6g} s: "
                    f"{type(cause).__name__}: {cause}")
+        if simstate is None:  # a robot block that does not keep bdsim's state
+            if interrupted:
+                raise SimulationInterrupted(failure) from err
+            if isinstance(cause, GuardStop):
+                raise SimulationError(failure) from err
+            raise
         t = np.asarray(simstate.tlist, dtype=float)
         y = [list(p) for p in simstate.plist]
         n = min([len(t)] + [len(p) for p in y])
         t, y = t[:n], [p[:n] for p in y]
     if len(t) == 0:
+        if interrupted:
+            raise SimulationInterrupted(failure)
         raise SimulationError(failure or "no samples", None)
     signals = {r: np.asarray(y[i], dtype=float).reshape(len(t), -1) for i, r in enumerate(roles)}
     # bdsim restarts integration at clock ticks and may log a tick twice: keep
@@ -99,6 +190,11 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
     if not np.array_equal(grid, np.arange(len(grid))) or len(grid) != expected:
         raise RuntimeError(f"bdsim returned {len(grid)} samples, expected {expected} "
                            f"on a grid of step {sc.Ts}")
+    if sc.log_every > 1:  # every log_every-th sample, and the last one of a failed run
+        keep = grid % sc.log_every == 0
+        keep[-1] |= failure is not None
+        grid = grid[keep]
+        signals = {k: v[keep] for k, v in signals.items()}
     t = grid * sc.Ts
     velocity = signals.get("velocity")
     if velocity is None:  # kinematic robot: v = v_d clipped to the speed limits
@@ -110,6 +206,8 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
                     reference=signals["reference"], v_d=signals["v_d"], v_ref=signals["v_ref"],
                     theta_hat=theta_hat, engine="bdsim", complete=failure is None,
                     message=failure or "", backend=f"solve_ivp {method}")
+    if interrupted:
+        raise SimulationInterrupted(failure, result)
     if failure is not None:
         raise SimulationError(failure, result)
     return result

@@ -8,7 +8,9 @@ and from dicts (TOML and JSON files) and nothing in them is ever evaluated as co
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -34,6 +36,12 @@ _VD_DOT_FOR = {"continuous": ("analytic", "filter"), "sampled": ("difference",)}
 #: The most samples (T/Ts) one run may hold: 1e7 samples of the result arrays
 #: take about 2 GB.
 MAX_SAMPLES = 10_000_000
+#: A state this many times beyond its physical scale (the speed limits, or the
+#: reference's size and speed where there are none) counts as diverged: both
+#: engines stop there (see :meth:`Scenario.divergence_bounds`).
+DIVERGENCE_FACTOR = 1e6
+#: Samples of [0, T] at which the reference is evaluated for its scale.
+_SCALE_POINTS = 257
 PAPER_GAMMA = (1.7, 1.1, 0.5, 0.3, 0.01, 0.5)
 PAPER_SIGMA = (0.0005, 0.001, 0.001, 0.00006, 0.001, 0.001)
 
@@ -72,6 +80,10 @@ class Scenario:
         ``"difference"`` for sampled control (see :attr:`derivative`)
     :param tau: time constant of the derivative filter, s, > 0
     :param name: a label
+    :param log_every: log every ``log_every``-th sample of Ts, integer >= 1 that
+        divides T/Ts (default 1: every sample). The integration and the noise are
+        unchanged; only the stored series (and the metrics computed from them,
+        on the logged grid) are thinned.
     """
 
     case: str = "adaptive"
@@ -100,6 +112,7 @@ class Scenario:
     vd_dot: str | None = None
     tau: float = 0.05
     name: str = ""
+    log_every: int = 1
 
     def __post_init__(self):
         s = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
@@ -142,6 +155,29 @@ class Scenario:
         if self.T / self.Ts > MAX_SAMPLES:
             raise ValidationError(f"T/Ts must be at most {MAX_SAMPLES:.0e} samples, got "
                                   f"T = {self.T:g} s, Ts = {self.Ts:g} s")
+        ratio = self.T / self.Ts
+        if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
+            lo, hi = math.floor(ratio) * self.Ts, math.ceil(ratio) * self.Ts
+            raise ValidationError(
+                f"T must be a whole number of samples of Ts: T = {self.T!r} s, Ts = {self.Ts!r} s "
+                f"give T/Ts = {ratio:.6g}; use T = {lo:.10g} s or T = {hi:.10g} s "
+                f"(or a Ts that divides T)")
+        if abs(self.x0[2]) > DIVERGENCE_FACTOR:
+            raise ValidationError(f"x0: the initial heading psi must be within "
+                                  f"+-{DIVERGENCE_FACTOR:g} rad, got {self.x0[2]!r}")
+        if math.hypot(self.x0[0], self.x0[1]) > DIVERGENCE_FACTOR:  # cheap test first
+            bound = self.divergence_bounds()[0]
+            if not math.hypot(self.x0[0], self.x0[1]) <= bound:
+                raise ValidationError(
+                    f"x0: the initial position ({self.x0[0]:g}, {self.x0[1]:g}) m is more than "
+                    f"{DIVERGENCE_FACTOR:g} times the reference's size away from the origin; "
+                    f"|(x, y)| must be at most {bound:g} m")
+        le = self.log_every
+        if (isinstance(le, bool) or not isinstance(le, (int, np.integer)) or le < 1
+                or self.steps % int(le) != 0):
+            raise ValidationError(f"log_every must be an integer >= 1 that divides T/Ts = "
+                                  f"{self.steps}, got {le!r}")
+        s("log_every", int(le))
         if not isinstance(self.name, str):
             raise ValidationError(f"name must be a string, got {self.name!r}")
 
@@ -162,6 +198,38 @@ class Scenario:
         if self.vd_dot is not None:
             return self.vd_dot
         return "analytic" if self.control == "continuous" else "difference"
+
+    @cached_property
+    def reference_scale(self) -> tuple:
+        """(max |h_d|, max |h_d'|, max |h_d''|) of the reference over [0, T], from
+        257 evenly spaced samples (non-finite samples are ignored)."""
+        t = np.linspace(0.0, self.T, _SCALE_POINTS)
+        tr = self.trajectory
+        out = []
+        for fn in (tr.position, tr.velocity, tr.acceleration):
+            try:
+                with np.errstate(all="ignore"):
+                    v = np.linalg.norm(np.asarray(fn(t), dtype=float).reshape(len(t), 2), axis=1)
+                v = v[np.isfinite(v)]
+                out.append(float(v.max()) if len(v) else 0.0)
+            except Exception:  # a user trajectory that fails is reported by the engines
+                out.append(0.0)
+        return tuple(out)
+
+    def divergence_bounds(self) -> np.ndarray:
+        r"""[|(x, y)| bound in m, |u| bound in m/s, |w| bound in rad/s]: a state beyond
+        one of these has diverged (both engines stop the run there).
+
+        Each is :data:`DIVERGENCE_FACTOR` times a physical scale: the speed limits,
+        or where a limit is infinite the speed the kinematic controller can ask for,
+        \|h_d'\| + l (Eq. 10), and for positions the reference's size (at least 1 m)."""
+        P, V, _ = self.reference_scale
+        U = max(1.0, V + max(self.lx, self.ly))
+        vmax, wmax = self.limits.speed
+        return DIVERGENCE_FACTOR * np.array([
+            max(1.0, P),
+            vmax if np.isfinite(vmax) else U,
+            wmax if np.isfinite(wmax) else max(1.0, U / self.a)])
 
     @property
     def steps(self) -> int:
