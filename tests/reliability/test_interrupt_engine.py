@@ -1,0 +1,62 @@
+"""Ctrl-C stops a long batch run within a second or two and keeps what was
+computed (a real process, a real SIGINT)."""
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import pytest
+
+pytestmark = pytest.mark.reliability
+
+SCRIPT = textwrap.dedent("""
+    import sys
+    from unidyn import Scenario
+    from unidyn.batch import simulate_batch
+    from unidyn.runner import SimulationInterrupted
+
+    started = []
+    def progress(done, total):
+        if not started:
+            started.append(1)
+            print("started", flush=True)
+
+    # millions of samples (hours), every L-th logged
+    T, L = float(sys.argv[2]), int(sys.argv[3])
+    sc = Scenario.paper(4, T=T, Ts=0.1, noise=None, name="long", log_every=L)
+    try:
+        simulate_batch([sc], backend=sys.argv[1], progress=progress)
+        print("finished")
+    except SimulationInterrupted as err:
+        r = err.result
+        print("interrupted", r.complete, len(r.t), r.t[-1], r.message, flush=True)
+""")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("backend, T, L", [("numba", 1e6, 100), ("numpy", 2e5, 5)])
+def test_sigint_stops_a_long_batch_run_and_keeps_the_part_computed(backend, T, L):
+    env = {**os.environ, "MPLBACKEND": "Agg"}
+    p = subprocess.Popen([sys.executable, "-c", SCRIPT, backend, str(T), str(L)], stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True, env=env)
+    try:
+        line = p.stdout.readline()  # after numba's (cached) compilation
+        assert line.strip() == "started", (line, p.stderr.read() if p.poll() is not None else "")
+        time.sleep(1.5)
+        sent = time.monotonic()
+        p.send_signal(signal.SIGINT)
+        out, err = p.communicate(timeout=20)
+        took = time.monotonic() - sent
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert took < 3.0, took
+    words = out.split()
+    assert words[0] == "interrupted", (out, err)
+    assert words[1] == "False"  # marked incomplete
+    n, t_end = int(words[2]), float(words[3])
+    assert n >= 2 and abs(t_end - (n - 1) * 0.1 * L) < 1e-6 * n  # a whole, uniform part
+    assert "interrupted at t = " in out and "long" in out
