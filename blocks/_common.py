@@ -32,6 +32,31 @@ def check_finite(arr, block, what: str, t: float) -> np.ndarray:
     return arr
 
 
+def check_blockargs(block, blockargs: dict) -> None:
+    """Raise a ValidationError naming the block type and the keyword when
+    ``blockargs`` holds a keyword that neither the block nor bdsim's common block
+    options accept (bdsim's own message names no block: "in block None")."""
+    import difflib
+    import inspect
+    cls = type(block)
+    common, own = set(), set()
+    for k in cls.__mro__:
+        init = k.__dict__.get("__init__")
+        if init is None:
+            continue
+        names = {n for n, p in inspect.signature(init).parameters.items()
+                 if n != "self" and p.kind not in (p.VAR_KEYWORD, p.VAR_POSITIONAL)}
+        (common if k.__module__.startswith("bdsim") else own).update(names)
+    unknown = sorted(set(blockargs) - common)
+    if unknown:
+        known = sorted(own | common)
+        close = difflib.get_close_matches(unknown[0], known, n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise ValidationError(
+            f"{cls.__name__}: unknown keyword {unknown[0]!r}{hint}; it accepts "
+            f"{', '.join(sorted(own))} and bdsim's block options {', '.join(sorted(common))}")
+
+
 def limits_from_args(limits, speed_max, steer_max, accel_max, angular_accel_max):
     from unidyn.model import Limits
     if limits is not None:

@@ -9,7 +9,7 @@ from bdsim.components import ContinuousBlock, FunctionBlock, SampledBlock
 from unidyn import control, robots
 from unidyn._validate import ValidationError, choice, flag, nonnegative, positive, positive_vector, real, vector
 
-from ._common import as_vector, check_clock, check_finite
+from ._common import as_vector, check_blockargs, check_clock, check_finite
 
 VD_DOT_CONTINUOUS = ("input", "filter")
 VD_DOT_SAMPLED = ("input", "difference")
@@ -111,6 +111,7 @@ class KinematicController(FunctionBlock):
             blockargs.setdefault("onames", ["v_d", "v_d_dot"])
             blockargs.setdefault("nin", 5)
             blockargs.setdefault("nout", 2)
+        check_blockargs(self, blockargs)
         super().__init__(**blockargs)
         self.type = "kinematiccontroller"
 
@@ -196,6 +197,7 @@ class SampledKinematicController(SampledBlock):
         :type blockargs: dict
         """
         self.k, self.l, self.a = _gains(kx, ky, lx, ly, a)
+        check_blockargs(self, blockargs)
         super().__init__(clock=check_clock(clock, type(self).__name__), x0=vector("v_d0", v_d0, 2), **blockargs)
         self.type = "sampledkinematiccontroller"
 
@@ -352,6 +354,7 @@ class DynamicCompensator(ContinuousBlock):
         else:
             snames += ["z_u", "z_w"]
             x0 = np.r_[x0, 0.0, 0.0]
+        check_blockargs(self, blockargs)
         super().__init__(nstates=len(x0), x0=x0, feedthrough=True, snames=snames, **blockargs)
         self.type = "dynamiccompensator"
         self._last = None
@@ -485,6 +488,7 @@ class SampledDynamicCompensator(SampledBlock):
             blockargs.setdefault("nin", 3)
         # state: theta_hat (6), held v_r (2), previous v_d (2)
         x0 = np.r_[self.settings.theta_hat0, 0.0, 0.0, np.nan, np.nan]
+        check_blockargs(self, blockargs)
         super().__init__(clock=check_clock(clock, type(self).__name__), x0=x0, **blockargs)
         self.type = "sampleddynamiccompensator"
 

@@ -8,7 +8,7 @@ from bdsim.components import ContinuousBlock
 from unidyn import model, robots
 from unidyn._validate import ValidationError, flag, positive, real, vector
 
-from ._common import as_vector, check_finite, limits_from_args
+from ._common import as_vector, check_blockargs, check_finite, limits_from_args
 
 
 class DynamicUnicycle(ContinuousBlock):
@@ -95,7 +95,8 @@ class DynamicUnicycle(ContinuousBlock):
         :param a: distance from the axle centre to the point of interest h, m, >= 0, defaults to 0
         :type a: float
         :param x0: initial pose (x, y, psi) with the robot at rest, or full state
-            (x, y, psi, u, w), defaults to zeros
+            (x, y, psi, u, w) with \|u\| <= speed_max and \|w\| <= steer_max (else
+            a ValidationError), defaults to zeros
         :type x0: array_like(3) or array_like(5), optional
         :param speed_max: max \|u\|, m/s, > 0, defaults to inf
         :type speed_max: float
@@ -129,6 +130,12 @@ class DynamicUnicycle(ContinuousBlock):
         x0 = vector("x0", x0, (3, 5))
         if x0.shape[0] == 3:
             x0 = np.r_[x0, 0.0, 0.0]
+        for j, name, lim, unit in ((3, "u", self.limits.speed_max, "m/s"),
+                                     (4, "w", self.limits.steer_max, "rad/s")):
+            if abs(x0[j]) > lim:
+                raise ValidationError(
+                    f"DynamicUnicycle: the initial speed x0[{j}] ({name} = {x0[j]:g} {unit}) is beyond "
+                    f"the limit {lim:g} {unit}; start the robot within its limits")
         disturbance = flag("disturbance", disturbance)
         self.disturbance = bool(disturbance)
         if self.disturbance:
@@ -139,6 +146,7 @@ class DynamicUnicycle(ContinuousBlock):
         if self.velocity_output:
             blockargs.setdefault("onames", ["q", "velocity"])
             blockargs.setdefault("nout", 2)
+        check_blockargs(self, blockargs)
         super().__init__(nstates=5, x0=x0, snames=["x", "y", "psi", "u", "w"], **blockargs)
         self.type = "dynamicunicycle"
 
@@ -225,6 +233,7 @@ class KinematicUnicycle(ContinuousBlock):
         self.a = real("a", a, low=0.0)
         self.limits = limits_from_args(limits, speed_max, steer_max, np.inf, np.inf)
         x0 = np.zeros(3) if x0 is None else vector("x0", x0, (3, 5))[:3]
+        check_blockargs(self, blockargs)
         super().__init__(nstates=3, x0=x0, snames=["x", "y", "psi"],
                          **blockargs)
         self.type = "kinematicunicycle"

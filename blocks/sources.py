@@ -8,7 +8,7 @@ from bdsim.components import SampledBlock, SourceBlock
 from unidyn import trajectories as traj
 from unidyn._validate import ValidationError, nonnegative, vector
 
-from ._common import as_vector, check_clock
+from ._common import as_vector, check_blockargs, check_clock
 
 class TrajectorySource(SourceBlock):
     r"""
@@ -67,6 +67,7 @@ class TrajectorySource(SourceBlock):
                 raise ValidationError("acceleration is only for a callable trajectory; a "
                                       f"{type(trajectory).__name__} has its own derivatives")
             self.trajectory = traj.from_spec(trajectory)
+        check_blockargs(self, blockargs)
         super().__init__(**blockargs)
         self.type = "trajectorysource"
 
@@ -129,6 +130,7 @@ class FigureEight(TrajectorySource):
         :param blockargs: common block options
         :type blockargs: dict
         """
+        check_blockargs(self, blockargs)
         super().__init__(traj.FigureEight(ax, ay, wx, wy, _pair("center", center)), **blockargs)
         self.type = "figureeight"
 
@@ -183,6 +185,7 @@ class Circle(TrajectorySource):
         :param blockargs: common block options
         :type blockargs: dict
         """
+        check_blockargs(self, blockargs)
         super().__init__(traj.Circle(radius, omega, _pair("center", center), phase), **blockargs)
         self.type = "circle"
 
@@ -233,6 +236,7 @@ class Line(TrajectorySource):
         :param blockargs: common block options
         :type blockargs: dict
         """
+        check_blockargs(self, blockargs)
         super().__init__(traj.Line(start, velocity), **blockargs)
         self.type = "line"
 
@@ -310,6 +314,7 @@ class MeasurementNoise(SampledBlock):
         self.indices = np.array(idx)
         self._rng = np.random.default_rng(self.seed)
         x0 = self.std * self._rng.standard_normal(len(idx))
+        check_blockargs(self, blockargs)
         super().__init__(clock=check_clock(clock, type(self).__name__), x0=x0, feedthrough=True, **blockargs)
         self.type = "measurementnoise"
 
