@@ -123,7 +123,7 @@ def test_an_interrupted_overwrite_keeps_the_old_run_or_writes_the_new(tmp_path):
     assert cli(tmp_path, "run", "--set", "T=3", "--out", "Y")[0] == 0
     took = time.monotonic() - t0  # how long a run takes here: kill within it
     outcomes = []
-    for sig in (signal.SIGINT, signal.SIGKILL, signal.SIGINT):
+    for sig in (signal.SIGINT, signal.SIGKILL):
         p = start(tmp_path, "run", "--set", "T=3", "--overwrite", "--out", "X")
         code, _, err = kill_at_random(p, rng, 0.0, 0.8 * took, sig, after_line=True)
         assert err.startswith("unidyn: replacing X/ (timeseries.csv, summary.json, path.png")
@@ -223,7 +223,7 @@ def test_sweeps_killed_at_random_rows_resume_byte_identical(tmp_path, engine, T,
     whole = (tmp_path / "whole" / "metrics.csv").read_bytes()
     n = rows_in(tmp_path / "whole" / "metrics.csv")
     cuts = 0
-    for sig in (signal.SIGKILL, signal.SIGINT, signal.SIGKILL):
+    for sig in (signal.SIGKILL, signal.SIGINT):
         at = rng.randint(1, n - 1)
         p = start(tmp_path, "sweep", f, "--out", "cut", *common, env=env)
         code, _, err = kill_after_rows(p, tmp_path / "cut" / "metrics.csv", at, sig)
@@ -262,7 +262,7 @@ def test_a_killed_restart_keeps_the_old_rows_or_writes_all_new_ones(tmp_path):
         assert code == 2 and "12 finished row(s)" in err and "--overwrite" in err, err
         assert files(tmp_path / "S") == old
     seen = set()
-    for sig in (signal.SIGKILL, signal.SIGINT, signal.SIGKILL):
+    for sig in (signal.SIGKILL, signal.SIGINT):
         p = start(tmp_path, "sweep", g, "--out", "S", "--overwrite", *common)
         # the new rows go to a staging folder: kill at a random moment of the run
         code, _, err = kill_at_random(p, rng, 0.5, 6.0, sig)
@@ -345,7 +345,7 @@ def test_an_interrupted_identify_keeps_the_old_theta(tmp_path):
     assert cli(tmp_path, "identify", "b.csv", "--out", "J")[0] == 0
     took = time.monotonic() - t0
     new_theta = json.loads((tmp_path / "J" / "theta.json").read_text())
-    for sig in (signal.SIGINT, signal.SIGKILL, signal.SIGINT):
+    for sig in (signal.SIGINT, signal.SIGKILL):
         p = start(tmp_path, "identify", "b.csv", "--overwrite", "--out", "I")
         code, _, err = kill_at_random(p, rng, 0.2, 1.2 * took, sig)
         got = files(tmp_path / "I")
