@@ -193,4 +193,15 @@ def build_fig2(sim, scenario: Scenario, *, robot: Callable | None = None,
     fig.watch.update({"pose": R[0], "reference": src[0], "v_d": K[0], "v_ref": command})
     if dynamic:
         fig.watch["velocity"] = R[1]
+    _terminate_unused_outputs(bd)
     return fig
+
+
+def _terminate_unused_outputs(bd):
+    """End every output nothing reads (e.g. theta_hat, which is only logged) in a NULL
+    sink, so compiling the diagram prints no "output ... is not connected" notice."""
+    used = {(id(w.start.block), w.start.port) for w in bd.wirelist}
+    unused = [(b, port) for b in list(bd.blocklist) for port in range(b.nout or 0)
+              if (id(b), port) not in used]
+    for i, (b, port) in enumerate(unused):
+        bd.connect(b[port], bd.NULL(1, name=f"unused_{i}"))

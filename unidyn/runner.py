@@ -144,8 +144,13 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
     sim = new_simulator()
     fig = build_fig2(sim, scenario, **builder_args)
     roles = list(fig.watch)
-    with contextlib.redirect_stdout(io.StringIO()):  # bdsim's notes on unconnected outputs
-        fig.bd.compile()
+    said = io.StringIO()
+    try:
+        with contextlib.redirect_stdout(said):  # bdsim's notes (e.g. a user block's unused output)
+            fig.bd.compile()
+    except Exception as err:  # a real error: pass on what bdsim said about it
+        raise RuntimeError(f"bdsim could not compile the Fig. 2 diagram: {err}\n"
+                           f"{said.getvalue().strip()}") from err
     sc = scenario
     fig.bd.deriv = _Guard(fig.bd, fig.blocks["robot"], sc, timeout)
     failure = None
