@@ -376,3 +376,16 @@ def test_python_m_unidyn_and_console_script(tmp_path):
                        capture_output=True, text=True, env=_env(), timeout=120)
     assert p.returncode == 2
     assert_one_line_error(p.stderr, "malformed TOML")
+
+
+def test_a_run_into_a_folder_being_written_is_refused(tmp_path, capsys):
+    from unidyn.sweep import FolderLock
+    out = tmp_path / "busy"
+    out.mkdir()
+    with FolderLock(out):  # as a sweep or another run holds it
+        code, text, err = run_cli(capsys, "run", "--T", "1", "--out", out)
+    assert code == 2 and text == ""
+    assert_one_line_error(err, f"PID {os.getpid()}", "another unidyn process")
+    assert list(out.iterdir()) == []
+    assert run_cli(capsys, "run", "--T", "1", "--out", out)[0] == 0  # released
+    assert not (out / ".unidyn.lock").exists()

@@ -212,12 +212,27 @@ def _cmd_run(args) -> int:
     animation = _import_animation() if args.animate else None
     # the new results are written beside `out` and swapped in only once complete; an
     # error or an interrupt leaves `out` as it was
-    staging = staged_output(out, overwrite=args.overwrite, results=_RESULT_FILES,
-                            what="run results", owned=_RUN_ARTEFACTS)
+    if out.exists() and not out.is_dir():
+        raise ValidationError(f"--out {out} is a file, not a folder")
+    from .sweep import FolderLock
+    created = not out.exists()
+    out.mkdir(parents=True, exist_ok=True)
     try:
-        stage, result, wall, replaced = _run_staged(staging, sc, engine, out, animation)
-    except KeyboardInterrupt:
-        raise _Interrupted(f"{out} is as it was before this run") from None
+        with FolderLock(out):  # one writer at a time (a sweep or another run)
+            staging = staged_output(out, overwrite=args.overwrite, results=_RESULT_FILES,
+                                    what="run results", owned=_RUN_ARTEFACTS)
+            try:
+                stage, result, wall, replaced = _run_staged(staging, sc, engine, out,
+                                                            animation)
+            except KeyboardInterrupt:
+                raise _Interrupted(f"{out} is as it was before this run") from None
+    except BaseException:
+        if created:
+            try:
+                out.rmdir()  # nothing was written: leave no empty folder behind
+            except OSError:
+                pass
+        raise
     return _run_summary(sc, out, stage, result, wall, replaced, animation)
 
 
@@ -505,12 +520,9 @@ def _cmd_identify(args) -> int:
                 json.dumps({**report.as_dict(), "log": [str(vlog)] if vlog else
                             [str(p) for p in logs], "in_sample": vlog is None},
                            indent=2, allow_nan=False) + "\n")
-            import matplotlib.pyplot as plt
+            from .figstyle import save
             axes = ident.plot_validation(report)
-            fig = axes[0].figure
-            fig.tight_layout()
-            fig.savefig(stage.path / "validation.png", dpi=110)
-            plt.close(fig)
+            save(axes[0].figure, stage.path / "validation.png")
     final = stage.final or out
     print(f"written    {final / path.name}")
     if not args.no_validate:
