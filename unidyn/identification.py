@@ -118,6 +118,7 @@ import numpy as np
 
 from . import robots
 from ._validate import ValidationError, choice, nonnegative, positive, real, vector
+from .figstyle import label, legend, size, styled, ylim_from_data
 from .model import NO_LIMITS, PAPER_LIMITS, Limits, unicycle_deriv
 from .parameters import RobotParameters
 
@@ -2079,6 +2080,7 @@ def _with_validation(res, D, segs):
     return replace(res, validation=rep)
 
 
+@styled
 def plot_validation(report: ValidationReport, ax=None):
     """Plot measured and simulated u and w of a :class:`ValidationReport`.
 
@@ -2092,15 +2094,26 @@ def plot_validation(report: ValidationReport, ax=None):
         raise ValidationError(f"report must be a ValidationReport, got {type(report).__name__}")
     if ax is None:
         import matplotlib.pyplot as plt
-        _, ax = plt.subplots(2, 1, sharex=True, figsize=(8, 5))
+        _, ax = plt.subplots(2, 1, sharex=True, figsize=size(2, 0.5), layout="constrained")
     ax = list(np.ravel(ax))
     if len(ax) != 2:
         raise ValidationError(f"ax must be two Axes (u, w), got {len(ax)}")
-    for a, k, unit in ((ax[0], "u", "m/s"), (ax[1], "w", "rad/s")):
-        a.plot(report.t, getattr(report, k), lw=0.6, color="0.6", label=f"{k} measured")
-        a.plot(report.t, getattr(report, f"{k}_sim"), lw=1.2, color="C0",
-               label=f"{k} simulated ({report.theta.name}), fit {report.fit[k]:.1f} %")
-        a.set_ylabel(f"{k} ({unit})")
-        a.legend(loc="upper right", fontsize="small")
-    ax[1].set_xlabel("t (s)")
+    t = np.asarray(report.t, dtype=float)
+    dt = np.diff(t)
+    # break the lines at gaps in the log instead of drawing across them
+    cut = np.flatnonzero(dt > 5.0 * np.median(dt)) + 1 if dt.size else np.array([], int)
+
+    def broken(y):
+        return np.insert(np.asarray(y, dtype=float), cut, np.nan)
+
+    tb = broken(t)
+    for a, k, sym, unit in ((ax[0], "u", "u", "m/s"), (ax[1], "w", "\u03c9", "rad/s")):
+        a.plot(tb, broken(getattr(report, k)), lw=0.6, color="0.6", label="measured")
+        a.plot(tb, broken(getattr(report, f"{k}_sim")), lw=1.0, color="C0",
+               label=f"simulated, \u03b8 = {report.theta.name or 'identified'} "
+                     f"(fit {report.fit[k]:.1f} %)")
+        a.set_ylabel(label(sym, unit))
+        ylim_from_data(a)
+        legend(a)
+    ax[1].set_xlabel(label("t", "s"))
     return ax
