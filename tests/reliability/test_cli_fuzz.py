@@ -11,7 +11,9 @@ input, one ``unidyn: error:`` line) or 1 (a valid run that stopped early, with i
 Random numbers stay within 1e-3..1e3 in magnitude (plus 0, NaN and infinities):
 larger *valid* values are legal and only make a run longer (the batch engine
 refines its step with the fastest rate of the loop), so extreme numbers are
-tested with fixed files instead (``test_extreme_numbers_*``).
+tested with fixed files instead (``test_extreme_numbers_*``), and so are huge strings
+(``test_long_strings_*``: a 3 MB name, 1 MB values, 100 kB keys), which must be refused
+before anything is written, on one short line that names the key.
 """
 
 from __future__ import annotations
@@ -313,24 +315,31 @@ def _huge(digits=400):
     pytest.param("robot = [1e-300, 1, 0, 1, 0, 1]\ncase = \"uncompensated\"\n", 2,
                  id="robot.theta1=1e-300"),
     pytest.param("Ts = 1e-300\n", 2, id="Ts=1e-300"),
-    pytest.param("a = 1e300\nnoise = \"off\"\n", 0, id="a=1e300"),
-    pytest.param("a = 1e-300\nnoise = \"off\"\n", 0, id="a=1e-300"),
-    pytest.param("kx = 1e4\nky = 1e-300\nnoise = \"off\"\n", 0, id="kx=1e4,ky=1e-300"),
+    # refused up front: the adaptation's rate would need more than 10,000 steps per sample
+    pytest.param("a = 1e300\nnoise = \"off\"\n", 2, id="a=1e300"),
+    pytest.param("a = 1e-300\nnoise = \"off\"\n", 2, id="a=1e-300"),
+    pytest.param("kx = 1e4\nky = 1e-300\nnoise = \"off\"\n", 2, id="kx=1e4,ky=1e-300"),
     pytest.param("[noise]\nposition_std = 1e300\nvelocity_std = 1e300\nseed = "
                  "99999999999999999999999999\n", 0, id="noise.std=1e300,huge-seed"),
     pytest.param("gamma = [1e300, 1e300, 1e300, 1e300, 1e300, 1e300]\nadapt_from = 0\n"
-                 "noise = \"off\"\n", 1, id="gamma=1e300 (stops early)"),
+                 "noise = \"off\"\n", 2, id="gamma=1e300"),
     pytest.param("trajectory = {type = \"circle\", radius = 1e300, omega = 1e300}\n"
                  "noise = \"off\"\n", 1, id="circle 1e300 (stops early)"),
     pytest.param("kx = 1.7976931348623157e308\n", 2, id="kx=max-float"),
     pytest.param("kx = -9223372036854775808\n", 2, id="kx=int64-min"),
-    pytest.param("x0 = [1e300, -1e300, 1e300]\nnoise = \"off\"\n", 0, id="x0=1e300"),
+    pytest.param("x0 = [1e300, -1e300, 1e300]\nnoise = \"off\"\n", 2, id="x0=1e300"),
 ])
 @pytest.mark.filterwarnings("ignore:overflow encountered:RuntimeWarning",
                             "ignore:invalid value encountered:RuntimeWarning")
 def test_extreme_numbers_in_run_files(capsys, tmp_path, text, outcome):
-    status, _, err = _cli(capsys, tmp_path, "run", text)
+    status, out, err = _cli(capsys, tmp_path, "run", text)
     assert status == outcome, err
+    if status == 2:  # refused before anything was written
+        assert not (out / "summary.json").exists()
+    if status == 1:  # stopped early: marked so, with no metrics
+        import json
+        summary = json.loads((out / "summary.json").read_text())
+        assert summary["complete"] is False and set(summary["metrics"].values()) == {None}
 
 
 # ---------------------------------------------------------------------- unidyn sweep
