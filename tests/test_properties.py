@@ -233,10 +233,11 @@ def test_report_is_frozen_and_serialisable():
     assert "all properties hold" in text
 
 
-def test_properties_module_does_not_import_bdsim():
+def test_properties_module_does_not_import_bdsim(tmp_path):
     code = ("import sys, unidyn.properties as p; p.check_properties('p3dx'); p.rank_test(10); "
             "assert 'bdsim' not in sys.modules")
-    subprocess.run([sys.executable, "-c", code], check=True)
+    # from an empty folder: a checkout named unidyn in the working folder must not matter
+    subprocess.run([sys.executable, "-c", code], check=True, cwd=tmp_path)
 
 
 def test_lazy_access_from_the_package():
