@@ -116,11 +116,11 @@ from pathlib import Path
 
 import numpy as np
 
-from . import robots
-from ._validate import ValidationError, choice, nonnegative, positive, real, vector
-from .figstyle import label, legend, size, styled, ylim_from_data
-from .model import NO_LIMITS, PAPER_LIMITS, Limits, unicycle_deriv
-from .parameters import RobotParameters
+from .. import robots
+from .._validate import ValidationError, choice, nonnegative, positive, real, vector
+from ..figstyle import label, legend, size, styled, ylim_from_data
+from ..model import NO_LIMITS, PAPER_LIMITS, Limits, unicycle_deriv
+from ..parameters import RobotParameters
 
 __all__ = ["IdentificationResult", "ValidationReport", "MissingColumnsError",
            "IdentificationWarning", "identify",
