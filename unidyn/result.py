@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import tempfile
@@ -39,14 +40,21 @@ def metrics(t, error, velocity) -> dict:
     }
 
 
-def write_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file and a rename, so an
-    interrupted write never leaves a half-written file that looks complete."""
+#: Rows of timeseries.csv formatted at a time.
+_CSV_BLOCK = 50_000
+
+
+def write_atomic(path: Path, text: str, more=()) -> None:
+    """Write ``text`` (then each string of the iterable ``more``) to ``path``
+    through a temporary file and a rename, so an interrupted write never leaves a
+    half-written file that looks complete."""
     path = Path(path)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
         with os.fdopen(fd, "w", newline="") as fh:
             fh.write(text)
+            for chunk in more:
+                fh.write(chunk)
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the usual mode
@@ -162,11 +170,16 @@ class Result:
                 "u_ref": self.v_ref[:, 0], "w_ref": self.v_ref[:, 1], "error": self.error}
         for i in range(6):
             cols[f"theta_hat{i + 1}"] = self.theta_hat[:, i]
-        data = np.column_stack(list(cols.values()))
-        import io
-        buf = io.StringIO()
-        np.savetxt(buf, data, delimiter=",", header=",".join(cols), comments="", fmt="%.10g")
-        write_atomic(folder / "timeseries.csv", buf.getvalue())
+        header = ",".join(cols) + "\n"
+        columns = list(cols.values())
+
+        def rows():  # formatted a block at a time: no copy of the whole series in memory
+            for i in range(0, len(self.t), _CSV_BLOCK):
+                buf = io.StringIO()
+                np.savetxt(buf, np.column_stack([c[i:i + _CSV_BLOCK] for c in columns]),
+                           delimiter=",", fmt="%.10g")
+                yield buf.getvalue()
+        write_atomic(folder / "timeseries.csv", header, more=rows())
         write_atomic(folder / "summary.json", self.to_json())
         return folder
 

@@ -69,8 +69,8 @@ class _Guard:
     robot's state against ``Scenario.divergence_bounds``, counts the evaluations
     per sample interval and watches the wall clock."""
 
-    def __init__(self, bd, robot, sc, timeout):
-        self.bd, self.robot, self.sc = bd, robot, sc
+    def __init__(self, bd, robot, sc, timeout, bar=None):
+        self.bd, self.robot, self.sc, self.bar = bd, robot, sc, bar
         self.deriv = bd.deriv
         self.bounds = sc.divergence_bounds()
         self.k, self.count = -1, 0
@@ -84,6 +84,8 @@ class _Guard:
         sc = self.sc
         k = int(t / sc.Ts + 1e-9)
         if k > self.k:  # a new sample interval (a probe of its end counts as the next)
+            if self.bar is not None and self.k >= 0:
+                self.bar.update(min(k, sc.steps) - min(self.k, sc.steps))
             self.k, self.count = k, 0
         self.count += 1
         if self.count > MAX_RHS_PER_SAMPLE:
@@ -114,7 +116,8 @@ def _check_bounds(x, b, t):
 
 
 def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DEFAULT_ATOL,
-             method: str = "RK45", timeout: float | None = None, **builder_args) -> Result:
+             method: str = "RK45", timeout: float | None = None, progress=None,
+             **builder_args) -> Result:
     """Simulate ``scenario`` with bdsim (Fig. 2 diagram, :func:`unidyn.diagrams.build_fig2`).
 
     The continuous states are integrated by ``scipy.integrate.solve_ivp``
@@ -125,6 +128,8 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
         limit, the run stops with :class:`SimulationError` when the robot's state
         leaves :meth:`~unidyn.Scenario.divergence_bounds` or the solver needs more
         than :data:`MAX_RHS_PER_SAMPLE` evaluations in one sample interval
+    :param progress: ``None`` (default: a tqdm progress bar on stderr for runs of
+        2000 samples or more, only when stderr is a terminal), ``True`` or ``False``
     :param builder_args: factories passed to :func:`unidyn.diagrams.build_fig2`
         (``robot=``, ``controller=``, ``compensator=``, ``trajectory=``)
     :return: :class:`Result`
@@ -152,7 +157,14 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
         raise RuntimeError(f"bdsim could not compile the Fig. 2 diagram: {err}\n"
                            f"{said.getvalue().strip()}") from err
     sc = scenario
-    fig.bd.deriv = _Guard(fig.bd, fig.blocks["robot"], sc, timeout)
+    bar = None
+    if progress is True or (progress is None and sc.steps >= 2000):
+        import sys
+
+        from tqdm import tqdm
+        bar = tqdm(total=sc.steps, unit="sample", desc="unidyn bdsim", leave=False,
+                   disable=None if progress is None else False, file=sys.stderr, mininterval=0.5)
+    fig.bd.deriv = _Guard(fig.bd, fig.blocks["robot"], sc, timeout, bar)
     failure = None
     interrupted = False
     try:
@@ -162,7 +174,11 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
                           solver=method, solver_args=dict(rtol=rtol, atol=atol, max_step=sc.Ts))
         t = np.asarray(out.t, dtype=float)
         y = out[".ywatch"]
+        if bar is not None:
+            bar.close()
     except (Exception, KeyboardInterrupt) as err:  # keep what bdsim logged before the failure
+        if bar is not None:
+            bar.close()
         interrupted = isinstance(err, KeyboardInterrupt)
         simstate = getattr(fig.blocks["robot"], "_simstate", None)
         cause = err if interrupted else _root_cause(err)
