@@ -192,3 +192,89 @@ def test_processes_killed_at_random_moments_leave_old_or_new_never_a_mix(tmp_pat
     subprocess.run([sys.executable, str(script), str(out), "99"], check=True, env=env,
                    cwd=tmp_path, capture_output=True)
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".out.")] == []
+
+
+def test_the_block_holds_the_folder_lock_and_a_second_writer_is_refused(tmp_path):
+    out = tmp_path / "out"
+    with staged_output(out, overwrite=False, results=RESULTS) as st:
+        assert (out / outdir.LOCK_NAME).read_text().strip() == str(os.getpid())
+        with pytest.raises(outdir.FolderInUse, match=f"PID {os.getpid()}"):
+            with staged_output(out, overwrite=True, results=RESULTS):
+                pytest.fail("the second writer must not run")
+        _write(st.path, 1)
+    assert _generations(out) == {1} and not (out / outdir.LOCK_NAME).exists()
+
+
+def test_a_refused_write_into_a_new_folder_leaves_no_folder(tmp_path):
+    out = tmp_path / "new" / "out"
+    with pytest.raises(RuntimeError):
+        with staged_output(out, overwrite=False, results=RESULTS):
+            raise RuntimeError("failed before writing")
+    assert not out.exists()
+
+
+_RACER = textwrap.dedent("""
+    import sys, time
+    from unidyn import ValidationError
+    from unidyn.outdir import staged_output
+    out, me = sys.argv[1], sys.argv[2]
+    try:
+        with staged_output(out, overwrite=False, results=("summary.json",)) as st:
+            time.sleep(0.5)
+            (st.path / "summary.json").write_text(me)
+    except ValidationError as err:
+        print("refused:", err)
+        sys.exit(2)
+""")
+
+
+def test_two_processes_into_one_empty_folder_one_writes_the_other_is_refused(tmp_path):
+    script = tmp_path / "racer.py"
+    script.write_text(_RACER)
+    out = tmp_path / "out"
+    procs = [subprocess.Popen([sys.executable, str(script), str(out), name], cwd=tmp_path,
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for name in ("first", "second")]
+    outs = [p.communicate(timeout=60) for p in procs]
+    codes = sorted(p.returncode for p in procs)
+    assert codes == [0, 2], outs
+    refused = [o for o, p in zip(outs, procs) if p.returncode == 2][0][0]
+    assert "PID" in refused or "already holds" in refused
+    winner = ["first", "second"][[p.returncode for p in procs].index(0)]
+    assert (out / "summary.json").read_text() == winner
+
+
+def test_read_only_parent_stages_inside_the_folder(tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    out.mkdir()
+    _write(out, 1)
+    (out / "old_artefact.png").write_text("old")
+    real = outdir._mkdir_like_others
+
+    def parent_read_only(parent, prefix):
+        if parent == out.parent:
+            raise PermissionError(13, "Permission denied", str(parent))
+        return real(parent, prefix)
+
+    monkeypatch.setattr(outdir, "_mkdir_like_others", parent_read_only)
+    with pytest.raises(KeyboardInterrupt):
+        with staged_output(out, overwrite=True, results=RESULTS) as st:
+            assert st.path.parent == out
+            _write(st.path, 2)
+            raise KeyboardInterrupt
+    assert _generations(out) == {1} and sorted(p.name for p in out.iterdir()) == [
+        "old_artefact.png", *RESULTS]
+    with staged_output(out, overwrite=True, results=RESULTS,
+                       owned=RESULTS + ("old_artefact.png",)) as st:
+        _write(st.path, 2)
+    assert _generations(out) == {2} and sorted(p.name for p in out.iterdir()) == list(RESULTS)
+
+
+def test_ctrl_c_during_the_swap_is_held_back():
+    with outdir._interrupts_deferred():
+        signal.raise_signal(signal.SIGINT)  # arrives inside: held back, then dropped
+    with pytest.raises(KeyboardInterrupt):
+        with outdir._interrupts_deferred():
+            signal.raise_signal(signal.SIGINT)
+            raise OSError("the swap failed")  # not done: the Ctrl-C is raised after all
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler

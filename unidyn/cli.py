@@ -212,27 +212,13 @@ def _cmd_run(args) -> int:
     animation = _import_animation() if args.animate else None
     # the new results are written beside `out` and swapped in only once complete; an
     # error or an interrupt leaves `out` as it was
-    if out.exists() and not out.is_dir():
-        raise ValidationError(f"--out {out} is a file, not a folder")
-    from .sweep import FolderLock
-    created = not out.exists()
-    out.mkdir(parents=True, exist_ok=True)
+    # (staged_output also holds the folder's lock: one writer at a time)
+    staging = staged_output(out, overwrite=args.overwrite, results=_RESULT_FILES,
+                            what="run results", owned=_RUN_ARTEFACTS)
     try:
-        with FolderLock(out):  # one writer at a time (a sweep or another run)
-            staging = staged_output(out, overwrite=args.overwrite, results=_RESULT_FILES,
-                                    what="run results", owned=_RUN_ARTEFACTS)
-            try:
-                stage, result, wall, replaced = _run_staged(staging, sc, engine, out,
-                                                            animation)
-            except KeyboardInterrupt:
-                raise _Interrupted(f"{out} is as it was before this run") from None
-    except BaseException:
-        if created:
-            try:
-                out.rmdir()  # nothing was written: leave no empty folder behind
-            except OSError:
-                pass
-        raise
+        stage, result, wall, replaced = _run_staged(staging, sc, engine, out, animation)
+    except KeyboardInterrupt:
+        raise _Interrupted(f"{out} is as it was before this run") from None
     return _run_summary(sc, out, stage, result, wall, replaced, animation)
 
 
@@ -511,8 +497,8 @@ def _cmd_identify(args) -> int:
         print(_cli_words(res.summary()))
         if not args.no_validate:
             report = ident.validate(res, str(vlog), columns=columns) if vlog else \
-                ident._validation_report(res.theta, *_joined(ident, logs, columns), res.commands,
-                                         res.delay)
+                ident.validation_report(res.theta, *_joined(ident, logs, columns), res.commands,
+                                        res.delay)
             what = "held-out log" if vlog else "the same log(s) (in-sample)"
             print(f"validation on {what}: NRMSE fit "
                   + ", ".join(f"{k} {v:.1f} %" for k, v in report.fit.items()))
@@ -532,7 +518,7 @@ def _cmd_identify(args) -> int:
 
 def _joined(ident, logs, columns):
     """The logs read and joined as identify() joins them: (arrays, pieces)."""
-    D, segs, _, _ = ident._gather([str(p) for p in logs], columns, None)
+    D, segs, _, _ = ident.join_logs([str(p) for p in logs], columns)
     return D, segs
 
 

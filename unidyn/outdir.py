@@ -29,6 +29,15 @@ What a user can rely on:
   (a user's notes, a sub-folder) are carried into the new folder (hard links, so
   nothing is copied); entries named in ``owned`` (the command's own artefacts,
   such as last run's ``animation.gif``) are not, so no stale artefact survives.
+- **One writer at a time.** The block holds ``out``'s :class:`FolderLock` (the
+  file ``.unidyn.lock`` in ``out``, locked with ``flock``), so a second command
+  writing the same folder (a run, a sweep, an identification) is refused with a
+  message naming the first one's PID; the lock of a killed process is taken over.
+- **Ctrl-C during the swap** is held back until the swap is done: the command
+  then either has its new results in place or has left the old ones.
+- **A read-only parent folder** (``out`` writable, the folder holding it not):
+  the staging folder goes inside ``out`` and the files are moved in one by one,
+  each replacement atomic but not the set; the rest holds as above.
 - **A partial result never replaces a complete one.** After
   :meth:`Stage.incomplete`, the staged files replace ``out`` only if ``out`` held
   no results; otherwise they go to the sibling folder ``<out>.incomplete`` and the
@@ -43,14 +52,129 @@ import errno
 import os
 import shutil
 import tempfile
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ._validate import ValidationError
 
-__all__ = ["Stage", "staged_output"]
+__all__ = ["Stage", "staged_output", "FolderLock", "FolderInUse", "LOCK_NAME"]
 
 _NEW, _OLD = "new", "old"
+#: The lock file that marks a folder as being written by a unidyn process.
+LOCK_NAME = ".unidyn.lock"
+
+
+class FolderInUse(ValidationError):
+    """Another process is writing the output folder (it holds the folder's lock)."""
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, ValueError):
+        return True
+    return True
+
+
+class FolderLock:
+    """An exclusive lock on a folder, held by this process: the file ``.unidyn.lock``
+    holding its PID, locked with ``fcntl.flock`` (released by the system when the
+    process dies, so a lock left by a killed process is simply taken over). Where
+    ``fcntl`` is missing the file is created exclusively and a lock whose PID is not
+    running is taken over."""
+
+    def __init__(self, folder, option: str = "out_dir"):
+        self.path = Path(folder) / LOCK_NAME
+        self._fd = None
+        try:
+            import fcntl
+        except ImportError:  # pragma: no cover - not POSIX
+            fcntl = None
+        for _ in range(100):
+            if fcntl is not None and self._try_flock(fcntl):
+                break
+            if fcntl is None and self._try_exclusive():
+                break
+        else:  # pragma: no cover - the lock file keeps vanishing under us
+            raise FolderInUse(f"{folder}: cannot take the lock {self.path}")
+        os.ftruncate(self._fd, 0)
+        os.write(self._fd, f"{os.getpid()}\n".encode())
+        os.fsync(self._fd)
+
+    def _holder(self, fd=None) -> str:
+        for _ in range(20):  # the holder writes its PID just after locking
+            try:
+                if fd is not None:
+                    text = os.pread(fd, 64, 0).decode(errors="replace")
+                else:
+                    text = self.path.read_text(errors="replace")
+            except OSError:
+                text = ""
+            if text.strip().isdigit():
+                return text.strip()
+            time.sleep(0.01)
+        return "unknown"
+
+    def _busy(self, pid: str):
+        folder = self.path.parent
+        return FolderInUse(f"{folder} is being written by another unidyn process (PID {pid}, "
+                           f"lock {self.path}); wait for it to finish or choose another "
+                           f"output folder")
+
+    def _try_flock(self, fcntl) -> bool:
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            pid = self._holder(fd)
+            os.close(fd)
+            raise self._busy(pid) from None
+        try:  # a holder that released meanwhile removed the file: lock the new one
+            same = os.stat(self.path).st_ino == os.fstat(fd).st_ino
+        except FileNotFoundError:
+            same = False
+        if not same:
+            os.close(fd)
+            return False
+        self._fd = fd
+        return True
+
+    def _try_exclusive(self) -> bool:  # pragma: no cover - not POSIX
+        try:
+            self._fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o644)
+            return True
+        except FileExistsError:
+            pid = self._holder()
+            if pid.isdigit() and _pid_alive(int(pid)):
+                raise self._busy(pid) from None
+            try:
+                self.path.unlink()  # left by a process that is gone
+            except FileNotFoundError:
+                pass
+            return False
+
+    def release(self) -> None:
+        if self._fd is None:
+            return
+        try:
+            try:
+                if os.stat(self.path).st_ino == os.fstat(self._fd).st_ino:
+                    self.path.unlink()
+            except FileNotFoundError:
+                pass
+        finally:
+            os.close(self._fd)
+            self._fd = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.release()
+
 
 
 @dataclass
@@ -75,23 +199,13 @@ class Stage:
         self.partial = str(reason) or "incomplete"
 
 
-def _pid_alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
-
-
 def _leftovers(out: Path, kind: str):
     """Staging (``new``) or backup (``old``) folders of ``out`` left by dead processes."""
     prefix = f".{out.name}.{kind}-"
-    try:
-        entries = list(out.parent.iterdir())
-    except OSError:
-        return []
+    entries = []
+    for folder in (out.parent, out):  # staging goes inside out where the parent is read-only
+        with contextlib.suppress(OSError):
+            entries += list(folder.iterdir())
     found = []
     for p in entries:
         if not p.name.startswith(prefix) or not p.is_dir():
@@ -194,8 +308,59 @@ def _swap_in(new: Path, out: Path, owned) -> None:
 
 
 @contextlib.contextmanager
+def _interrupts_deferred():
+    """Hold back Ctrl-C (SIGINT) for the few system calls of a swap, so that it is
+    never cut in half; a Ctrl-C that came meanwhile is dropped once the new results
+    are in place (the command has finished), and raised if they are not."""
+    import signal
+    import threading
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught = []
+    previous = signal.signal(signal.SIGINT, lambda *a: caught.append(True))
+    done = False
+    try:
+        yield
+        done = True
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        if caught and not done:
+            raise KeyboardInterrupt
+
+
+def _stage_folder(out: Path) -> tuple[Path, bool]:
+    """A fresh staging folder beside ``out`` (True), or inside it where the parent
+    folder cannot be written (False: the files are then moved in one by one)."""
+    prefix = f".{out.name}.{_NEW}-{os.getpid()}-"
+    try:
+        return _mkdir_like_others(out.parent, prefix), True
+    except PermissionError:
+        if not (out.is_dir() and os.access(out, os.W_OK)):
+            raise
+    return _mkdir_like_others(out, prefix), False
+
+
+def _move_in(stage: Path, out: Path, owned) -> None:
+    """Fallback for a read-only parent folder: move the staged entries into ``out``
+    one by one (each replacement atomic, the set not), then drop the command's
+    artefacts that the new results do not have."""
+    new = set(os.listdir(stage))
+    for name in sorted(new):
+        target = out / name
+        if target.is_dir() and not target.is_symlink():
+            shutil.rmtree(target)
+        os.replace(stage / name, target)
+    for name in owned:
+        p = out / name
+        if name not in new and (p.is_file() or p.is_symlink()):
+            p.unlink()
+    os.rmdir(stage)
+
+
+@contextlib.contextmanager
 def staged_output(out, *, overwrite: bool, results, what: str = "results", owned=None,
-                  option: str = "--out"):
+                  option: str = "--out", lock: bool = True):
     """Write a command's output folder all-or-nothing (see the module docstring).
 
     :param out: the output folder (created if needed, with its parents)
@@ -212,8 +377,13 @@ def staged_output(out, *, overwrite: bool, results, what: str = "results", owned
     :type owned: tuple of str
     :param option: the option that named ``out``, for messages
     :type option: str
+    :param lock: hold ``out``'s :class:`FolderLock` for the whole block, so that a
+        second process writing the same folder is refused naming this one; pass
+        False only when the caller holds it already
+    :type lock: bool
     :raises ValidationError: ``out`` is a file, or holds results and ``overwrite``
         is false
+    :raises FolderInUse: another process holds ``out``'s lock
     :return: a context manager yielding a :class:`Stage`
     """
     out = Path(out).absolute()
@@ -221,25 +391,48 @@ def staged_output(out, *, overwrite: bool, results, what: str = "results", owned
     owned = tuple(results if owned is None else owned) + results
     if out.exists() and not out.is_dir():
         raise ValidationError(f"{option} {out} is a file, not a folder")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    _recover(out)
+    if out.parent.is_dir():
+        _recover(out)  # first: a backup of a killed process may be all that is left of out
+    created = not out.exists()
+    out.mkdir(parents=True, exist_ok=True)
+    try:
+        with (FolderLock(out) if lock else contextlib.nullcontext()):
+            with _staged(out, overwrite, results, what, owned, option) as stage:
+                yield stage
+    except BaseException:
+        if created:  # nothing was written: leave no empty folder behind
+            for p in (out / LOCK_NAME, out):
+                with contextlib.suppress(OSError):
+                    p.rmdir() if p == out else p.unlink()
+        raise
+
+
+@contextlib.contextmanager
+def _staged(out, overwrite, results, what, owned, option):
     held = tuple(n for n in results if (out / n).exists())
     if held and not overwrite:
         raise ValidationError(f"{out} already holds {what} ({', '.join(held)}); pass "
                               f"--overwrite to replace them (they are kept until the new "
                               f"{what} are complete) or choose another {option}")
-    stage = Stage(_mkdir_like_others(out.parent, f".{out.name}.{_NEW}-{os.getpid()}-"),
-                  held=held, _out=out)
+    path, beside = _stage_folder(out)
+    stage = Stage(path, held=held, _out=out)
     try:
         yield stage
-        if stage.partial and any((out / n).exists() for n in results):
-            target = out.with_name(out.name + ".incomplete")
-            _swap_in(stage.path, target, owned=tuple(os.listdir(target)) if target.is_dir()
-                     else ())
-        else:
-            target = out
-            _swap_in(stage.path, out, owned)
-        stage.final = target
+        with _interrupts_deferred():
+            if stage.partial and any((out / n).exists() for n in results):
+                target = out.with_name(out.name + ".incomplete")
+                if not beside:
+                    raise ValidationError(f"cannot keep the partial {what} beside {out}: "
+                                          f"{out.parent} is not writable; {out} is as it was")
+                _swap_in(path, target, owned=tuple(os.listdir(target)) if target.is_dir()
+                         else ())
+            elif beside:
+                target = out
+                _swap_in(path, out, owned)
+            else:
+                target = out
+                _move_in(path, out, owned)
+            stage.final = target
     except BaseException:
-        shutil.rmtree(stage.path, ignore_errors=True)
+        shutil.rmtree(path, ignore_errors=True)
         raise

@@ -53,6 +53,7 @@ import numpy as np
 from ._validate import ValidationError, choice, positive, real
 from .batch import DEFAULT_SUBSTEPS
 from .noise import NoiseSpec, PAPER_NOISE
+from .outdir import LOCK_NAME, FolderInUse, FolderLock, staged_output
 from .result import write_atomic
 
 __all__ = ["Sweep", "Point", "SweepRun", "run_sweep", "read_metrics", "plot_metrics",
@@ -671,8 +672,6 @@ def connect_dask(address, option: str = "dask_address"):
     return client, client.close
 
 
-#: The lock file that marks a sweep folder as being written.
-LOCK_NAME = ".unidyn.lock"
 #: The file beside metrics.csv that records which sweep its rows belong to.
 ID_NAME = ".sweep-id"
 #: Files whose presence means a folder holds a sweep's results.
@@ -681,115 +680,6 @@ _SWEEP_RESULTS = ("metrics.csv", "sweep.json")
 _SWEEP_OWNED = ("metrics.csv", "sweep.json", "metrics.png", "claims.md", "fig11.png", ID_NAME)
 
 
-class FolderInUse(ValidationError):
-    """Another process is writing the output folder (it holds the folder's lock)."""
-
-
-def _pid_alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except (PermissionError, OverflowError, ValueError):
-        return True
-    return True
-
-
-class FolderLock:
-    """An exclusive lock on a folder, held by this process: the file ``.unidyn.lock``
-    holding its PID, locked with ``fcntl.flock`` (released by the system when the
-    process dies, so a lock left by a killed process is simply taken over). Where
-    ``fcntl`` is missing the file is created exclusively and a lock whose PID is not
-    running is taken over."""
-
-    def __init__(self, folder, option: str = "out_dir"):
-        self.path = Path(folder) / LOCK_NAME
-        self._fd = None
-        try:
-            import fcntl
-        except ImportError:  # pragma: no cover - not POSIX
-            fcntl = None
-        for _ in range(100):
-            if fcntl is not None and self._try_flock(fcntl):
-                break
-            if fcntl is None and self._try_exclusive():
-                break
-        else:  # pragma: no cover - the lock file keeps vanishing under us
-            raise FolderInUse(f"{folder}: cannot take the lock {self.path}")
-        os.ftruncate(self._fd, 0)
-        os.write(self._fd, f"{os.getpid()}\n".encode())
-        os.fsync(self._fd)
-
-    def _holder(self, fd=None) -> str:
-        for _ in range(20):  # the holder writes its PID just after locking
-            try:
-                if fd is not None:
-                    text = os.pread(fd, 64, 0).decode(errors="replace")
-                else:
-                    text = self.path.read_text(errors="replace")
-            except OSError:
-                text = ""
-            if text.strip().isdigit():
-                return text.strip()
-            time.sleep(0.01)
-        return "unknown"
-
-    def _busy(self, pid: str):
-        folder = self.path.parent
-        return FolderInUse(f"{folder} is being written by another unidyn process (PID {pid}, "
-                           f"lock {self.path}); wait for it to finish or choose another "
-                           f"output folder")
-
-    def _try_flock(self, fcntl) -> bool:
-        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            pid = self._holder(fd)
-            os.close(fd)
-            raise self._busy(pid) from None
-        try:  # a holder that released meanwhile removed the file: lock the new one
-            same = os.stat(self.path).st_ino == os.fstat(fd).st_ino
-        except FileNotFoundError:
-            same = False
-        if not same:
-            os.close(fd)
-            return False
-        self._fd = fd
-        return True
-
-    def _try_exclusive(self) -> bool:  # pragma: no cover - not POSIX
-        try:
-            self._fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o644)
-            return True
-        except FileExistsError:
-            pid = self._holder()
-            if pid.isdigit() and _pid_alive(int(pid)):
-                raise self._busy(pid) from None
-            try:
-                self.path.unlink()  # left by a process that is gone
-            except FileNotFoundError:
-                pass
-            return False
-
-    def release(self) -> None:
-        if self._fd is None:
-            return
-        try:
-            try:
-                if os.stat(self.path).st_ino == os.fstat(self._fd).st_ino:
-                    self.path.unlink()
-            except FileNotFoundError:
-                pass
-        finally:
-            os.close(self._fd)
-            self._fd = None
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.release()
 
 
 def sweep_id(sweep: Sweep) -> str:
@@ -959,10 +849,10 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
                 if not rows_held:  # nothing finished to lose: start over in place
                     return _run_in(sweep, out, record, engine, chunk_size, progress, client,
                                    t0, resume=False)
-                from .outdir import staged_output
                 try:
                     with staged_output(out, overwrite=True, results=_SWEEP_RESULTS,
-                                       what="sweep results", owned=_SWEEP_OWNED) as stage:
+                                       what="sweep results", owned=_SWEEP_OWNED,
+                                       lock=False) as stage:  # held above
                         run = _run_in(sweep, stage.path, record, engine, chunk_size,
                                       progress, client, t0, resume=False)
                 except BaseException as err:
