@@ -12,7 +12,11 @@ Rows:
   4. the full Fig. 11 sweep (4 cases x 70 gains x 250 s) through the batch engine,
      and through bdsim (estimated from a sample of points: a full bdsim sweep takes hours)
   5. import plus first run of `unidyn run --paper 4` in a fresh interpreter (cold start)
-and the accuracy of the batch engine against the bdsim diagram on the sampled points.
+and the accuracy of the batch engine against the bdsim diagram on the sampled points;
+then peak memory (resident set, ru_maxrss, each in a fresh process) of long batch
+runs with and without thinning the log (``log_every``) and of writing their files.
+
+    python benchmarks/engines.py --memory   # the memory table only
 """
 
 import argparse
@@ -102,10 +106,48 @@ def fig11_scenarios(T=250.0):
     return out
 
 
+MEMORY_PROBE = """
+import os, resource, sys, tempfile
+os.environ["MPLBACKEND"] = "Agg"
+from unidyn import Scenario
+from unidyn.batch import simulate_batch
+T, L = float(sys.argv[1]), int(sys.argv[2])
+simulate_batch([Scenario.paper(4, T=1.0)], backend="auto", progress=False)  # load the kernel
+rss = lambda: resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+base = rss()
+r, = simulate_batch([Scenario.paper(4, T=T, log_every=L)], progress=False)
+run = rss()
+with tempfile.TemporaryDirectory() as d:
+    r.save(d)
+print(len(r.t), base, run, rss())
+"""
+
+
+def memory_table():
+    """Peak resident memory of long single runs, each in a fresh interpreter."""
+    cases = [(1e5, 1), (1e5, 10)]  # (T, log_every) at Ts = 0.1 s: a million samples each
+    print("\n| run (Ts = 0.1 s) | samples | logged | peak RSS before [MB] | after the run [MB] "
+          "| after writing files [MB] | run [MB per million logged] |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
+    for T, L in cases:
+        r = subprocess.run([sys.executable, "-c", MEMORY_PROBE, str(T), str(L)],
+                           capture_output=True, text=True)
+        if r.returncode != 0:
+            print(f"| T = {T:g} s, log_every = {L} | FAILED: {r.stderr.strip()[-200:]} |")
+            continue
+        n, base, run, written = map(float, r.stdout.split())
+        print(f"| T = {T:g} s, log_every = {L} | {T / 0.1:.0f} | {n:.0f} | {base:.0f} | {run:.0f} "
+              f"| {written:.0f} | {(run - base) / (n / 1e6):.0f} |")
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description="unidyn engine benchmarks")
     p.add_argument("--quick", action="store_true", help="sample 4 bdsim sweep points, not 12")
+    p.add_argument("--memory", action="store_true", help="only the memory table")
     args = p.parse_args(argv)
+    if args.memory:
+        memory_table()
+        return
     rtol, atol = runner.DEFAULT_RTOL, runner.DEFAULT_ATOL
     rows = []
     sc = Scenario.paper(4)
@@ -164,6 +206,7 @@ def main(argv=None):
         print(f"\nbatch engine vs bdsim diagram on the {len(sample)} sampled Fig. 11 points (with "
               f"noise): IAE relative difference median {np.median(errs):.1e}, max {max(errs):.1e}; "
               f"position difference max {max(pos):.1e} m")
+    memory_table()
 
 
 if __name__ == "__main__":

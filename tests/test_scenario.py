@@ -564,7 +564,14 @@ def test_T_must_be_a_whole_number_of_samples(T, Ts, lo, hi):
 @pytest.mark.parametrize("T, Ts, n", [(0.3, 0.1, 3), (0.7, 0.1, 7), (20.0, 0.1, 200),
                                       (1.0, 1 / 3, 3), (2e5, 0.02, 10_000_000)])
 def test_T_a_whole_number_of_samples_up_to_rounding_is_accepted(T, Ts, n):
-    assert Scenario(T=T, Ts=Ts).steps == n
+    assert Scenario(T=T, Ts=Ts, log_every=10 if n > 1e6 else 1).steps == n
+
+
+def test_long_runs_must_thin_their_log_to_fit_in_memory():
+    with pytest.raises(ValidationError) as info:
+        Scenario(T=1e6, Ts=0.1)  # 1e7 samples, all logged: about 4 GB
+    assert "log_every >= 4" in str(info.value)
+    assert Scenario(T=1e6, Ts=0.1, log_every=4).steps == 10_000_000
 
 
 def test_divergence_bounds_follow_the_limits_or_the_reference():

@@ -33,9 +33,13 @@ CONTROL_MODES = ("continuous", "sampled")
 VD_DOT_METHODS = ("analytic", "filter", "difference")
 # v_d' methods each control mode can use (the sampled controller has no rate output)
 _VD_DOT_FOR = {"continuous": ("analytic", "filter"), "sampled": ("difference",)}
-#: The most samples (T/Ts) one run may hold: 1e7 samples of the result arrays
-#: take about 2 GB.
+#: The most samples (T/Ts) one run may integrate, and the most it may log
+#: (T/Ts/log_every). Measured by benchmarks/engines.py: a run takes about 160 MB
+#: to start, 55 bytes per sample (the held noise) and 205 bytes per logged sample,
+#: and writing its files about 200 bytes more per logged sample; so 1e7 samples
+#: with log_every >= 4 stay within 2 GB.
 MAX_SAMPLES = 10_000_000
+MAX_LOGGED = 3_000_000
 #: A state this many times beyond its physical scale (the speed limits, or the
 #: reference's size and speed where there are none) counts as diverged: both
 #: engines stop there (see :meth:`Scenario.divergence_bounds`).
@@ -178,6 +182,12 @@ class Scenario:
             raise ValidationError(f"log_every must be an integer >= 1 that divides T/Ts = "
                                   f"{self.steps}, got {le!r}")
         s("log_every", int(le))
+        if self.steps // self.log_every > MAX_LOGGED:
+            need = -(-self.steps // MAX_LOGGED)
+            raise ValidationError(
+                f"T/Ts/log_every must be at most {MAX_LOGGED:.0e} logged samples (about 2 GB); "
+                f"T = {self.T:g} s, Ts = {self.Ts:g} s give {self.steps} samples: set log_every "
+                f">= {need} (a divisor of {self.steps})")
         if not isinstance(self.name, str):
             raise ValidationError(f"name must be a string, got {self.name!r}")
 
