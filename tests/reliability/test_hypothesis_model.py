@@ -267,7 +267,9 @@ def scenarios(draw, T=None):
     noise = draw(st.one_of(st.none(), st.builds(
         NoiseSpec, position_std=_f(0.0, 0.05), velocity_std=_f(0.0, 0.05),
         seed=st.integers(0, 2**32 - 1))))
-    T = draw(_f(3.0, 5.0)) if T is None else T
+    Ts = draw(st.sampled_from([0.05, 0.1, 0.2]))
+    # T a whole number of samples of Ts
+    T = round(draw(_f(3.0, 5.0)) / Ts) * Ts if T is None else T
     vd_dot = draw(st.sampled_from(["analytic", "filter"]))
     return Scenario(
         case=draw(st.sampled_from(CASES)), robot=robot, a=draw(_f(0.05, 0.5)), x0=x0,
@@ -279,7 +281,7 @@ def scenarios(draw, T=None):
         sigma=draw(st.one_of(st.just(PAPER_SIGMA), st.tuples(*[_f(0.0, 0.01)] * 6))),
         adapt_from=draw(_f(0.0, T)), leakage=draw(st.sampled_from(LEAKAGE_FORMS)),
         noise=noise, limits=draw(_scenario_limits()), T=T,
-        Ts=draw(st.sampled_from([0.05, 0.1, 0.2])), vd_dot=vd_dot,
+        Ts=Ts, vd_dot=vd_dot,
         tau=draw(_f(0.02, 0.5)), name="hypothesis")
 
 
