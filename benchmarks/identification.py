@@ -35,6 +35,7 @@ import warnings  # noqa: E402
 
 from unidyn import Limits, RobotParameters  # noqa: E402
 from unidyn import identification as ident  # noqa: E402
+from unidyn.identification._simulate import simulate_held  # noqa: E402
 
 ROBOTS = {
     "hauler (90 kg, b = 0.3 m)": RobotParameters.from_physical(
@@ -126,7 +127,7 @@ def timing():
         exc = ident.excitation(T_, 0.01, robot=rp, seed=0, f_min=0.02)
         t = exc["t"][:n]
         ur, wr = exc["u_ref"][:n], exc["w_ref"][:n]
-        v = ident._simulate_held(rp.theta, t, ur, wr, [(0, n)], [[0.0, 0.0]])
+        v = simulate_held(rp.theta, t, ur, wr, [(0, n)], [[0.0, 0.0]])
         rng = np.random.default_rng(0)
         log = {"t": t, "u_ref": ur, "w_ref": wr, "u": v[:, 0] + NOISE * rng.standard_normal(n),
                "w": v[:, 1] + NOISE * rng.standard_normal(n)}

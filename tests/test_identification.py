@@ -38,6 +38,7 @@ import pytest
 
 from unidyn import ValidationError, robots
 from unidyn import identification as ident
+from unidyn.identification import estimator
 from unidyn.model import PAPER_LIMITS, Limits
 
 DT = 0.005
@@ -111,11 +112,11 @@ def test_identified_model_predicts_held_out_data(name):
     rep = ident.validate(res, holdout)
     for k in ("u", "w"):
         # the best any model can do against noisy data: the true response's fit
-        ceiling = ident._nrmse_fit(holdout[k], holdout[f"{k}_true"])
+        ceiling = ident.nrmse_fit(holdout[k], holdout[f"{k}_true"])
         assert rep.fit[k] > FIT_MIN[k], f"{name}: fit on {k} {rep.fit[k]:.2f} %"
         assert rep.fit[k] > ceiling - 0.2, f"{name}: {k} fit {rep.fit[k]:.2f} % vs {ceiling:.2f} %"
         # and against the noise-free response the prediction is nearly exact
-        assert ident._nrmse_fit(holdout[f"{k}_true"], getattr(rep, f"{k}_sim")) > 98.0
+        assert ident.nrmse_fit(holdout[f"{k}_true"], getattr(rep, f"{k}_sim")) > 98.0
         assert rep.rmse[k] < 1.1 * NOISE
 
 
@@ -214,9 +215,9 @@ def test_filter_gives_the_same_rows_on_uniform_and_irregular_code_paths():
     n = 4000
     args = [log[k][:n] for k in ("u_ref", "w_ref", "u", "w")]
     t = log["t"][:n]
-    uni = ident._filter_regression(t, *args, 0.5)
+    uni = estimator._filter_regression(t, *args, 0.5)
     t2 = t + 1e-9 * np.sin(np.arange(n))        # defeats the uniform fast path only
-    gen = ident._filter_regression(t2, *args, 0.5)
+    gen = estimator._filter_regression(t2, *args, 0.5)
     m = uni[2] & gen[2]
     assert m.sum() > n - 250
     np.testing.assert_allclose(gen[0][m], uni[0][m], atol=1e-6)
@@ -228,7 +229,7 @@ def test_local_polynomial_equals_savgol_filter_on_a_uniform_grid():
     rng = np.random.default_rng(0)
     t = np.arange(500) * 0.01
     y = np.sin(3 * t) + 0.1 * rng.standard_normal(t.size)
-    val, der, interior = ident._local_poly(t, y[:, None], 0.1, 3)    # 21 samples
+    val, der, interior = estimator._local_poly(t, y[:, None], 0.1, 3)    # 21 samples
     np.testing.assert_allclose(val[interior, 0],
                                savgol_filter(y, 21, 3)[interior], atol=1e-10)
     np.testing.assert_allclose(der[interior, 0],

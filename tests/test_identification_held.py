@@ -30,6 +30,7 @@ import pytest
 
 from unidyn import RobotParameters, ValidationError
 from unidyn import identification as ident
+from unidyn.identification._simulate import simulate_held
 
 NOISE = 0.01
 T = 120.0
@@ -106,7 +107,7 @@ def test_compiled_simulation_matches_the_reference_held_linear_and_delayed():
     for linear, delay in ((False, 0.0), (True, 0.0), (False, 0.13), (True, 0.05)):
         ref = reference_velocities(rp.theta, t, ur, wr, v0=(0.1, -0.2), delay=delay,
                                    linear=linear)
-        got = ident._simulate_held(rp.theta, t, ur, wr, [(0, t.size)], [[0.1, -0.2]], delay,
+        got = simulate_held(rp.theta, t, ur, wr, [(0, t.size)], [[0.1, -0.2]], delay,
                                    linear)
         np.testing.assert_allclose(got, ref, atol=2e-7, err_msg=f"{linear=} {delay=}")
     # and the library's own log simulator (scipy's DOP853 restarted per sample)

@@ -1,0 +1,194 @@
+"""Eq. (2) integrated over a log with its commands as the robot applied them.
+
+The commands of a log are held from each time stamp to the next (as robot
+firmware applies them) or vary linearly between them, optionally delayed. Two
+independent integrators do this, both restarting wherever a command jumps or
+kinks: :func:`simulate_held`, a classical RK4 of the velocities compiled by
+numba when it is installed (the output-error fit of
+:func:`unidyn.identification.identify` and
+:func:`unidyn.identification.validate`), and :func:`simulate_stepwise`, scipy's
+DOP853 on the full state of Eqs. (1)-(2) (the held and linear logs of
+:func:`unidyn.identification.simulate_log`, and validation with limits).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..model import unicycle_deriv
+
+#: How the logged commands act between their time stamps.
+COMMAND_CONVENTIONS = ("held", "linear")
+
+
+def _sim_segments(theta, t, u_ref, w_ref, starts, stops, v0, delay, linear, hmax, out):
+    """Integrate Eq. (2) over each segment [starts[s], stops[s]) of a log, from
+    the velocities v0[s], with the logged commands held from their time stamp to
+    the next (``linear`` false) or interpolated linearly between them, delayed by
+    ``delay`` seconds; writes the velocities at the time stamps into out (N, 2).
+
+    Classical RK4 with steps of at most ``hmax`` seconds; every instant at which
+    the (delayed) command jumps or kinks is a step boundary, so the integration
+    never crosses a discontinuity and keeps its fourth order. Before a
+    segment's first time stamp (plus the delay) its first command is in force.
+    """
+    t1, t2, t3, t4, t5, t6 = theta[0], theta[1], theta[2], theta[3], theta[4], theta[5]
+    for s in range(starts.size):
+        a = starts[s]
+        b = stops[s]
+        u = v0[s, 0]
+        w = v0[s, 1]
+        out[a, 0] = u
+        out[a, 1] = w
+        j = a
+        for k in range(a, b - 1):
+            ta = t[k]
+            tb = t[k + 1]
+            dtk = tb - ta
+            eps = 1e-9 * dtk
+            cur = ta
+            while cur < tb - eps:
+                while j + 1 < b and t[j + 1] + delay <= cur + eps:
+                    j += 1
+                nxt = tb
+                if j + 1 < b and t[j + 1] + delay < tb - eps:
+                    nxt = t[j + 1] + delay
+                if cur + eps < t[j] + delay < nxt:     # a linear ramp starts (first command)
+                    nxt = t[j] + delay
+                span = nxt - cur
+                n = int(math.ceil(span / hmax - 1e-6))
+                if n < 1:
+                    n = 1
+                h = span / n
+                # command over this piece: constant (held) or a line in time (linear)
+                cu0 = u_ref[j]
+                cw0 = w_ref[j]
+                su = 0.0
+                sw = 0.0
+                tj = t[j] + delay
+                if linear and j + 1 < b and cur + eps >= tj:
+                    gap = t[j + 1] - t[j]
+                    su = (u_ref[j + 1] - u_ref[j]) / gap
+                    sw = (w_ref[j + 1] - w_ref[j]) / gap
+                else:
+                    tj = cur
+                for i in range(n):
+                    tt = cur + i * h - tj
+                    ca = cu0 + su * tt
+                    da = cw0 + sw * tt
+                    cm = cu0 + su * (tt + 0.5 * h)
+                    dm = cw0 + sw * (tt + 0.5 * h)
+                    cb = cu0 + su * (tt + h)
+                    db = cw0 + sw * (tt + h)
+                    k1u = (t3 * w * w - t4 * u + ca) / t1
+                    k1w = (-t5 * u * w - t6 * w + da) / t2
+                    uu = u + 0.5 * h * k1u
+                    ww = w + 0.5 * h * k1w
+                    k2u = (t3 * ww * ww - t4 * uu + cm) / t1
+                    k2w = (-t5 * uu * ww - t6 * ww + dm) / t2
+                    uu = u + 0.5 * h * k2u
+                    ww = w + 0.5 * h * k2w
+                    k3u = (t3 * ww * ww - t4 * uu + cm) / t1
+                    k3w = (-t5 * uu * ww - t6 * ww + dm) / t2
+                    uu = u + h * k3u
+                    ww = w + h * k3w
+                    k4u = (t3 * ww * ww - t4 * uu + cb) / t1
+                    k4w = (-t5 * uu * ww - t6 * ww + db) / t2
+                    u = u + h / 6.0 * (k1u + 2.0 * k2u + 2.0 * k3u + k4u)
+                    w = w + h / 6.0 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w)
+                cur = nxt
+            out[k + 1, 0] = u
+            out[k + 1, 1] = w
+
+
+try:  # numba is optional (the ``fast`` extra); without it the same code runs in Python
+    import numba as _numba
+    _sim_compiled = _numba.njit(cache=True, nogil=True)(_sim_segments)
+    FAST = True
+except ImportError:  # pragma: no cover - exercised where numba is absent
+    _sim_compiled = _sim_segments
+    FAST = False
+
+
+def step_length(theta, dt) -> float:
+    """The longest RK4 step: a tenth of the faster time constant (local error
+    about (h / tau)^5 / 120 = 1e-7 of the velocity), and at most the median
+    sample interval ``dt``."""
+    th = np.asarray(theta, dtype=float)
+    tau = min(th[0] / th[3], th[1] / th[5]) if th[3] > 0 and th[5] > 0 else th[0]
+    if not tau > 0 or not math.isfinite(tau):
+        return dt / 4
+    return float(min(dt, tau / 10.0))
+
+
+def simulate_held(theta, t, u_ref, w_ref, segs, v0, delay=0.0, linear=False, hmax=None,
+                  out=None):
+    """Velocities (N, 2) of Eq. (2) over the pieces ``segs`` [(start, stop)] of a
+    log, each from its initial [u, w] in ``v0`` (one row per piece), with the
+    commands held (or ``linear``) and delayed by ``delay`` s; RK4 steps of at
+    most ``hmax`` s (default :func:`step_length`), see :func:`_sim_segments`.
+    Rows outside the pieces are left as they are (NaN in a new ``out``)."""
+    theta = np.ascontiguousarray(theta, dtype=float)
+    starts = np.array([a for a, _ in segs], dtype=np.int64)
+    stops = np.array([b for _, b in segs], dtype=np.int64)
+    if hmax is None:
+        steps = [np.diff(t[a:b]) for a, b in segs if b - a > 1]
+        hmax = step_length(theta, float(np.median(np.concatenate(steps))) if steps else 1.0)
+    if out is None:
+        out = np.full((t.size, 2), np.nan)
+    _sim_compiled(theta, t, u_ref, w_ref, starts, stops,
+                  np.ascontiguousarray(v0, dtype=float).reshape(-1, 2), float(delay),
+                  bool(linear), float(hmax), out)
+    return out
+
+
+def simulate_stepwise(theta, t, u_ref, w_ref, x0, limits, linear, delay):
+    """Eqs. (1)-(2) with the commands held (or linear) between time stamps and
+    delayed by ``delay`` s: scipy's DOP853 (rtol 1e-10) restarted at every
+    instant where the command jumps or kinks, so no step crosses one."""
+    from scipy.integrate import ode
+    ref = np.stack([u_ref, w_ref], axis=1)
+    n = t.size
+    state = {"j": 0}
+
+    def command(tt):
+        j = state["j"]
+        tau = tt - delay
+        if not linear or tau <= t[0] or j + 1 >= n:
+            return ref[j]
+        f = min(max((tau - t[j]) / (t[j + 1] - t[j]), 0.0), 1.0)
+        return ref[j] + f * (ref[j + 1] - ref[j])
+
+    t1, t2, t3, t4, t5, t6 = (float(v) for v in theta)
+
+    def rhs(tt, x):
+        if limits.active:
+            return unicycle_deriv(x, command(tt), theta, 0.0, limits)
+        # Eqs. (1)-(2) with a = 0 on scalars (the same equations, far less overhead)
+        c = command(tt)
+        u, w, psi = x[3], x[4], x[2]
+        return [u * math.cos(psi), u * math.sin(psi), w,
+                (t3 * w * w - t4 * u + c[0]) / t1, (-t5 * u * w - t6 * w + c[1]) / t2]
+
+    r = ode(rhs).set_integrator("dop853", rtol=1e-10, atol=1e-12, nsteps=100000)
+    brk = np.union1d(t, t[(t + delay > t[0]) & (t + delay < t[-1])] + delay)
+    # a delayed time stamp that meets another one to rounding is the same instant
+    brk = brk[np.concatenate([[True], np.diff(brk) > 1e-9 * float(np.median(np.diff(t)))])]
+    brk[-1] = t[-1]
+    X = np.empty((n, 5))
+    X[0] = x0
+    x = np.asarray(x0, dtype=float)
+    k_out = 1
+    for a, b in zip(brk[:-1], brk[1:]):
+        # the command in force on (a, b): the last one stamped at or before a - delay
+        state["j"] = max(int(np.searchsorted(t, a - delay + 1e-12 * (b - a), "right")) - 1, 0)
+        r.set_initial_value(x, a)
+        x = r.integrate(b)
+        if not r.successful():  # pragma: no cover - the model is smooth and stable
+            raise RuntimeError(f"simulation failed at t = {a:g} s")
+        while k_out < n and t[k_out] <= b + 1e-12 * (b - a):
+            X[k_out] = x
+            k_out += 1
+    return X

@@ -1,0 +1,314 @@
+"""Reading identification logs: CSV files in their encodings, column mapping,
+checks, gaps and the pieces between them, and several logs joined into one.
+
+A log holds the commands (u_ref, w_ref) a robot received and the velocities
+(u, w) it measured, with their time stamps, the quantities of Eq. (11).
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+
+from .._validate import ValidationError, real
+
+#: The canonical column names of a log.
+COLUMNS = ("t", "u_ref", "w_ref", "u", "w")
+# a time step longer than this many median steps is a gap
+_GAP_FACTOR = 5.0
+# pieces between gaps with fewer samples are not used
+MIN_SEGMENT = 10
+
+
+class MissingColumnsError(ValidationError):
+    """A log lacks columns that identification needs.
+
+    :ivar missing: the canonical names that are missing (t, u_ref, ...)
+    :ivar mapped: for each missing name, the log's name it was looked up as
+    :ivar available: the log's column names
+    :ivar source: what the log is (a file path, "mapping", ...)
+    """
+
+    def __init__(self, message, missing, mapped, available, source):
+        super().__init__(message)
+        self.missing, self.mapped = tuple(missing), dict(mapped)
+        self.available, self.source = tuple(available), source
+
+
+def _column_map(columns) -> dict:
+    if columns is None:
+        return {k: k for k in COLUMNS}
+    if not isinstance(columns, Mapping):
+        raise ValidationError(f"columns must be a mapping from {', '.join(COLUMNS)} to the "
+                              f"log's column names, got {_short(columns)}")
+    unknown = [k for k in columns if k not in COLUMNS]
+    if unknown:
+        raise ValidationError(f"columns: unknown key(s) {', '.join(_short(k) for k in unknown)}; "
+                              f"allowed keys are {', '.join(COLUMNS)}")
+    out = {k: k for k in COLUMNS}
+    for k, v in columns.items():
+        if not isinstance(v, str) or not v.strip():
+            raise ValidationError(f"columns[{k!r}] must be a column name (a non-empty string), "
+                                  f"got {_short(v)}")
+        out[k] = v.strip()
+    return out
+
+
+def _short(x, n: int = 60) -> str:
+    s = repr(x)
+    return s if len(s) <= n else s[:n - 5] + "...'" if s[:1] in "'\"" else s[:n - 3] + "..."
+
+
+def _decode(path: Path, raw: bytes) -> str:
+    """The text of a log file: UTF-8 (with or without a byte-order mark), UTF-16
+    with a byte-order mark, or, failing UTF-8, Windows-1252 / Latin-1."""
+    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
+        try:
+            return raw.decode("utf-16")
+        except UnicodeDecodeError as err:
+            line = raw[:err.start].count("\n".encode("utf-16-le")) + 1
+            raise ValidationError(f"log: {path} line {line}: the file starts with a UTF-16 "
+                                  f"byte-order mark but is not valid UTF-16") from None
+    if b"\x00" in raw:
+        line = raw[:raw.index(b"\x00")].count(b"\n") + 1
+        raise ValidationError(f"log: {path} line {line}: a NUL byte: "
+                              f"the file is not text (binary, or UTF-16 without a byte-order "
+                              f"mark); save the log as UTF-8 CSV")
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError as err:
+        first = err
+    try:
+        return raw.decode("cp1252")
+    except UnicodeDecodeError:
+        pass
+    if not any(0x80 <= b <= 0x9f for b in raw):
+        return raw.decode("latin-1")
+    pos = first.start
+    line = raw[:pos].count(b"\n") + 1
+    bad = raw[pos:pos + 4]
+    raise ValidationError(f"log: {path} line {line}: bytes {bad!r} are not text (neither "
+                          f"UTF-8 nor Latin-1); save the log as UTF-8 CSV")
+
+
+def _sniff_delimiter(header: str) -> str:
+    for d in (",", ";", "\t"):
+        if d in header:
+            return d
+    return ","
+
+
+def _read_csv(path: Path, wanted=None) -> tuple[dict, list]:
+    """Read the columns ``wanted`` (all if None) of a CSV log as float arrays.
+
+    Lines starting with '#' and blank lines are skipped; the first other line
+    names the columns. Columns not wanted are never parsed.
+    Returns (columns found, every header name).
+    """
+    try:
+        raw = path.read_bytes()
+    except IsADirectoryError:
+        raise ValidationError(f"log: {path} is a folder, not a CSV file") from None
+    except OSError as err:
+        raise ValidationError(f"log: cannot read {path}: {err.strerror or err}") from None
+    text = _decode(path, raw)
+    lines = text.splitlines()
+    lineno, header_line = 0, None
+    for lineno, line in enumerate(lines, start=1):
+        s = line.strip()
+        if s and not s.startswith("#"):
+            header_line = line
+            break
+    if header_line is None:
+        raise ValidationError(f"log: {path} has no header row; expected a first row naming "
+                              f"the columns ({', '.join(COLUMNS)})")
+    delim = _sniff_delimiter(header_line)
+    header = [h.strip().strip('"').strip("'").strip().lstrip("\ufeff")
+              for h in next(csv.reader([header_line], delimiter=delim))]
+    want = list(header) if wanted is None else [w for w in dict.fromkeys(wanted) if w in header]
+    index = {h: i for i, h in reversed(list(enumerate(header)))}   # first occurrence
+    cols = [(h, index[h]) for h in want]
+    need = max((i for _, i in cols), default=-1) + 1
+    data = {h: [] for h in want}
+    body = [(n, line) for n, line in enumerate(lines[lineno:], start=lineno + 1)
+            if line.strip() and not line.lstrip().startswith("#")]
+    rows = csv.reader((line for _, line in body), delimiter=delim)
+    for (n, _), row in zip(body, rows):
+        if len(row) > len(header):
+            raise ValidationError(f"log: {path} line {n} has {len(row)} fields, the header "
+                                  f"{len(header)} (a decimal comma, or an unquoted separator "
+                                  f"in a field?)")
+        if len(row) < need:
+            raise ValidationError(f"log: {path} line {n} has {len(row)} field(s); column "
+                                  f"{header[need - 1]!r} is field {need} of the header's "
+                                  f"{len(header)}")
+        for h, i in cols:
+            cell = row[i].strip()
+            try:
+                data[h].append(float(cell))
+            except ValueError:
+                raise ValidationError(f"log: {path} line {n}, column {h!r}: {_short(cell)} is "
+                                      f"not a number") from None
+    return data, header
+
+
+def _get_columns(log, wanted) -> tuple[dict | None, object, str, list]:
+    """(mapping or None, object, description, available names) of a log's raw columns."""
+    if isinstance(log, (str, os.PathLike)):
+        path = Path(log)
+        data, header = _read_csv(path, wanted)
+        return data, None, str(path), header
+    if isinstance(log, np.ndarray):
+        if log.dtype.names is None:
+            raise ValidationError("log: a numpy array must be a structured array with named "
+                                  f"fields ({', '.join(COLUMNS)}), got dtype {log.dtype}")
+        return {n: log[n] for n in log.dtype.names}, None, "structured array", \
+            list(log.dtype.names)
+    if isinstance(log, Mapping) or (hasattr(log, "keys") and hasattr(log, "__getitem__")):
+        keys = list(log.keys())
+        return {k: log[k] for k in keys}, None, "mapping", keys
+    return None, log, type(log).__name__, [k for k in dir(log) if not k.startswith("_")]
+
+
+def load_log(log, columns=None) -> dict:
+    """Read and check a log; return a dict of 1-D float arrays t, u_ref, w_ref, u, w.
+
+    :param log: a mapping (dict, pandas DataFrame, npz file) or an object with
+        attributes, holding arrays t (s), u_ref (m/s), w_ref (rad/s), u (m/s) and
+        w (rad/s); a numpy structured array with those fields; or the path of a
+        CSV file whose first row names the columns. CSV files may be UTF-8 (with
+        or without a byte-order mark), UTF-16 with a byte-order mark, or Latin-1 /
+        Windows-1252; separated by commas, semicolons or tabs; lines starting
+        with '#' are comments. Columns other than the five are ignored (never
+        parsed).
+    :param columns: optional mapping from the names above to the log's own
+        column names, e.g. ``{"u": "v_meas", "w": "omega_meas"}``
+    :raises ValidationError: for a missing column (all are named;
+        :class:`MissingColumnsError`), undecodable bytes or a cell that is not a
+        number (file, line and column named), columns of different lengths, NaN
+        or inf, time that is not strictly increasing (repeated or going back), or
+        fewer than 20 samples
+    """
+    cmap = _column_map(columns)
+    data, obj, what, available = _get_columns(log, [cmap[k] for k in COLUMNS])
+    missing = [k for k in COLUMNS if (cmap[k] not in data if data is not None
+                                      else not hasattr(obj, cmap[k]))]
+    if missing:
+        desc = [f"{k!r}" + (f" (as {cmap[k]!r})" if cmap[k] != k else "") for k in missing]
+        shown = ", ".join(_short(a, 40) for a in available[:20])
+        if len(available) > 20:
+            shown += f" and {len(available) - 20} more"
+        raise MissingColumnsError(
+            f"log {what} is missing column(s) {', '.join(desc)}; it has {shown or 'no columns'}"
+            f". Map the log's own names to t, u_ref, w_ref, u, w (the columns mapping)",
+            missing, {k: cmap[k] for k in missing}, available, what)
+    out = {}
+    n = None
+    for k in COLUMNS:
+        raw = data[cmap[k]] if data is not None else getattr(obj, cmap[k])
+        try:
+            arr = np.asarray(raw, dtype=float)
+        except (TypeError, ValueError):
+            raise ValidationError(f"log {what}: column {k!r} must hold numbers") from None
+        if arr.ndim != 1:
+            arr = arr.reshape(-1) if arr.size == max(arr.shape, default=0) else arr
+        if arr.ndim != 1:
+            raise ValidationError(f"log column {k!r} must be one-dimensional, got shape "
+                                  f"{arr.shape}")
+        bad = np.flatnonzero(~np.isfinite(arr))
+        if bad.size:
+            raise ValidationError(f"log column {k!r} has {bad.size} NaN/inf value(s), first at "
+                                  f"sample {bad[0]} ({arr[bad[0]]!r}); all values must be finite")
+        if n is None:
+            n = arr.size
+        elif arr.size != n:
+            raise ValidationError(f"log columns must have equal lengths: {k!r} has {arr.size} "
+                                  f"samples, 't' has {n}")
+        out[k] = arr.copy()
+    if n < 20:
+        raise ValidationError(f"log has {n} samples; at least 20 are needed")
+    dt = np.diff(out["t"])
+    if np.any(dt <= 0):
+        k = int(np.flatnonzero(dt <= 0)[0])
+        kind = "repeated" if dt[k] == 0 else "going back"
+        raise ValidationError(f"log time 't' must be strictly increasing; it is {kind} at "
+                              f"sample {k + 1}: t[{k}] = {out['t'][k]!r}, t[{k + 1}] = "
+                              f"{out['t'][k + 1]!r}")
+    return out
+
+
+def segments(t, gap: float = None) -> list:
+    """Split sample times at gaps: the (start, stop) index ranges of the pieces.
+
+    A time step longer than ``gap`` (default 5 times the median step) is a gap:
+    the robot was not logged in between, so nothing is filtered, integrated or
+    compared across it.
+    """
+    t = np.asarray(t, dtype=float)
+    dt = np.diff(t)
+    limit = _GAP_FACTOR * float(np.median(dt)) if gap is None else float(gap)
+    cuts = np.flatnonzero(dt > limit) + 1
+    bounds = np.concatenate([[0], cuts, [t.size]])
+    return [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
+
+
+def split_log(log, t_split: float, columns=None) -> tuple[dict, dict]:
+    """Split a log at time ``t_split``: (samples with t < t_split, samples with t >= t_split).
+
+    Use the first part to identify and the second, held out, to :func:`validate`.
+    """
+    d = load_log(log, columns)
+    t_split = real("t_split", t_split, low=d["t"][0], high=d["t"][-1], low_open=True,
+                   high_open=True)
+    m = d["t"] < t_split
+    extra = {k: np.asarray(v) for k, v in (log.items() if isinstance(log, Mapping) else [])
+             if k not in COLUMNS and np.ndim(v) >= 1 and len(v) == m.size}
+    first = {k: v[m] for k, v in {**d, **extra}.items()}
+    second = {k: v[~m] for k, v in {**d, **extra}.items()}
+    return first, second
+
+
+def join_logs(logs, columns=None, gap=None):
+    """Read several logs of one robot and join them as :func:`identify` does.
+
+    Each log is read by :func:`load_log` and split at gaps by :func:`segments`;
+    pieces of fewer than ``MIN_SEGMENT`` samples are dropped. The logs are
+    concatenated one after the other (their time stamps are not shifted), and
+    the pieces index the concatenation, so nothing is ever integrated, filtered
+    or compared across the end of one log and the start of the next.
+
+    :param logs: a sequence of logs (paths, mappings, ... as for :func:`load_log`)
+    :param columns: mapping from t, u_ref, w_ref, u, w to the logs' own names
+    :param gap: a time step longer than this (s) splits a log; default 5 times
+        its median step
+    :raises ValidationError: for a bad log (prefixed "log N:" when several logs
+        are given and the log is not a file) or when no piece is long enough
+    :return: (dict of the joined arrays t, u_ref, w_ref, u, w; list of
+        (start, stop) pieces; number of pieces dropped as too short; a
+        description of each log)
+    """
+    parts, segs, dropped, offset, sources = [], [], 0, 0, []
+    for i, lg in enumerate(logs):
+        try:
+            d = load_log(lg, columns)
+        except ValidationError as err:
+            if len(logs) == 1 or isinstance(lg, (str, os.PathLike)):
+                raise
+            raise type(err)(f"log {i + 1}: {err}") if type(err) is ValidationError else err
+        parts.append(d)
+        sources.append(str(lg) if isinstance(lg, (str, os.PathLike)) else type(lg).__name__)
+        for a, b in segments(d["t"], gap):
+            if b - a >= MIN_SEGMENT:
+                segs.append((a + offset, b + offset))
+            else:
+                dropped += 1
+        offset += d["t"].size
+    if not segs:
+        raise ValidationError(f"every piece of the log(s) between gaps holds fewer than "
+                              f"{MIN_SEGMENT} samples: nothing to identify from")
+    D = {k: np.concatenate([p[k] for p in parts]) for k in COLUMNS}
+    return D, segs, dropped, sources
