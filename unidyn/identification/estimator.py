@@ -72,6 +72,7 @@ from pathlib import Path
 import numpy as np
 
 from .._validate import ValidationError, choice, nonnegative, positive
+from ..model import regressor
 from ..parameters import RobotParameters
 from ._simulate import COMMAND_CONVENTIONS, simulate_held, step_length
 from .logs import COLUMNS, MIN_SEGMENT, _short, join_logs
@@ -158,6 +159,50 @@ def _filter_weights(t, half, chunk=2048):
         yield sl, ii, A, D, interior
 
 
+def _eq11_columns(v, v_dot):
+    """The regressor Y(v, v') of Eq. (11), :func:`unidyn.model.regressor`, with each
+    row reduced to the columns of its own parameters (``_ROW_PARAMS``): shape
+    (..., 2, 3), row 1 [u', -w^2, u] (theta1, theta3, theta4), row 2
+    [w', u w, w] (theta2, theta5, theta6). Every regressor the estimators form
+    comes from here."""
+    Y = regressor(v, v_dot)
+    return np.stack([Y[..., r, list(cols)] for r, cols in enumerate(_ROW_PARAMS)], axis=-2)
+
+
+def _eq11_parts(v):
+    """Y(v, 0) and Y(0, v) of :func:`_eq11_columns` per sample, each with a
+    (2, 3) mask of its columns that are not zero throughout; see
+    :func:`_filtered_eq11`."""
+    P = _eq11_columns(v, np.zeros_like(v))
+    Q = _eq11_columns(np.zeros_like(v), v)
+    return P, Q, P.any(axis=0), Q.any(axis=0)
+
+
+def _filtered_eq11(parts, smooth, slope):
+    """The regressor of Eq. (11) through the filter K, K * Y(v, v'), without
+    differentiating the data; shape (rows, 2, 3) as :func:`_eq11_columns`.
+
+    :func:`unidyn.model.regressor` cannot be called on (v, v') here because v'
+    is not available: the noisy samples must not be differenced. Y is linear in
+    v' and its v' entries do not depend on v, so Y(v, v') = Y(v, 0) + Y(0, v'),
+    and K * v' = K' * v (integration by parts). Hence
+    K * Y(v, v') = K * Y(v, 0) + K' * Y(0, v): the regressor is evaluated per
+    sample at (v, 0) and at (0, v) (``parts``, from :func:`_eq11_parts`), and
+    the first is filtered by ``smooth`` (applies K to a per-sample series) and
+    the second by ``slope`` (applies K'). Columns that are zero throughout (the
+    structural zeros) are not filtered.
+    """
+    P, Q, p_any, q_any = parts
+    cols = []
+    for r in range(2):
+        for j in range(3):
+            col = smooth(P[:, r, j]) if p_any[r, j] or not q_any[r, j] else None
+            if q_any[r, j]:
+                col = slope(Q[:, r, j]) if col is None else col + slope(Q[:, r, j])
+            cols.append(col)
+    return np.stack(cols, axis=-1).reshape(-1, 2, 3)
+
+
 def _filter_regression(t, u_ref, w_ref, u, w, half):
     """Both sides of Eq. (11) through the filter K, with the moments that the
     measurement noise adds to each row's regressor (for the bias correction).
@@ -174,18 +219,14 @@ def _filter_regression(t, u_ref, w_ref, u, w, half):
     y = np.empty((n, 2))
     X = np.empty((n, 2, 3))
     mom = {k: np.empty(n) for k in ("DD", "DA", "AA", "AAu", "DAu", "AAuu", "AAww")}
-    ww, uw = w * w, u * w
+    parts = _eq11_parts(np.stack([u, w], axis=1))
     interior = None
     for sl, ii, A, D, interior in _filter_weights(t, half):
         ui, wi = u[ii], w[ii]
         y[sl, 0] = np.einsum("nm,nm->n", A, u_ref[ii])
         y[sl, 1] = np.einsum("nm,nm->n", A, w_ref[ii])
-        X[sl, 0, 0] = np.einsum("nm,nm->n", D, ui)
-        X[sl, 0, 1] = -np.einsum("nm,nm->n", A, ww[ii])
-        X[sl, 0, 2] = np.einsum("nm,nm->n", A, ui)
-        X[sl, 1, 0] = np.einsum("nm,nm->n", D, wi)
-        X[sl, 1, 1] = np.einsum("nm,nm->n", A, uw[ii])
-        X[sl, 1, 2] = np.einsum("nm,nm->n", A, wi)
+        X[sl] = _filtered_eq11(parts, lambda z: np.einsum("nm,nm->n", A, z[ii]),
+                               lambda z: np.einsum("nm,nm->n", D, z[ii]))
         AA, DA = A * A, D * A
         mom["DD"][sl] = np.einsum("nm,nm->n", D, D)
         mom["DA"][sl] = DA.sum(axis=1)
@@ -221,13 +262,8 @@ def _filter_regression_uniform(t, u_ref, w_ref, u, w, half, dt):
         return out
 
     y = np.stack([conv(u_ref, A), conv(w_ref, A)], axis=1)
-    X = np.empty((n, 2, 3))
-    X[:, 0, 0] = conv(u, D)
-    X[:, 0, 1] = -conv(w * w, A)
-    X[:, 0, 2] = conv(u, A)
-    X[:, 1, 0] = conv(w, D)
-    X[:, 1, 1] = conv(u * w, A)
-    X[:, 1, 2] = conv(w, A)
+    X = _filtered_eq11(_eq11_parts(np.stack([u, w], axis=1)), lambda z: conv(z, A),
+                       lambda z: conv(z, D))
     AA, DA = A * A, D * A
     mom = {"DD": np.full(n, float(D @ D)), "DA": np.full(n, float(DA.sum())),
            "AA": np.full(n, float(AA.sum())), "AAu": conv(u, AA), "DAu": conv(u, DA),
@@ -713,6 +749,9 @@ def _arx(D, segs, delay, auto, dt_med):
     whole delay in samples 0..3 with the smallest residual is used; otherwise
     ``delay`` is rounded to whole samples. Returns (theta, delay in samples)."""
     t, u_ref, w_ref, u, w = (D[k] for k in COLUMNS)
+    # the coupling columns of Eq. (11), w^2 and u w, of each sample
+    Y0 = _eq11_columns(np.stack([u, w], axis=1), np.zeros((u.size, 2)))
+    w2, uw = -Y0[:, 0, 1], Y0[:, 1, 1]
     cands = range(4) if auto else [int(round(delay / dt_med))]
     best = None
     for m in cands:
@@ -728,7 +767,7 @@ def _arx(D, segs, delay, auto, dt_med):
         th = np.zeros(6)
         cost = 0.0
         for (y, x, ref, coup, sign, (ia, ic, ib)) in (
-                (u, u, u_ref, w * w, 1.0, (0, 2, 3)), (w, w, w_ref, u * w, -1.0, (1, 4, 5))):
+                (u, u, u_ref, w2, 1.0, (0, 2, 3)), (w, w, w_ref, uw, -1.0, (1, 4, 5))):
             X = np.stack([x[k], ref[k - m], coup[k]], axis=1)
             sc = np.linalg.norm(X, axis=0)
             if np.any(sc == 0):
@@ -1008,9 +1047,8 @@ def _solve(D, segs, smoothing, window, order, su, sw):
             rows = [(XX[:, r, :], yy[:, r], None if E is None else E[:, r]) for r in (0, 1)]
         else:
             val, der, interior = _local_poly(t, np.stack([u, w], axis=1), half, order)
-            uu, wv = val[:, 0], val[:, 1]
-            rows = [(np.stack([der[:, 0], -wv * wv, uu], axis=1), u_ref, None),
-                    (np.stack([der[:, 1], uu * wv, wv], axis=1), w_ref, None)]
+            XX = _eq11_columns(val, der)
+            rows = [(XX[:, 0, :], u_ref, None), (XX[:, 1, :], w_ref, None)]
         keep = interior
         for r, (X, y, E) in enumerate(rows):
             Xs[r].append(X[keep])
@@ -1117,7 +1155,9 @@ def _check_physical(theta, stderr):
 def _warnings(theta, stderr, conds, u, w, dt, rel_max) -> list:
     out = []
     rms = lambda a: float(np.sqrt(np.mean(np.square(a))))  # noqa: E731
-    turning = (f"rms(w^2) = {rms(w * w):.3g} rad²/s², rms(u*w) = {rms(u * w):.3g} m·rad/s², "
+    Y0 = _eq11_columns(np.stack([u, w], axis=1), np.zeros((np.size(u), 2)))
+    turning = (f"rms(w^2) = {rms(Y0[:, 0, 1]):.3g} rad²/s², rms(u*w) = {rms(Y0[:, 1, 1]):.3g} "
+               f"m·rad/s², "
                f"rms(u) = {rms(u):.3g} m/s, rms(w) = {rms(w):.3g} rad/s")
     for i, term in ((2, "-w^2 (centripetal)"), (4, "u*w (Coriolis)")):
         k = _NAMES[i]
