@@ -379,7 +379,7 @@ def test_python_m_unidyn_and_console_script(tmp_path):
 
 
 def test_a_run_into_a_folder_being_written_is_refused(tmp_path, capsys):
-    from unidyn.sweep import FolderLock
+    from unidyn.outdir import FolderLock
     out = tmp_path / "busy"
     out.mkdir()
     with FolderLock(out):  # as a sweep or another run holds it

@@ -16,7 +16,9 @@ from unidyn import ValidationError, robots
 from unidyn import sweep as sw
 from unidyn.batch import simulate_batch
 from unidyn.cli import main
-from unidyn.sweep import Sweep, fig11_claims, paper_fig11, read_metrics, run_sweep
+from unidyn.files import read_metrics, rows_text
+from unidyn.paper import fig11_claims, format_fig11_claims, paper_fig11
+from unidyn.sweep import Sweep, run_sweep
 
 SHORT = {"T": 1.0}
 
@@ -360,7 +362,7 @@ def test_incomplete_points_have_empty_metrics(tmp_path):
     rows = sw._run_chunk([(0, {"k": 1}, bad), (1, {"k": 2}, good)], "batch", 10)
     columns = ["index", "k", "case", *sw.METRICS, "complete"]
     path = tmp_path / "metrics.csv"
-    path.write_text(sw._rows_text(columns, rows))
+    path.write_text(rows_text(columns, rows))
     lines = path.read_text().splitlines()
     assert lines[1] == "0,1,compensated,,,,,,false"  # no partial metrics, ever
     back = read_metrics(path)
@@ -481,7 +483,7 @@ def test_fig11_claims_all_hold_on_a_table_shaped_like_the_paper():
     assert [cl.holds for cl in claims] == [True] * 5
     assert "IAE_a(1) = 9.000" in claims[0].measured
     assert "minimum 1.240 at k = 23" in claims[1].measured
-    md = sw.format_fig11_claims(claims)
+    md = format_fig11_claims(claims)
     assert md.count("| yes |") == 5 and "NO" not in md
 
 
@@ -496,14 +498,14 @@ def test_fig11_claims_report_failures_with_numbers():
     assert "k = 30" in claims[1].measured and "still falling" in claims[1].measured
     assert "4 of 5" in claims[2].measured and "k = 10" in claims[2].measured
     assert "3 of 5" in claims[4].measured and "10, 23" in claims[4].measured
-    assert sw.format_fig11_claims(claims).count("| NO |") == 4
+    assert format_fig11_claims(claims).count("| NO |") == 4
 
 
 def test_fig11_claims_outside_the_sweep_and_incomplete_runs():
     ks = [2.0, 5.0]
     claims = fig11_claims(synthetic([3, 2], [2, 1], [2, 1], [1, 0.5], ks))
     assert claims[0].holds is None and claims[1].holds is None
-    assert "n/a" in sw.format_fig11_claims(claims)
+    assert "n/a" in format_fig11_claims(claims)
     rows = synthetic([3, 2], [2, 1], [2, 1], [9, 0.5], ks)
     assert fig11_claims(rows)[-1].holds is False  # (d) is not lowest at k = 2
     rows[4]["complete"], rows[4]["iae"] = False, None  # (c) at k = 2 did not complete
@@ -575,3 +577,18 @@ def test_cli_sweep_marks_an_incomplete_point_and_counts_it(tmp_path, capsys):
     spec = json.loads((tmp_path / "o" / "sweep.json").read_text())
     assert spec["finished"] is True and spec["failed"] == [1]
     assert (tmp_path / "o" / "metrics.png").stat().st_size > 1000
+
+
+def test_moved_names_stay_importable_from_sweep():
+    """Scripts written against unidyn.sweep keep working: every name it lists is there,
+    and the moved ones are the very objects of their new homes."""
+    from unidyn import _dask, files, paper, plots
+    assert [n for n in sw.__all__ if not hasattr(sw, n)] == []
+    homes = {files: ("read_toml", "parse_toml_value", "read_metrics", "MissingDependency",
+                     "SPECIAL_KEYS", "METRICS"),
+             paper: ("paper_fig11", "fig11_claims", "format_fig11_claims", "Fig11Claim",
+                     "FIG11_CASES"),
+             plots: ("plot_metrics", "plot_fig11"), _dask: ("connect_dask",)}
+    for module, names in homes.items():
+        for name in names:
+            assert getattr(sw, name) is getattr(module, name), name

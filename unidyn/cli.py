@@ -69,20 +69,12 @@ def _err(message: str) -> None:
     print(f"unidyn: error: {message}", file=sys.stderr)
 
 
-def _scenario_table(path: Path) -> dict:
-    from .sweep import read_toml
-    data = read_toml(path, "scenario file")
-    if set(data) == {"scenario"} and isinstance(data["scenario"], dict):
-        data = data["scenario"]
-    return data
-
-
 def _split_set(item: str):
     key, sep, value = item.partition("=")
     key = key.strip()
     if not sep or not key:
         raise ValidationError(f"--set expects KEY=VALUE, got {item!r}")
-    from .sweep import parse_toml_value
+    from .files import parse_toml_value
     return key, parse_toml_value(value.strip())
 
 
@@ -131,7 +123,8 @@ def _build_scenario(args):
             raw = Scenario.paper(args.paper).to_dict()
             where = f"--paper {args.paper}"
         if args.scenario:
-            raw = {**raw, **_scenario_table(Path(args.scenario))}
+            from .files import read_scenario_table
+            raw = {**raw, **read_scenario_table(Path(args.scenario))}
             where = str(args.scenario)
     try:
         sc = Scenario.from_dict(raw)
@@ -179,7 +172,7 @@ def _check_out(out: Path, overwrite: bool, names=_RESULT_FILES, artefacts=_RUN_A
 
 
 def _import_animation():
-    from .sweep import MissingDependency
+    from .files import MissingDependency
     import importlib
     try:
         animation = importlib.import_module(".animation", __package__)
@@ -293,7 +286,7 @@ def _short_name(name: str, limit: int = 80) -> str:
 
 def _parse_gains(text: str):
     """'0.5:35:0.5' (start:stop:step, stop included) or a TOML list '[1, 5, 23]'."""
-    from .sweep import _expand_range, parse_toml_value
+    from .files import expand_range, parse_toml_value
     if ":" in text:
         parts = text.split(":")
         if len(parts) != 3:
@@ -303,7 +296,7 @@ def _parse_gains(text: str):
         except ValueError:
             raise ValidationError(f"--gains expects numbers in START:STOP:STEP, "
                                   f"got {text!r}") from None
-        return _expand_range("--gains", {"start": start, "stop": stop, "step": step})
+        return expand_range("--gains", {"start": start, "stop": stop, "step": step})
     v = parse_toml_value(text)
     if not isinstance(v, list):
         v = [v]
@@ -315,15 +308,17 @@ def _parse_gains(text: str):
 
 def _cmd_sweep(args) -> int:
     from . import sweep as sw
+    from .noise import PAPER_NOISE
+    from .paper import fig11_claims, format_fig11_claims, paper_fig11
     if bool(args.sweep) == bool(args.paper_fig11):
         raise _UsageError("give either a sweep file or --paper-fig11")
     if args.gains is not None and not args.paper_fig11:
         raise _UsageError("--gains applies to --paper-fig11 only (a sweep file has its grid)")
     if args.paper_fig11:
         gains = _parse_gains(args.gains) if args.gains is not None else None
-        spec = sw.paper_fig11(T=250.0 if args.T is None else args.T, gains=gains,
-                              noise=None if args.no_noise else sw.PAPER_NOISE,
-                              **({} if args.substeps is None else {"substeps": args.substeps}))
+        spec = paper_fig11(T=250.0 if args.T is None else args.T, gains=gains,
+                           noise=None if args.no_noise else PAPER_NOISE,
+                           **({} if args.substeps is None else {"substeps": args.substeps}))
     else:
         spec = sw.Sweep.from_toml(args.sweep)
         changes = {}
@@ -343,7 +338,11 @@ def _cmd_sweep(args) -> int:
     if out.exists() and not out.is_dir():
         raise ValidationError(f"--out {out} is a file, not a folder")
     n = len(spec)
-    client, close = (None, None) if args.dask is None else sw.connect_dask(args.dask, "--dask")
+    if args.dask is None:
+        client, close = None, None
+    else:
+        from ._dask import connect_dask
+        client, close = connect_dask(args.dask, "--dask")
     try:
         print(f"sweep: {_short_name(spec.name or str(args.sweep))}: {n} points, engine "
               f"{args.engine}" + (f", Dask at {args.dask}" if args.dask else ""), flush=True)
@@ -373,13 +372,14 @@ def _cmd_sweep(args) -> int:
         title = (f"Fig. 11 claims: T = {base.T:g} s, {len(spec.grid['kxy'])} gains "
                  f"{min(spec.grid['kxy']):g}..{max(spec.grid['kxy']):g}, noise {noise}, "
                  f"engine {args.engine}")
-        claims = sw.fig11_claims(run.rows)
-        table = sw.format_fig11_claims(claims, title=f"**{title}**")
+        claims = fig11_claims(run.rows)
+        table = format_fig11_claims(claims, title=f"**{title}**")
         from .result import write_atomic
         write_atomic(out / "claims.md", table + "\n")
-        sw.plot_fig11(run.rows, out / "fig11.png",
-                      title=f"IAE, T = {base.T:g} s, noise " + ("off" if base.noise is None
-                                                                else "on"))
+        from .plots import plot_fig11
+        plot_fig11(run.rows, out / "fig11.png",
+                   title=f"IAE, T = {base.T:g} s, noise " + ("off" if base.noise is None
+                                                             else "on"))
         print()
         print(table)
         print(f"\nwritten {out}/claims.md and {out}/fig11.png")
@@ -634,7 +634,7 @@ def _parser() -> argparse.ArgumentParser:
 
 def main(argv=None) -> int:
     """Run the ``unidyn`` command line; returns the exit status."""
-    from .sweep import MissingDependency
+    from .files import MissingDependency
     try:
         args = _parser().parse_args(argv)
         return int(args.func(args) or 0)

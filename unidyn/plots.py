@@ -12,6 +12,10 @@ y-limits from the data. :func:`save_figures` writes a run's figures:
 - ``velocities.png``: u and omega against the kinematic controller's u_d, omega_d
   (Figs. 4b, 6b, 8b, 10b);
 - ``theta_hat.png`` (adaptive runs): each of the six estimates against its true value.
+
+A sweep's figures: :func:`plot_metrics` (a metric against the first numeric axis,
+``metrics.png``) and :func:`plot_fig11` (IAE against kx = ky for the four cases of
+the paper's Fig. 11, ``fig11.png``).
 """
 
 from __future__ import annotations
@@ -22,11 +26,13 @@ from fractions import Fraction
 import numpy as np
 
 from . import figstyle
+from ._validate import choice
+from .files import METRICS, cell, is_number
 from .figstyle import REFERENCE, START, label as _unit
 
 __all__ = ["plot_path", "plot_error", "plot_positions", "plot_velocities", "plot_theta_hat",
            "compare_paths", "compare_errors", "save_figures", "reference_period",
-           "reference_once", "equal_limits"]
+           "reference_once", "equal_limits", "plot_metrics", "plot_fig11"]
 
 #: A true parameter smaller than this fraction of the largest |theta_i| counts as
 #: "near zero": its estimate is not divided by it.
@@ -279,3 +285,83 @@ def save_figures(result, folder, dpi=figstyle.DPI) -> list:
     if result.scenario.case == "adaptive":
         done(plot_theta_hat(result, panels=True)[0].figure, "theta_hat.png")
     return written
+
+
+# ------------------------------------------------------------------ sweeps
+
+def _numeric_axis(sweep):
+    for a in sweep.grid:
+        if all(is_number(v) for v in sweep.grid[a]):
+            return a
+    return None
+
+
+def plot_metrics(sweep, rows, path, metric: str = "iae"):
+    """IAE (or another metric) against the first numeric axis, one line per combination
+    of the other axes (a variant by its label); log scale with plain tick labels when
+    the values span more than a decade. In unidyn's figure style (:mod:`unidyn.figstyle`)."""
+    import matplotlib.pyplot as plt
+
+    choice("metric", metric, METRICS)
+    x_axis = _numeric_axis(sweep)
+    others = [a for a in sweep.axes if a != x_axis]
+    with figstyle.style():
+        fig, ax = plt.subplots(figsize=figstyle.size(1, 0.75))
+        lines = {}
+        for r in rows:
+            key = tuple(cell(r[a]) for a in others)
+            x = r[x_axis] if x_axis else r["index"]
+            y = r[metric] if r["complete"] else math.nan
+            lines.setdefault(key, []).append((x, y))
+        for key, pts in lines.items():
+            pts.sort()
+            xs, ys = zip(*pts)
+            label = ", ".join(str(k) if a == "variant" else f"{a} = {k}"
+                              for a, k in zip(others, key)) or None
+            ax.plot(xs, ys, "o-" if len(pts) < 30 else "-", ms=3, label=label)
+        vals = np.array([r[metric] for r in rows if r["complete"]], dtype=float)
+        vals = vals[np.isfinite(vals)]
+        if vals.size and vals.min() > 0 and vals.max() / vals.min() > 10:
+            figstyle.plain_log_axis(ax, "y")
+        elif vals.size:
+            figstyle.ylim_from_data(ax, floor=0 if vals.min() >= 0 else None)
+        ax.set_xlabel(_AXIS_LABELS.get(x_axis, x_axis) if x_axis else "point index")
+        ax.set_ylabel(_METRIC_LABELS[metric])
+        ax.set_title(sweep.name or "sweep")
+        ax.grid(True, which="major")
+        if 1 < len(lines) <= 12:
+            figstyle.legend(ax, fallback="below")
+        return figstyle.save(fig, path)
+
+
+#: Axis labels of the metrics (units as in :func:`unidyn.result.metrics`).
+_METRIC_LABELS = {"iae": "IAE (m·s)", "ise": "ISE (m²·s)", "itae": "ITAE (m·s²)",
+                  "energy": "control effort ∫(u² + ω²) dt", "error_final": "final error (m)"}
+#: Axis labels of the special sweep keys and common numeric fields.
+_AXIS_LABELS = {"kxy": "$k_x = k_y$ (1/s)", "kx": "$k_x$ (1/s)", "ky": "$k_y$ (1/s)",
+                "ku": "$k_u$ (1/s)", "kw": "$k_\\omega$ (1/s)", "a": "a (m)", "T": "T (s)",
+                "theta_hat_scale": "$\\hat\\theta(0)\\,/\\,\\theta$",
+                "adapt_from": "adaptation on at (s)", "seed": "noise seed"}
+
+
+def plot_fig11(metrics, path, title: str | None = None):
+    """IAE against k = kx = ky for the four cases, log y with plain tick labels (1, 2,
+    5, 10, 20), as the paper's Fig. 11. In unidyn's figure style (:mod:`unidyn.figstyle`)."""
+    import matplotlib.pyplot as plt
+
+    from .paper import FIG11_CASES, fig11_table
+    ks, tab = fig11_table(metrics)
+    with figstyle.style():
+        fig, ax = plt.subplots(figsize=figstyle.size(1, 0.95))
+        for (lab, desc), mk in zip(FIG11_CASES.items(), ("o", "s", "^", "D")):
+            ys = [tab[lab][k] if math.isfinite(tab[lab][k]) else math.nan for k in ks]
+            ax.plot(ks, ys, "-", marker=mk, ms=2.5, markevery=max(1, len(ks) // 12),
+                    label=desc)
+        figstyle.plain_log_axis(ax, "y")
+        ax.set_xlabel("$k_x = k_y$ (1/s)")
+        ax.set_ylabel("IAE (m·s)")
+        ax.set_title(title or "IAE against the kinematic controller's gain (Fig. 11)")
+        ax.grid(True, which="major")
+        ax.grid(True, which="minor", axis="y", alpha=0.2)
+        figstyle.legend(ax, outside="below")
+        return figstyle.save(fig, path)

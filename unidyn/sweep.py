@@ -28,15 +28,16 @@ theta), ``seed`` (noise.seed) and ``case``. A range is a table with ``start``,
 ``stop`` (included) and either ``step`` or ``num`` (with ``log = true`` for a
 geometric range).
 
-:func:`paper_fig11` is the sweep of the paper's Fig. 11 and :func:`fig11_claims`
-compares its metrics with what the paper says of them.
+Sweep files and ``metrics.csv`` are read and written by :mod:`unidyn.files`, the
+sweep figures are drawn by :mod:`unidyn.plots`, chunks run on Dask through
+:mod:`unidyn._dask`, and the paper's Fig. 11 sweep and its claims live in
+:mod:`unidyn.paper` (:func:`~unidyn.paper.paper_fig11`,
+:func:`~unidyn.paper.fig11_claims`); their names are importable from here too.
 """
 
 from __future__ import annotations
 
-import csv
 import dataclasses
-import io
 import itertools
 import json
 import math
@@ -45,15 +46,17 @@ import sys
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from numbers import Real
 from pathlib import Path
 
 import numpy as np
 
-from ._validate import ValidationError, choice, positive, real
+from ._dask import run_on_dask
+from ._validate import ValidationError, choice
 from .batch import DEFAULT_SUBSTEPS
-from .noise import NoiseSpec, PAPER_NOISE
-from .outdir import LOCK_NAME, FolderInUse, FolderLock, staged_output
+from .files import (MAX_POINTS, METRICS, cell, check_keys, expand_range,
+                    finished_rows, plain, read_rows, read_toml, rows_text,
+                    scenario_from_layers, write_rows)
+from .outdir import FolderLock, staged_output
 from .result import write_atomic
 
 __all__ = ["Sweep", "Point", "SweepRun", "run_sweep", "read_metrics", "plot_metrics",
@@ -61,218 +64,15 @@ __all__ = ["Sweep", "Point", "SweepRun", "run_sweep", "read_metrics", "plot_metr
            "FIG11_CASES", "SPECIAL_KEYS", "METRICS", "ENGINES", "MissingDependency",
            "read_toml", "sweep_id", "connect_dask", "FolderLock", "FolderInUse"]
 
-#: Keys that are not Scenario fields but set one or more of them.
-SPECIAL_KEYS = ("kxy", "theta_hat_scale", "seed")
-#: The per-point metrics written to metrics.csv (see :func:`unidyn.result.metrics`).
-METRICS = ("iae", "ise", "itae", "energy", "error_final")
 #: ``"batch"``: :func:`unidyn.batch.simulate_batch`, one call per chunk (sampled-control
 #: points go through :func:`unidyn.simulate`); ``"bdsim"``: :func:`unidyn.simulate` per point.
 ENGINES = ("batch", "bdsim")
 #: Default points per chunk, by engine.
 DEFAULT_CHUNK = {"batch": 40, "bdsim": 1}
-#: A sweep with more points than this is refused (almost surely a typo in a range).
-MAX_POINTS = 1_000_000
 #: The longest sweep name accepted (it titles the figures and names every point).
 MAX_NAME = 200
 
 _TOP_KEYS = ("name", "base", "grid", "variants", "substeps")
-_CONFLICTS = {"kxy": ("kx", "ky"), "theta_hat_scale": ("theta_hat0",)}
-
-
-class MissingDependency(ImportError):
-    """An optional dependency needed for the requested feature is not installed."""
-
-
-# --------------------------------------------------------------------------- TOML
-
-def _toml():
-    try:
-        import tomllib
-    except ModuleNotFoundError:  # Python < 3.11
-        try:
-            import tomli as tomllib
-        except ModuleNotFoundError:
-            raise MissingDependency("reading TOML on Python < 3.11 needs tomli "
-                                    "(pip install tomli)") from None
-    return tomllib
-
-
-def read_toml(path, what: str = "file") -> dict:
-    """Read a TOML file; a missing file raises ``FileNotFoundError``, malformed TOML a
-    :class:`ValidationError` naming the file, line and column."""
-    path = Path(path)
-    tomllib = _toml()
-    try:
-        with open(path, "rb") as fh:
-            return tomllib.load(fh)
-    except FileNotFoundError:
-        raise FileNotFoundError(f"{what} {path} does not exist") from None
-    except IsADirectoryError:
-        raise ValidationError(f"{what} {path} is a folder, not a TOML file") from None
-    except tomllib.TOMLDecodeError as err:
-        raise ValidationError(f"{path}: malformed TOML: {err}") from None
-    except UnicodeDecodeError as err:
-        raise ValidationError(f"{path}: not a UTF-8 text file: {err}") from None
-    except RecursionError:
-        raise ValidationError(f"{path}: TOML nested too deeply to read") from None
-
-
-def parse_toml_value(text: str):
-    """A TOML value (``0.5``, ``[0, 0, 0]``, ``{seed = 3}``, ``"p3dx"``); text that is
-    not a TOML value is returned as the string itself (so ``p3dx`` needs no quotes)."""
-    tomllib = _toml()
-    try:
-        return tomllib.loads(f"v = {text}")["v"]
-    except tomllib.TOMLDecodeError:
-        return text
-    except RecursionError:
-        raise ValidationError("value nested too deeply to read") from None
-
-
-# ------------------------------------------------------------------ plain values
-
-def _plain(v):
-    """Plain data (str, float, int, bool, list, dict, None) for Scenario-typed values."""
-    from .model import Limits
-    from .parameters import RobotParameters
-    from .trajectories import Trajectory
-    if isinstance(v, (NoiseSpec, Limits)):
-        return v.as_dict()
-    if isinstance(v, RobotParameters):
-        from . import robots
-        try:
-            if v.name in robots.names() and robots.get(v.name) == v:
-                return v.name
-        except ValidationError:
-            pass
-        return {**v.as_dict(), "name": v.name}
-    if isinstance(v, Trajectory):
-        return _plain(v.to_spec())
-    if isinstance(v, (np.floating, np.integer, np.bool_)):
-        return v.item()
-    if isinstance(v, (tuple, list, np.ndarray)):
-        return [_plain(x) for x in (v.tolist() if isinstance(v, np.ndarray) else v)]
-    if isinstance(v, Mapping):
-        return {str(k): _plain(x) for k, x in v.items()}
-    return v
-
-
-def _is_number(v) -> bool:
-    return isinstance(v, Real) and not isinstance(v, bool)
-
-
-def _expand_range(where: str, spec: Mapping) -> list:
-    allowed = {"start", "stop", "step", "num", "log"}
-    unknown = sorted(set(spec) - allowed)
-    if unknown:
-        raise ValidationError(f"{where}: unknown range key {unknown[0]!r}; a range has start, "
-                              f"stop and step (or num, with log = true for a geometric range)")
-    for k in ("start", "stop"):
-        if k not in spec:
-            raise ValidationError(f"{where}: a range needs {k!r} (and step or num)")
-    start = real(f"{where}.start", spec["start"])
-    stop = real(f"{where}.stop", spec["stop"])
-    if ("step" in spec) == ("num" in spec):
-        raise ValidationError(f"{where}: a range needs exactly one of 'step' and 'num'")
-    log = spec.get("log", False)
-    if not isinstance(log, bool):
-        raise ValidationError(f"{where}.log must be true or false, got {log!r}")
-    if stop < start:
-        raise ValidationError(f"{where}: stop ({stop:g}) must be >= start ({start:g})")
-    if "step" in spec:
-        step = spec["step"]
-        if log:
-            raise ValidationError(f"{where}: log = true needs num, not step")
-        step = real(f"{where}.step", step, low=0.0, low_open=True)
-        n = int(math.floor((stop - start) / step + 1e-9)) + 1
-        if n > MAX_POINTS:
-            raise ValidationError(f"{where}: {n} values; at most {MAX_POINTS} are allowed")
-        # 12 significant digits: 0.1 + 2 * 0.1 is 0.3, not 0.30000000000000004
-        return [float(f"{start + i * float(step):.12g}") for i in range(n)]
-    num = spec["num"]
-    if isinstance(num, bool) or not isinstance(num, int) or not 1 <= num <= MAX_POINTS:
-        raise ValidationError(f"{where}.num must be an integer in 1..{MAX_POINTS}, got {num!r}")
-    if log:
-        if start <= 0:
-            raise ValidationError(f"{where}: a geometric range needs start > 0, got {start:g}")
-        vals = np.geomspace(start, stop, num)
-    else:
-        vals = np.linspace(start, stop, num)
-    return [float(f"{v:.12g}") for v in vals]
-
-
-def _check_keys(where: str, d, allow_label: bool = False) -> dict:
-    from .scenario import Scenario
-    if not isinstance(d, Mapping):
-        raise ValidationError(f"{where} must be a table of scenario fields, got {d!r}")
-    known = {f.name for f in dataclasses.fields(Scenario)} | set(SPECIAL_KEYS)
-    if allow_label:
-        known.add("label")
-    for k in d:
-        if k not in known:
-            import difflib
-            close = difflib.get_close_matches(str(k), known, n=1)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise ValidationError(f"{where}: unknown key {k!r}{hint}; allowed: scenario fields "
-                                  f"and {', '.join(SPECIAL_KEYS)}")
-    return {str(k): _plain(v) for k, v in d.items()}
-
-
-def _special(where: str, key: str, value):
-    if key == "seed":
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
-            raise ValidationError(f"{where}.seed must be an integer >= 0, got {value!r}")
-        return int(value)
-    return positive(f"{where}.{key}", value)
-
-
-def _build(layers, name: str = ""):
-    """The Scenario of a stack of layers [(where, dict)]: later layers override earlier ones;
-    the special keys are applied last."""
-    from .scenario import Scenario
-    fields, fields_from, special = {}, {}, {}
-    for where, d in layers:
-        for k, v in d.items():
-            if k == "label":
-                continue
-            if k in SPECIAL_KEYS:
-                special[k] = (where, _special(where, k, v))
-            else:
-                fields[k] = v
-                fields_from[k] = where
-    for key, (where, _) in special.items():
-        for f in _CONFLICTS.get(key, ()):
-            if f in fields:
-                raise ValidationError(f"{where}.{key} and {fields_from[f]}.{f} both set "
-                                      f"{f}; use one of them")
-    if name and "name" not in fields:
-        fields["name"] = name
-    sc = Scenario.from_dict(fields)
-    if "kxy" in special:
-        k = special["kxy"][1]
-        sc = sc.replace(kx=k, ky=k)
-    if "theta_hat_scale" in special:
-        sc = sc.replace(theta_hat0=sc.robot.scaled(special["theta_hat_scale"][1]))
-    if "seed" in special:
-        where, seed = special["seed"]
-        if sc.noise is None:
-            raise ValidationError(f"{where}.seed is set but noise is off; give noise "
-                                  f"(e.g. noise = {{position_std = 0.01, velocity_std = 0.0141}})")
-        sc = sc.replace(noise=dataclasses.replace(sc.noise, seed=seed))
-    return sc
-
-
-def _cell(v) -> str:
-    """A CSV cell: round-trip text for numbers, JSON for lists and tables."""
-    if v is None:
-        return ""
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, float):
-        return repr(v)
-    if isinstance(v, (int, str)):
-        return str(v)
-    return json.dumps(v, sort_keys=True, separators=(",", ":"))
 
 
 # -------------------------------------------------------------------------- Sweep
@@ -324,7 +124,7 @@ class Sweep:
             raise ValidationError(f"substeps must be an integer in 1..{MAX_SUBSTEPS}, "
                                   f"got {self.substeps!r}")
         s("substeps", int(self.substeps))
-        s("base", _check_keys("base", self.base))
+        s("base", check_keys("base", self.base))
         if not isinstance(self.grid, Mapping):
             raise ValidationError(f"grid must be a table of axis = [values], got {self.grid!r}")
         grid = {}
@@ -333,11 +133,11 @@ class Sweep:
             if axis in ("variant", "label", "name"):
                 raise ValidationError(f"{where}: {axis!r} cannot be a grid axis"
                                       + (" (use [[variants]])" if axis != "name" else ""))
-            _check_keys("grid", {axis: None})
+            check_keys("grid", {axis: None})
             if isinstance(values, Mapping):
-                values = _expand_range(where, values)
+                values = expand_range(where, values)
             elif isinstance(values, (list, tuple, np.ndarray)):
-                values = [_plain(v) for v in values]
+                values = [plain(v) for v in values]
             else:
                 raise ValidationError(f"{where} must be a list of values or a range table "
                                       f"{{start, stop, step}}, got {values!r}")
@@ -345,7 +145,7 @@ class Sweep:
                 raise ValidationError(f"{where} is empty; give at least one value")
             seen = set()
             for v in values:
-                key = _cell(v)
+                key = cell(v)
                 if key in seen:
                     raise ValidationError(f"{where} has the value {v!r} twice")
                 seen.add(key)
@@ -357,7 +157,7 @@ class Sweep:
         variants, labels = [], set()
         for i, v in enumerate(self.variants):
             where = f"variants[{i}]"
-            v = _check_keys(where, v, allow_label=True)
+            v = check_keys(where, v, allow_label=True)
             label = v.get("label")
             if not isinstance(label, str) or not label:
                 raise ValidationError(f"{where} needs a label (a non-empty string), got {label!r}")
@@ -407,11 +207,11 @@ class Sweep:
                 if v is not None:
                     layers.append((f"variants[{v['label']}]", v))
                 layers.append(("grid", dict(zip(axes, combo))))
-                desc = ", ".join(f"{k}={_cell(x)}" for k, x in params.items())
+                desc = ", ".join(f"{k}={cell(x)}" for k, x in params.items())
                 if len(desc) > MAX_NAME:
                     desc = desc[:MAX_NAME - 3] + "..."
                 try:
-                    sc = _build(layers, name=(f"{self.name} " if self.name else "")
+                    sc = scenario_from_layers(layers, name=(f"{self.name} " if self.name else "")
                                 + f"#{index}" + (f" ({desc})" if desc else ""))
                 except ValidationError as err:
                     at = f"sweep point {index}" + (f" ({desc})" if desc else "")
@@ -463,7 +263,7 @@ class SweepRun:
     """What :func:`run_sweep` did.
 
     :ivar out_dir: the output folder
-    :ivar rows: every point's row of metrics.csv (see :func:`read_metrics`), by index
+    :ivar rows: every point's row of metrics.csv (see :func:`unidyn.files.read_metrics`), by index
     :ivar ran: points simulated by this call
     :ivar skipped: points already in metrics.csv (resumed)
     :ivar seconds: wall time of this call
@@ -542,135 +342,6 @@ def _progress_bar(enabled, total, initial):
                 dynamic_ncols=True)
 
 
-def _read_rows(path: Path, columns: list):
-    """(rows, clean): the complete rows of metrics.csv, and whether every line parsed."""
-    text = path.read_text()
-    if not text.strip():
-        return [], False
-    lines = text.splitlines(keepends=True)
-    clean = text.endswith("\n")
-    if not clean:
-        lines = lines[:-1]  # a line cut short by an interruption
-    reader = csv.reader(io.StringIO("".join(lines)))
-    header = next(reader, None)
-    if header != columns:
-        raise ValidationError(f"{path} has columns {header}, this sweep writes {columns}; "
-                              f"use another output folder or resume=False (--no-resume)")
-    rows = []
-    for rec in reader:
-        if len(rec) != len(columns):
-            clean = False
-            continue
-        try:
-            rows.append(_parse_row(dict(zip(columns, rec))))
-        except ValueError:
-            clean = False
-    return rows, clean
-
-
-def _parse_cell(text: str):
-    if text == "":
-        return None
-    try:
-        return json.loads(text)
-    except ValueError:
-        try:
-            return float(text)  # nan, inf
-        except ValueError:
-            return text
-
-
-def _parse_row(rec: dict) -> dict:
-    out = {}
-    for k, v in rec.items():
-        if k == "index":
-            out[k] = int(v)
-        elif k in METRICS:
-            out[k] = None if v == "" else float(v)  # empty: the point did not complete
-        elif k == "complete":
-            if v not in ("true", "false"):
-                raise ValueError(v)
-            out[k] = v == "true"
-        elif k == "case":
-            out[k] = v
-        else:
-            out[k] = _parse_cell(v)
-    return out
-
-
-def read_metrics(path) -> list:
-    """The rows of a sweep's metrics.csv (a file or the sweep's folder), sorted by index:
-    dicts with ``index`` (int), the axes, ``case``, the metrics (float; ``None`` for a
-    point that did not complete) and ``complete`` (bool)."""
-    path = Path(path)
-    if path.is_dir():
-        path = path / "metrics.csv"
-    if not path.exists():
-        raise FileNotFoundError(f"{path} does not exist")
-    with open(path, newline="") as fh:
-        header = next(csv.reader(fh), None)
-    if not header or "index" not in header or "iae" not in header:
-        raise ValidationError(f"{path} is not a sweep's metrics.csv (no index/iae columns)")
-    rows, _ = _read_rows(path, header)
-    return sorted(rows, key=lambda r: r["index"])
-
-
-def _write_rows(fh, columns, rows):
-    w = csv.writer(fh, lineterminator="\n")
-    for r in rows:
-        w.writerow([_cell(r[c]) for c in columns])
-
-
-def _rows_text(columns, rows) -> str:
-    buf = io.StringIO()
-    csv.writer(buf, lineterminator="\n").writerow(columns)
-    _write_rows(buf, columns, rows)
-    return buf.getvalue()
-
-
-def connect_dask(address, option: str = "dask_address"):
-    """A ``distributed.Client`` for ``address`` and a function that closes what was
-    opened here.
-
-    :param address: ``"local"`` (a cluster of worker processes on this machine, at
-        most two), a scheduler address (``"tcp://host:8786"``) or a
-        ``distributed.Client`` (used as it is and left open)
-    :param option: how the caller names the address in messages (``"--dask"``)
-    :raises ValidationError: the address is not a string, or no scheduler answers there
-    """
-    try:
-        import distributed
-    except ImportError:
-        raise MissingDependency("running a sweep on Dask needs dask.distributed "
-                                "(pip install 'unidyn[dask]')") from None
-    if isinstance(address, distributed.Client):
-        return address, lambda: None
-    if not isinstance(address, str) or not address.strip():
-        raise ValidationError(f"{option} must be 'local' or a scheduler address (e.g. "
-                              f"'tcp://host:8786'), or a distributed.Client; got {address!r}")
-    address = address.strip()
-    if address == "local":
-        import logging
-        workers = max(1, min(2, os.cpu_count() or 1))
-        logging.getLogger("distributed").setLevel(logging.ERROR)
-        cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1,
-                                           processes=True, dashboard_address=None)
-        client = distributed.Client(cluster)
-
-        def close():
-            client.close()
-            cluster.close()
-
-        return client, close
-    try:
-        client = distributed.Client(address, timeout="5s")
-    except (OSError, TimeoutError, ValueError, TypeError) as err:
-        detail = " ".join(str(err).split()) or type(err).__name__
-        raise ValidationError(f"{option} {address}: cannot connect to a Dask scheduler there "
-                              f"({detail[:300]}); give the address of a running scheduler "
-                              f"(tcp://host:8786) or 'local'") from None
-    return client, client.close
-
 
 #: The file beside metrics.csv that records which sweep its rows belong to.
 ID_NAME = ".sweep-id"
@@ -707,23 +378,6 @@ def _differences(old, new, where="") -> list:
         return out
     return [] if old == new else [where or "the definition"]
 
-
-def _finished_rows(csv_path: Path) -> list:
-    """The indices of the rows in a metrics.csv, whatever its columns."""
-    try:
-        with open(csv_path, newline="") as fh:
-            reader = csv.reader(fh)
-            header = next(reader, None) or []
-            at = header.index("index") if "index" in header else 0
-            out = []
-            for rec in reader:
-                try:
-                    out.append(int(rec[at]))
-                except (ValueError, IndexError):
-                    pass
-            return out
-    except (OSError, UnicodeDecodeError, csv.Error):
-        return []
 
 
 def _what_is_held(out: Path, record: dict) -> tuple:
@@ -790,7 +444,7 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
     - ``metrics.csv``: one row per finished point (columns :attr:`Sweep.columns`),
       appended and flushed after each chunk, rewritten sorted by index at the end;
       a point that did not complete has ``complete = false`` and empty metrics
-    - ``metrics.png``: IAE against the first numeric axis (:func:`plot_metrics`)
+    - ``metrics.png``: IAE against the first numeric axis (:func:`unidyn.plots.plot_metrics`)
 
     Finished rows are never deleted without ``overwrite``:
 
@@ -816,7 +470,7 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
     :param progress: show a tqdm progress bar on stderr (only when it is a terminal)
     :param dask_address: ``"local"`` (a local cluster), a Dask scheduler address or a
         ``distributed.Client``: the chunks run on its workers (which need unidyn
-        installed), and rows are written as they arrive (see :func:`connect_dask`)
+        installed), and rows are written as they arrive (see :func:`unidyn._dask.connect_dask`)
     :param overwrite: allow finished rows to be replaced
     :return: :class:`SweepRun`
     """
@@ -833,14 +487,18 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
     if out.exists() and not out.is_dir():
         raise ValidationError(f"output folder {out} is a file")
     record = _spec_record(sweep, engine)
-    client, close = (None, None) if dask_address is None else connect_dask(dask_address)
+    if dask_address is None:
+        client, close = None, None
+    else:
+        from ._dask import connect_dask
+        client, close = connect_dask(dask_address)
     created = not out.exists()
     try:
         out.mkdir(parents=True, exist_ok=True)
         with FolderLock(out) as lock:
             try:
                 state, detail = _what_is_held(out, record)
-                rows_held = _finished_rows(out / "metrics.csv") if state != "none" else []
+                rows_held = finished_rows(out / "metrics.csv") if state != "none" else []
                 if state == "same" and resume:
                     return _run_in(sweep, out, record, engine, chunk_size, progress, client,
                                    t0, resume=True)
@@ -907,15 +565,15 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
     csv_path, spec_path, id_path = out / "metrics.csv", out / "sweep.json", out / ID_NAME
     done = {}
     if resume and csv_path.exists():
-        rows, clean = _read_rows(csv_path, columns)
+        rows, clean = read_rows(csv_path, columns)
         valid = {p.index for p in sweep.points()}
         done = {r["index"]: r for r in rows if r["index"] in valid}
         if not clean:  # drop a line cut short by an interruption
-            write_atomic(csv_path, _rows_text(columns, sorted(done.values(),
+            write_atomic(csv_path, rows_text(columns, sorted(done.values(),
                                                               key=lambda r: r["index"])))
     written = []  # files this call created, removed again if it fails before a row
     if not done:
-        write_atomic(csv_path, _rows_text(columns, []))
+        write_atomic(csv_path, rows_text(columns, []))
         written.append(csv_path)
     write_atomic(id_path, f"{record['id']} {record['engine']}\n")
     write_atomic(spec_path, json.dumps({**record, "finished": False}, indent=2) + "\n")
@@ -930,7 +588,7 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
         with open(csv_path, "a", newline="") as fh:
 
             def take(rows):
-                _write_rows(fh, columns, rows)
+                write_rows(fh, columns, rows)
                 fh.flush()
                 os.fsync(fh.fileno())
                 new_rows.extend(rows)
@@ -940,7 +598,8 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
                 for chunk in chunks:
                     take(_run_chunk(chunk, engine, sweep.substeps))
             elif chunks:
-                _run_on_dask(client, chunks, engine, sweep.substeps, take)
+                run_on_dask(client, _run_chunk, chunks, take, engine=engine,
+                            substeps=sweep.substeps)
     except BaseException as err:
         if not done and not new_rows:  # nothing finished: leave nothing behind
             for p in written:
@@ -950,19 +609,20 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
                     pass
             _detail(err, f"no point had finished; nothing was written to {out}")
         else:  # count what the file holds: Ctrl-C may land between a write and its count
-            _detail(err, f"{len(set(_finished_rows(csv_path)))} of {len(sweep)} points are in "
+            _detail(err, f"{len(set(finished_rows(csv_path)))} of {len(sweep)} points are in "
                          f"{out / 'metrics.csv'}; run the same command again to resume")
         raise
     finally:
         bar.close()
 
     rows = sorted([*done.values(), *new_rows], key=lambda r: r["index"])
-    write_atomic(csv_path, _rows_text(columns, rows))
+    write_atomic(csv_path, rows_text(columns, rows))
     failed = [r["index"] for r in rows if not r["complete"]]
     seconds = time.perf_counter() - t0
     write_atomic(spec_path, json.dumps({**record, "finished": True, "failed": failed},
                                        indent=2) + "\n")
     try:
+        from .plots import plot_metrics
         plot_metrics(sweep, rows, out / "metrics.png")
     except ImportError:  # no matplotlib: the data is what matters
         pass
@@ -970,263 +630,14 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
                     seconds=seconds, failed=failed)
 
 
-def _run_on_dask(client, chunks, engine, substeps, take):
-    from distributed import as_completed
-    futures = client.map(_run_chunk, chunks, engine=engine, substeps=substeps, pure=False)
-    try:
-        for fut in as_completed(futures):
-            take(fut.result())
-    except BaseException:
-        client.cancel(futures)
-        raise
-
-
-# ----------------------------------------------------------------------- plotting
-
-def _numeric_axis(sweep: Sweep):
-    for a in sweep.grid:
-        if all(_is_number(v) for v in sweep.grid[a]):
-            return a
-    return None
-
-
-def plot_metrics(sweep: Sweep, rows, path, metric: str = "iae"):
-    """IAE (or another metric) against the first numeric axis, one line per combination
-    of the other axes (a variant by its label); log scale with plain tick labels when
-    the values span more than a decade. In unidyn's figure style (:mod:`unidyn.figstyle`)."""
-    import matplotlib.pyplot as plt
-
-    from . import figstyle
-    choice("metric", metric, METRICS)
-    x_axis = _numeric_axis(sweep)
-    others = [a for a in sweep.axes if a != x_axis]
-    with figstyle.style():
-        fig, ax = plt.subplots(figsize=figstyle.size(1, 0.75))
-        lines = {}
-        for r in rows:
-            key = tuple(_cell(r[a]) for a in others)
-            x = r[x_axis] if x_axis else r["index"]
-            y = r[metric] if r["complete"] else math.nan
-            lines.setdefault(key, []).append((x, y))
-        for key, pts in lines.items():
-            pts.sort()
-            xs, ys = zip(*pts)
-            label = ", ".join(str(k) if a == "variant" else f"{a} = {k}"
-                              for a, k in zip(others, key)) or None
-            ax.plot(xs, ys, "o-" if len(pts) < 30 else "-", ms=3, label=label)
-        vals = np.array([r[metric] for r in rows if r["complete"]], dtype=float)
-        vals = vals[np.isfinite(vals)]
-        if vals.size and vals.min() > 0 and vals.max() / vals.min() > 10:
-            figstyle.plain_log_axis(ax, "y")
-        elif vals.size:
-            figstyle.ylim_from_data(ax, floor=0 if vals.min() >= 0 else None)
-        ax.set_xlabel(_AXIS_LABELS.get(x_axis, x_axis) if x_axis else "point index")
-        ax.set_ylabel(_METRIC_LABELS[metric])
-        ax.set_title(sweep.name or "sweep")
-        ax.grid(True, which="major")
-        if 1 < len(lines) <= 12:
-            figstyle.legend(ax, fallback="below")
-        return figstyle.save(fig, path)
-
-
-#: Axis labels of the metrics (units as in :func:`unidyn.result.metrics`).
-_METRIC_LABELS = {"iae": "IAE (m·s)", "ise": "ISE (m²·s)", "itae": "ITAE (m·s²)",
-                  "energy": "control effort ∫(u² + ω²) dt", "error_final": "final error (m)"}
-#: Axis labels of the special sweep keys and common numeric fields.
-_AXIS_LABELS = {"kxy": "$k_x = k_y$ (1/s)", "kx": "$k_x$ (1/s)", "ky": "$k_y$ (1/s)",
-                "ku": "$k_u$ (1/s)", "kw": "$k_\\omega$ (1/s)", "a": "a (m)", "T": "T (s)",
-                "theta_hat_scale": "$\\hat\\theta(0)\\,/\\,\\theta$",
-                "adapt_from": "adaptation on at (s)", "seed": "noise seed"}
-
-
-# ------------------------------------------------------------------ the paper's Fig. 11
-
-#: The four cases of Fig. 11, by variant label.
-FIG11_CASES = {
-    "a": "(a) kinematic controller only",
-    "b": "(b) compensation, θ̂ = 0.9 θ, no update",
-    "c": "(c) adaptive from t = 0, θ̂(0) = 0.9 θ",
-    "d": "(d) exact θ̂, no update",
-}
-
-
-def paper_fig11(T: float = 250.0, gains=None, noise=PAPER_NOISE, *, base=None,
-                substeps: int = DEFAULT_SUBSTEPS) -> Sweep:
-    """The sweep of the paper's Fig. 11: IAE over ``T`` for kx = ky in ``gains``
-    (default 0.5, 1.0, ..., 35: 70 values), four variants:
-
-    - ``a``: kinematic controller only on the dynamic robot (case ``uncompensated``)
-    - ``b``: compensation with theta_hat0 = 0.9 theta, no update (``compensated``)
-    - ``c``: the same, updating from t = 0 (``adaptive``, ``adapt_from = 0``)
-    - ``d``: exact theta_hat, no update (``compensated``, scale 1.0)
-
-    Everything else is the paper's Section 5 setting (spec section 5).
-
-    :param noise: a NoiseSpec (default: the paper's stated noise), its dict, or
-        ``None`` for noise-free runs
-    :param base: further Scenario fields for every point (e.g. ``{"vd_dot": "filter"}``)
-    """
-    if gains is None:
-        gains = np.arange(0.5, 35.0 + 1e-9, 0.5)
-    gains = [float(g) for g in np.atleast_1d(np.asarray(gains, dtype=float))]
-    b = {"T": T, "noise": None if noise is None else _plain(noise)}
-    if base:
-        b.update(base)
-    if b["noise"] is None:
-        b["noise"] = "off"
-    variants = (
-        {"label": "a", "case": "uncompensated"},
-        {"label": "b", "case": "compensated", "theta_hat_scale": 0.9},
-        {"label": "c", "case": "adaptive", "adapt_from": 0.0, "theta_hat_scale": 0.9},
-        {"label": "d", "case": "compensated", "theta_hat_scale": 1.0},
-    )
-    return Sweep(base=b, grid={"kxy": gains}, variants=variants,
-                 name="Fig. 11 (IAE against kx = ky)", substeps=substeps)
-
-
-@dataclass(frozen=True)
-class Fig11Claim:
-    """One thing the paper says of Fig. 11, the criterion used, the measured numbers,
-    and whether it holds (``None``: the sweep does not cover it)."""
-
-    claim: str
-    criterion: str
-    measured: str
-    holds: bool | None
-
-
-def _fig11_rows(metrics) -> tuple[list, dict, list]:
-    """(ks, table, skipped): the gains every case has a complete point for, IAE by case
-    and gain, and the (case, gain) of every point that did not complete (left out)."""
-    rows = read_metrics(metrics) if isinstance(metrics, (str, os.PathLike)) else list(metrics)
-    table = {lab: {} for lab in FIG11_CASES}
-    skipped = []
-    for r in rows:
-        if "variant" not in r or "kxy" not in r:
-            raise ValidationError("fig11_claims needs rows with 'variant' and 'kxy' "
-                                  "(the metrics of paper_fig11())")
-        if r["variant"] in table:
-            if not r.get("complete", True) or r.get("iae") is None:
-                skipped.append((r["variant"], float(r["kxy"])))
-                continue
-            table[r["variant"]][float(r["kxy"])] = float(r["iae"])
-    missing = [lab for lab, v in table.items() if not v]
-    if missing:
-        raise ValidationError(f"fig11_claims: no complete rows for case(s) {', '.join(missing)}"
-                              + (f" ({len(skipped)} incomplete point(s) left out)"
-                                 if skipped else ""))
-    ks = sorted(set.intersection(*(set(v) for v in table.values())))
-    if not ks:
-        raise ValidationError("fig11_claims: the four cases share no value of kxy with "
-                              "complete points")
-    return ks, table, sorted(skipped)
-
-
-def _fig11_table(metrics) -> tuple[list, dict]:
-    """(ks, table) of :func:`_fig11_rows`: points that did not complete are left out."""
-    ks, table, _ = _fig11_rows(metrics)
-    return ks, table
-
-
-def _kl(ks, limit=6) -> str:
-    s = ", ".join(f"{k:g}" for k in ks[:limit])
-    return s + (f", ... ({len(ks)} in all)" if len(ks) > limit else "")
-
-
-def fig11_claims(metrics) -> list:
-    """Compare Fig. 11 metrics (rows of :func:`read_metrics`, or the path of a
-    metrics.csv) with what the paper says of its Fig. 11.
-
-    Points that did not complete have no IAE: they are left out, and every claim
-    they would have entered says how many were left out and where. Claims about one
-    k (k = 1, 23) need that k in the sweep; otherwise they are reported with
-    ``holds = None``.
-    :return: list of :class:`Fig11Claim`
-    """
-    ks, tab, skipped = _fig11_rows(metrics)
-    a, b, c, d = (tab[x] for x in "abcd")
-
-    def left_out(labels, at=None) -> str:
-        pts = [(lab, k) for lab, k in skipped if lab in labels and (at is None or k == at)]
-        if not pts:
-            return ""
-        where = ", ".join(f"{lab} at k = {k:g}" for lab, k in pts[:6])
-        more = f", ... ({len(pts)} in all)" if len(pts) > 6 else ""
-        return f"; {len(pts)} incomplete point(s) left out ({where}{more})"
-
-    out = []
-    if 1.0 in a:
-        out.append(Fig11Claim("(a) IAE above 8 at k = 1", "IAE_a(k = 1) > 8",
-                              f"IAE_a(1) = {a[1.0]:.3f}", a[1.0] > 8))
-    elif ("a", 1.0) in skipped:
-        out.append(Fig11Claim("(a) IAE above 8 at k = 1", "IAE_a(k = 1) > 8",
-                              "the run at k = 1 did not complete" + left_out("a", 1.0), None))
-    else:
-        out.append(Fig11Claim("(a) IAE above 8 at k = 1", "IAE_a(k = 1) > 8",
-                              "k = 1 not in the sweep", None))
-    ka = min(a, key=lambda k: (a[k], k))
-    where = ""
-    if ka == max(a):
-        where = " (the largest k swept: still falling, no interior minimum)"
-    elif ka == min(a):
-        where = " (the smallest k swept)"
-    at23 = f"; IAE_a(23) = {a[23.0]:.3f}" if 23.0 in a else ""
-    covers = min(a) <= 23 <= max(a)
-    out.append(Fig11Claim(
-        "(a) smallest IAE, 1.24, at k = 23",
-        "minimum of (a) at 18 <= k <= 28, value within 1.24 ± 25 %",
-        f"minimum {a[ka]:.3f} at k = {ka:g}{where}{at23}"
-        + ("" if covers else " (k = 23 is outside the sweep)") + left_out("a"),
-        (18 <= ka <= 28 and abs(a[ka] - 1.24) <= 0.25 * 1.24) if covers else None))
-    for lab, series in (("b", b), ("c", c)):
-        bad = [k for k in ks if not series[k] < a[k]]
-        ratio = max(series[k] / a[k] for k in ks)
-        out.append(Fig11Claim(
-            f"({lab}) below (a) for every k", f"IAE_{lab}(k) < IAE_a(k) at every k swept",
-            f"below at {len(ks) - len(bad)} of {len(ks)} k"
-            + (f"; not at k = {_kl(bad)}" if bad else "")
-            + f"; largest IAE_{lab}/IAE_a = {ratio:.3f}" + left_out(("a", lab)),
-            not bad))
-    bad = [k for k in ks if not d[k] < min(a[k], b[k], c[k])]
-    worst = max(ks, key=lambda k: d[k] - min(a[k], b[k], c[k]))
-    out.append(Fig11Claim(
-        "(d) lowest for every k", "IAE_d(k) < IAE of (a), (b) and (c) at every k swept",
-        f"lowest at {len(ks) - len(bad)} of {len(ks)} k"
-        + (f"; not at k = {_kl(bad)} (at k = {worst:g}: d {d[worst]:.3f}, "
-           f"best other {min(a[worst], b[worst], c[worst]):.3f})" if bad else "")
-        + left_out("abcd"),
-        not bad))
-    return out
-
-
-def format_fig11_claims(claims, title: str | None = None) -> str:
-    """A Markdown table of :func:`fig11_claims`."""
-    rows = [] if title is None else [title, ""]
-    rows += ["| the paper says | criterion | measured | holds |", "|---|---|---|---|"]
-    for c in claims:
-        holds = "n/a" if c.holds is None else ("yes" if c.holds else "NO")
-        rows.append(f"| {c.claim} | {c.criterion} | {c.measured} | {holds} |")
-    return "\n".join(rows)
-
-
-def plot_fig11(metrics, path, title: str | None = None):
-    """IAE against k = kx = ky for the four cases, log y with plain tick labels (1, 2,
-    5, 10, 20), as the paper's Fig. 11. In unidyn's figure style (:mod:`unidyn.figstyle`)."""
-    import matplotlib.pyplot as plt
-
-    from . import figstyle
-    ks, tab = _fig11_table(metrics)
-    with figstyle.style():
-        fig, ax = plt.subplots(figsize=figstyle.size(1, 0.95))
-        for (lab, desc), mk in zip(FIG11_CASES.items(), ("o", "s", "^", "D")):
-            ys = [tab[lab][k] if math.isfinite(tab[lab][k]) else math.nan for k in ks]
-            ax.plot(ks, ys, "-", marker=mk, ms=2.5, markevery=max(1, len(ks) // 12),
-                    label=desc)
-        figstyle.plain_log_axis(ax, "y")
-        ax.set_xlabel("$k_x = k_y$ (1/s)")
-        ax.set_ylabel("IAE (m·s)")
-        ax.set_title(title or "IAE against the kinematic controller's gain (Fig. 11)")
-        ax.grid(True, which="major")
-        ax.grid(True, which="minor", axis="y", alpha=0.2)
-        figstyle.legend(ax, outside="below")
-        return figstyle.save(fig, path)
+# ------------------------------------------------------- names kept importable here
+# These moved to the module that does their job; scripts and tests that import them
+# from unidyn.sweep keep working.
+from ._dask import connect_dask  # noqa: E402,F401
+from .files import (SPECIAL_KEYS, MissingDependency, parse_toml_value,  # noqa: E402,F401
+                    read_metrics)
+from .noise import PAPER_NOISE  # noqa: E402,F401
+from .outdir import LOCK_NAME, FolderInUse  # noqa: E402,F401
+from .paper import (FIG11_CASES, Fig11Claim, fig11_claims,  # noqa: E402,F401
+                    format_fig11_claims, paper_fig11)
+from .plots import plot_fig11, plot_metrics  # noqa: E402,F401

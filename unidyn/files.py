@@ -1,0 +1,362 @@
+r"""Reading and writing scenario and sweep files: one module for ``unidyn run``,
+``unidyn sweep`` and :meth:`unidyn.sweep.Sweep.from_toml`.
+
+- TOML: :func:`read_toml` (a scenario or sweep file), :func:`parse_toml_value` (one
+  value given on the command line, ``--set kx=0.5``), :func:`read_scenario_table` (a
+  scenario file, its fields at the top level or under ``[scenario]``).
+- Sweep definitions: :func:`expand_range` (a range table ``{start, stop, step}`` or
+  ``{start, stop, num, log}``), :func:`check_keys` (a table of Scenario fields and the
+  special keys :data:`SPECIAL_KEYS`), :func:`scenario_from_layers` (the Scenario of
+  stacked tables: base, variant, grid point), :func:`plain` (plain data for a value).
+- A sweep's ``metrics.csv``: :func:`read_metrics`, and the cell format (:func:`cell`,
+  :func:`rows_text`, :func:`write_rows`) that makes every row read back as written.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import io
+import json
+import math
+from collections.abc import Mapping
+from numbers import Real
+from pathlib import Path
+
+import numpy as np
+
+from ._validate import ValidationError, positive, real
+from .noise import NoiseSpec
+
+__all__ = ["read_toml", "parse_toml_value", "read_scenario_table", "expand_range",
+           "check_keys", "scenario_from_layers", "plain", "read_metrics", "MissingDependency",
+           "SPECIAL_KEYS", "METRICS", "MAX_POINTS"]
+
+#: Keys that are not Scenario fields but set one or more of them.
+SPECIAL_KEYS = ("kxy", "theta_hat_scale", "seed")
+#: The per-point metrics written to metrics.csv (see :func:`unidyn.result.metrics`).
+METRICS = ("iae", "ise", "itae", "energy", "error_final")
+#: A sweep with more points than this is refused (almost surely a typo in a range).
+MAX_POINTS = 1_000_000
+
+_CONFLICTS = {"kxy": ("kx", "ky"), "theta_hat_scale": ("theta_hat0",)}
+
+
+class MissingDependency(ImportError):
+    """An optional dependency needed for the requested feature is not installed."""
+
+
+
+# --------------------------------------------------------------------------- TOML
+
+def _toml():
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # Python < 3.11
+        try:
+            import tomli as tomllib
+        except ModuleNotFoundError:
+            raise MissingDependency("reading TOML on Python < 3.11 needs tomli "
+                                    "(pip install tomli)") from None
+    return tomllib
+
+
+def read_toml(path, what: str = "file") -> dict:
+    """Read a TOML file; a missing file raises ``FileNotFoundError``, malformed TOML a
+    :class:`ValidationError` naming the file, line and column."""
+    path = Path(path)
+    tomllib = _toml()
+    try:
+        with open(path, "rb") as fh:
+            return tomllib.load(fh)
+    except FileNotFoundError:
+        raise FileNotFoundError(f"{what} {path} does not exist") from None
+    except IsADirectoryError:
+        raise ValidationError(f"{what} {path} is a folder, not a TOML file") from None
+    except tomllib.TOMLDecodeError as err:
+        raise ValidationError(f"{path}: malformed TOML: {err}") from None
+    except UnicodeDecodeError as err:
+        raise ValidationError(f"{path}: not a UTF-8 text file: {err}") from None
+    except RecursionError:
+        raise ValidationError(f"{path}: TOML nested too deeply to read") from None
+
+
+def parse_toml_value(text: str):
+    """A TOML value (``0.5``, ``[0, 0, 0]``, ``{seed = 3}``, ``"p3dx"``); text that is
+    not a TOML value is returned as the string itself (so ``p3dx`` needs no quotes)."""
+    tomllib = _toml()
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text
+    except RecursionError:
+        raise ValidationError("value nested too deeply to read") from None
+
+
+
+def read_scenario_table(path) -> dict:
+    """The fields of a scenario file: its top-level table, or its ``[scenario]`` table
+    when that is all it holds (plain data for :meth:`unidyn.Scenario.from_dict`)."""
+    data = read_toml(path, "scenario file")
+    if set(data) == {"scenario"} and isinstance(data["scenario"], dict):
+        data = data["scenario"]
+    return data
+
+
+# ------------------------------------------------------ values and scenario tables
+
+def plain(v):
+    """Plain data (str, float, int, bool, list, dict, None) for Scenario-typed values."""
+    from .model import Limits
+    from .parameters import RobotParameters
+    from .trajectories import Trajectory
+    if isinstance(v, (NoiseSpec, Limits)):
+        return v.as_dict()
+    if isinstance(v, RobotParameters):
+        from . import robots
+        try:
+            if v.name in robots.names() and robots.get(v.name) == v:
+                return v.name
+        except ValidationError:
+            pass
+        return {**v.as_dict(), "name": v.name}
+    if isinstance(v, Trajectory):
+        return plain(v.to_spec())
+    if isinstance(v, (np.floating, np.integer, np.bool_)):
+        return v.item()
+    if isinstance(v, (tuple, list, np.ndarray)):
+        return [plain(x) for x in (v.tolist() if isinstance(v, np.ndarray) else v)]
+    if isinstance(v, Mapping):
+        return {str(k): plain(x) for k, x in v.items()}
+    return v
+
+
+def is_number(v) -> bool:
+    """A real number that is not a bool."""
+    return isinstance(v, Real) and not isinstance(v, bool)
+
+
+def expand_range(where: str, spec: Mapping) -> list:
+    """The values of a range table: ``start`` to ``stop`` (included) by ``step``, or
+    ``num`` values (geometric with ``log = true``); ``where`` names it in errors."""
+    allowed = {"start", "stop", "step", "num", "log"}
+    unknown = sorted(set(spec) - allowed)
+    if unknown:
+        raise ValidationError(f"{where}: unknown range key {unknown[0]!r}; a range has start, "
+                              f"stop and step (or num, with log = true for a geometric range)")
+    for k in ("start", "stop"):
+        if k not in spec:
+            raise ValidationError(f"{where}: a range needs {k!r} (and step or num)")
+    start = real(f"{where}.start", spec["start"])
+    stop = real(f"{where}.stop", spec["stop"])
+    if ("step" in spec) == ("num" in spec):
+        raise ValidationError(f"{where}: a range needs exactly one of 'step' and 'num'")
+    log = spec.get("log", False)
+    if not isinstance(log, bool):
+        raise ValidationError(f"{where}.log must be true or false, got {log!r}")
+    if stop < start:
+        raise ValidationError(f"{where}: stop ({stop:g}) must be >= start ({start:g})")
+    if "step" in spec:
+        step = spec["step"]
+        if log:
+            raise ValidationError(f"{where}: log = true needs num, not step")
+        step = real(f"{where}.step", step, low=0.0, low_open=True)
+        n = int(math.floor((stop - start) / step + 1e-9)) + 1
+        if n > MAX_POINTS:
+            raise ValidationError(f"{where}: {n} values; at most {MAX_POINTS} are allowed")
+        # 12 significant digits: 0.1 + 2 * 0.1 is 0.3, not 0.30000000000000004
+        return [float(f"{start + i * float(step):.12g}") for i in range(n)]
+    num = spec["num"]
+    if isinstance(num, bool) or not isinstance(num, int) or not 1 <= num <= MAX_POINTS:
+        raise ValidationError(f"{where}.num must be an integer in 1..{MAX_POINTS}, got {num!r}")
+    if log:
+        if start <= 0:
+            raise ValidationError(f"{where}: a geometric range needs start > 0, got {start:g}")
+        vals = np.geomspace(start, stop, num)
+    else:
+        vals = np.linspace(start, stop, num)
+    return [float(f"{v:.12g}") for v in vals]
+
+
+def check_keys(where: str, d, allow_label: bool = False) -> dict:
+    """``d`` as plain data, after checking that every key is a Scenario field or one of
+    :data:`SPECIAL_KEYS` (or ``label``, for a variant); an unknown key raises, naming
+    the closest known one."""
+    from .scenario import Scenario
+    if not isinstance(d, Mapping):
+        raise ValidationError(f"{where} must be a table of scenario fields, got {d!r}")
+    known = {f.name for f in dataclasses.fields(Scenario)} | set(SPECIAL_KEYS)
+    if allow_label:
+        known.add("label")
+    for k in d:
+        if k not in known:
+            import difflib
+            close = difflib.get_close_matches(str(k), known, n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise ValidationError(f"{where}: unknown key {k!r}{hint}; allowed: scenario fields "
+                                  f"and {', '.join(SPECIAL_KEYS)}")
+    return {str(k): plain(v) for k, v in d.items()}
+
+
+def _special(where: str, key: str, value):
+    if key == "seed":
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
+            raise ValidationError(f"{where}.seed must be an integer >= 0, got {value!r}")
+        return int(value)
+    return positive(f"{where}.{key}", value)
+
+
+def scenario_from_layers(layers, name: str = ""):
+    """The Scenario of a stack of layers [(where, dict)]: later layers override earlier ones;
+    the special keys are applied last."""
+    from .scenario import Scenario
+    fields, fields_from, special = {}, {}, {}
+    for where, d in layers:
+        for k, v in d.items():
+            if k == "label":
+                continue
+            if k in SPECIAL_KEYS:
+                special[k] = (where, _special(where, k, v))
+            else:
+                fields[k] = v
+                fields_from[k] = where
+    for key, (where, _) in special.items():
+        for f in _CONFLICTS.get(key, ()):
+            if f in fields:
+                raise ValidationError(f"{where}.{key} and {fields_from[f]}.{f} both set "
+                                      f"{f}; use one of them")
+    if name and "name" not in fields:
+        fields["name"] = name
+    sc = Scenario.from_dict(fields)
+    if "kxy" in special:
+        k = special["kxy"][1]
+        sc = sc.replace(kx=k, ky=k)
+    if "theta_hat_scale" in special:
+        sc = sc.replace(theta_hat0=sc.robot.scaled(special["theta_hat_scale"][1]))
+    if "seed" in special:
+        where, seed = special["seed"]
+        if sc.noise is None:
+            raise ValidationError(f"{where}.seed is set but noise is off; give noise "
+                                  f"(e.g. noise = {{position_std = 0.01, velocity_std = 0.0141}})")
+        sc = sc.replace(noise=dataclasses.replace(sc.noise, seed=seed))
+    return sc
+
+
+def cell(v) -> str:
+    """A CSV cell: round-trip text for numbers, JSON for lists and tables."""
+    if v is None:
+        return ""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, float):
+        return repr(v)
+    if isinstance(v, (int, str)):
+        return str(v)
+    return json.dumps(v, sort_keys=True, separators=(",", ":"))
+
+
+# ----------------------------------------------------------- metrics.csv
+
+def read_rows(path: Path, columns: list):
+    """(rows, clean): the complete rows of metrics.csv, and whether every line parsed."""
+    text = path.read_text()
+    if not text.strip():
+        return [], False
+    lines = text.splitlines(keepends=True)
+    clean = text.endswith("\n")
+    if not clean:
+        lines = lines[:-1]  # a line cut short by an interruption
+    reader = csv.reader(io.StringIO("".join(lines)))
+    header = next(reader, None)
+    if header != columns:
+        raise ValidationError(f"{path} has columns {header}, this sweep writes {columns}; "
+                              f"use another output folder or resume=False (--no-resume)")
+    rows = []
+    for rec in reader:
+        if len(rec) != len(columns):
+            clean = False
+            continue
+        try:
+            rows.append(_parse_row(dict(zip(columns, rec))))
+        except ValueError:
+            clean = False
+    return rows, clean
+
+
+def _parse_cell(text: str):
+    if text == "":
+        return None
+    try:
+        return json.loads(text)
+    except ValueError:
+        try:
+            return float(text)  # nan, inf
+        except ValueError:
+            return text
+
+
+def _parse_row(rec: dict) -> dict:
+    out = {}
+    for k, v in rec.items():
+        if k == "index":
+            out[k] = int(v)
+        elif k in METRICS:
+            out[k] = None if v == "" else float(v)  # empty: the point did not complete
+        elif k == "complete":
+            if v not in ("true", "false"):
+                raise ValueError(v)
+            out[k] = v == "true"
+        elif k == "case":
+            out[k] = v
+        else:
+            out[k] = _parse_cell(v)
+    return out
+
+
+def read_metrics(path) -> list:
+    """The rows of a sweep's metrics.csv (a file or the sweep's folder), sorted by index:
+    dicts with ``index`` (int), the axes, ``case``, the metrics (float; ``None`` for a
+    point that did not complete) and ``complete`` (bool)."""
+    path = Path(path)
+    if path.is_dir():
+        path = path / "metrics.csv"
+    if not path.exists():
+        raise FileNotFoundError(f"{path} does not exist")
+    with open(path, newline="") as fh:
+        header = next(csv.reader(fh), None)
+    if not header or "index" not in header or "iae" not in header:
+        raise ValidationError(f"{path} is not a sweep's metrics.csv (no index/iae columns)")
+    rows, _ = read_rows(path, header)
+    return sorted(rows, key=lambda r: r["index"])
+
+
+def write_rows(fh, columns, rows):
+    w = csv.writer(fh, lineterminator="\n")
+    for r in rows:
+        w.writerow([cell(r[c]) for c in columns])
+
+
+def rows_text(columns, rows) -> str:
+    buf = io.StringIO()
+    csv.writer(buf, lineterminator="\n").writerow(columns)
+    write_rows(buf, columns, rows)
+    return buf.getvalue()
+
+
+def finished_rows(csv_path: Path) -> list:
+    """The indices of the rows in a metrics.csv, whatever its columns."""
+    try:
+        with open(csv_path, newline="") as fh:
+            reader = csv.reader(fh)
+            header = next(reader, None) or []
+            at = header.index("index") if "index" in header else 0
+            out = []
+            for rec in reader:
+                try:
+                    out.append(int(rec[at]))
+                except (ValueError, IndexError):
+                    pass
+            return out
+    except (OSError, UnicodeDecodeError, csv.Error):
+        return []
+
