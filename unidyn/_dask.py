@@ -56,7 +56,6 @@ def connect_dask(address, option: str = "dask_address"):
     return client, client.close
 
 
-
 def run_on_dask(client, run_chunk, chunks, take, **kwargs):
     """Run ``run_chunk(chunk, **kwargs)`` for every chunk on ``client``'s workers and
     call ``take(rows)`` with each result as it arrives; on any error or interrupt the

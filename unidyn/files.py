@@ -8,8 +8,11 @@ r"""Reading and writing scenario and sweep files: one module for ``unidyn run``,
   ``{start, stop, num, log}``), :func:`check_keys` (a table of Scenario fields and the
   special keys :data:`SPECIAL_KEYS`), :func:`scenario_from_layers` (the Scenario of
   stacked tables: base, variant, grid point), :func:`plain` (plain data for a value).
-- A sweep's ``metrics.csv``: :func:`read_metrics`, and the cell format (:func:`cell`,
-  :func:`rows_text`, :func:`write_rows`) that makes every row read back as written.
+- A sweep's folder: its record ``sweep.json`` (:func:`write_sweep_record`,
+  :func:`read_sweep_record`: the definition, its id, engine and library version) and
+  ``.sweep-id`` (:func:`write_sweep_id`, :func:`read_sweep_id`); its ``metrics.csv``
+  (:func:`read_metrics`, and the cell format of :func:`cell`, :func:`rows_text` and
+  :func:`write_rows` that makes every row read back as written).
 """
 
 from __future__ import annotations
@@ -27,10 +30,12 @@ import numpy as np
 
 from ._validate import ValidationError, positive, real
 from .noise import NoiseSpec
+from .result import write_atomic
 
 __all__ = ["read_toml", "parse_toml_value", "read_scenario_table", "expand_range",
-           "check_keys", "scenario_from_layers", "plain", "read_metrics", "MissingDependency",
-           "SPECIAL_KEYS", "METRICS", "MAX_POINTS"]
+           "check_keys", "scenario_from_layers", "plain", "read_metrics", "write_sweep_record",
+           "read_sweep_record", "write_sweep_id", "read_sweep_id", "MissingDependency",
+           "SPECIAL_KEYS", "METRICS", "MAX_POINTS", "RECORD_NAME", "ID_NAME"]
 
 #: Keys that are not Scenario fields but set one or more of them.
 SPECIAL_KEYS = ("kxy", "theta_hat_scale", "seed")
@@ -44,7 +49,6 @@ _CONFLICTS = {"kxy": ("kx", "ky"), "theta_hat_scale": ("theta_hat0",)}
 
 class MissingDependency(ImportError):
     """An optional dependency needed for the requested feature is not installed."""
-
 
 
 # --------------------------------------------------------------------------- TOML
@@ -91,7 +95,6 @@ def parse_toml_value(text: str):
         return text
     except RecursionError:
         raise ValidationError("value nested too deeply to read") from None
-
 
 
 def read_scenario_table(path) -> dict:
@@ -253,6 +256,45 @@ def cell(v) -> str:
     if isinstance(v, (int, str)):
         return str(v)
     return json.dumps(v, sort_keys=True, separators=(",", ":"))
+
+
+# -------------------------------------------------------- a sweep folder's records
+
+#: The record of the sweep whose rows a folder holds (definition, id, engine, version).
+RECORD_NAME = "sweep.json"
+#: The file beside metrics.csv that records which sweep its rows belong to.
+ID_NAME = ".sweep-id"
+
+
+def write_sweep_record(folder, record: dict, **state) -> Path:
+    """Write ``sweep.json`` in ``folder``: the record and the state of the run
+    (``finished``, ``failed``); returns its path."""
+    path = Path(folder) / RECORD_NAME
+    write_atomic(path, json.dumps({**record, **state}, indent=2) + "\n")
+    return path
+
+
+def read_sweep_record(folder) -> dict:
+    """The table in ``folder``'s ``sweep.json``; ``ValueError`` when it is not a JSON table."""
+    record = json.loads((Path(folder) / RECORD_NAME).read_text())
+    if not isinstance(record, dict):
+        raise ValueError("not a table")
+    return record
+
+
+def write_sweep_id(folder, record: dict) -> Path:
+    """Write ``.sweep-id`` in ``folder``: the sweep's id and engine; returns its path."""
+    path = Path(folder) / ID_NAME
+    write_atomic(path, f"{record['id']} {record['engine']}\n")
+    return path
+
+
+def read_sweep_id(folder) -> list:
+    """``[id, engine]`` from ``folder``'s ``.sweep-id``; ``[]`` when it cannot be read."""
+    try:
+        return (Path(folder) / ID_NAME).read_text().split()
+    except (OSError, UnicodeDecodeError):
+        return []
 
 
 # ----------------------------------------------------------- metrics.csv

@@ -53,9 +53,10 @@ import numpy as np
 from ._dask import run_on_dask
 from ._validate import ValidationError, choice
 from .batch import DEFAULT_SUBSTEPS
-from .files import (MAX_POINTS, METRICS, cell, check_keys, expand_range,
-                    finished_rows, plain, read_rows, read_toml, rows_text,
-                    scenario_from_layers, write_rows)
+from .files import (ID_NAME, MAX_POINTS, METRICS, RECORD_NAME, cell, check_keys,
+                    expand_range, finished_rows, plain, read_rows, read_sweep_id,
+                    read_sweep_record, read_toml, rows_text, scenario_from_layers,
+                    write_rows, write_sweep_id, write_sweep_record)
 from .outdir import FolderLock, staged_output
 from .result import write_atomic
 
@@ -342,15 +343,10 @@ def _progress_bar(enabled, total, initial):
                 dynamic_ncols=True)
 
 
-
-#: The file beside metrics.csv that records which sweep its rows belong to.
-ID_NAME = ".sweep-id"
 #: Files whose presence means a folder holds a sweep's results.
-_SWEEP_RESULTS = ("metrics.csv", "sweep.json")
+_SWEEP_RESULTS = ("metrics.csv", RECORD_NAME)
 #: Every file a sweep writes (none of them is carried over when a sweep starts over).
-_SWEEP_OWNED = ("metrics.csv", "sweep.json", "metrics.png", "claims.md", "fig11.png", ID_NAME)
-
-
+_SWEEP_OWNED = ("metrics.csv", RECORD_NAME, "metrics.png", "claims.md", "fig11.png", ID_NAME)
 
 
 def sweep_id(sweep: Sweep) -> str:
@@ -379,20 +375,17 @@ def _differences(old, new, where="") -> list:
     return [] if old == new else [where or "the definition"]
 
 
-
 def _what_is_held(out: Path, record: dict) -> tuple:
     """What ``out`` holds: ``(state, detail)`` with state ``"none"`` (no sweep),
     ``"same"``, ``"engine"`` (this sweep with another engine), ``"different"`` or
     ``"unknown"`` (rows that no record ties to a sweep)."""
-    spec_path, csv_path, id_path = out / "sweep.json", out / "metrics.csv", out / ID_NAME
+    spec_path, csv_path = out / RECORD_NAME, out / "metrics.csv"
     if not spec_path.exists() and not csv_path.exists():
         return "none", ""
     if spec_path.exists():
         try:
-            old = json.loads(spec_path.read_text())
-            if not isinstance(old, dict):
-                raise ValueError("not a table")
-        except (ValueError, UnicodeDecodeError) as err:
+            old = read_sweep_record(out)
+        except ValueError as err:  # a UnicodeDecodeError too
             return "unknown", f"its sweep.json is not valid JSON ({err})"
         if "id" in old:
             same = old["id"] == record["id"]
@@ -407,10 +400,7 @@ def _what_is_held(out: Path, record: dict) -> tuple:
         if old.get("engine") != record["engine"]:
             return "engine", f"it was run with engine {old.get('engine')!r}"
         return "same", ""
-    try:
-        held = id_path.read_text().split()
-    except (OSError, UnicodeDecodeError):
-        held = []
+    held = read_sweep_id(out)
     if not held:
         return "unknown", "no sweep.json or .sweep-id records which sweep its rows belong to"
     if held[0] != record["id"]:
@@ -562,7 +552,7 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
     """Run the sweep in ``out`` (locked by the caller or private): resume from its rows,
     or start it afresh."""
     columns = sweep.columns
-    csv_path, spec_path, id_path = out / "metrics.csv", out / "sweep.json", out / ID_NAME
+    csv_path = out / "metrics.csv"
     done = {}
     if resume and csv_path.exists():
         rows, clean = read_rows(csv_path, columns)
@@ -570,14 +560,12 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
         done = {r["index"]: r for r in rows if r["index"] in valid}
         if not clean:  # drop a line cut short by an interruption
             write_atomic(csv_path, rows_text(columns, sorted(done.values(),
-                                                              key=lambda r: r["index"])))
+                                                             key=lambda r: r["index"])))
     written = []  # files this call created, removed again if it fails before a row
     if not done:
         write_atomic(csv_path, rows_text(columns, []))
         written.append(csv_path)
-    write_atomic(id_path, f"{record['id']} {record['engine']}\n")
-    write_atomic(spec_path, json.dumps({**record, "finished": False}, indent=2) + "\n")
-    written += [id_path, spec_path]
+    written += [write_sweep_id(out, record), write_sweep_record(out, record, finished=False)]
 
     pending = [p for p in sweep.points() if p.index not in done]
     chunks = [[tuple(p) for p in pending[i:i + chunk_size]]
@@ -619,8 +607,7 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
     write_atomic(csv_path, rows_text(columns, rows))
     failed = [r["index"] for r in rows if not r["complete"]]
     seconds = time.perf_counter() - t0
-    write_atomic(spec_path, json.dumps({**record, "finished": True, "failed": failed},
-                                       indent=2) + "\n")
+    write_sweep_record(out, record, finished=True, failed=failed)
     try:
         from .plots import plot_metrics
         plot_metrics(sweep, rows, out / "metrics.png")
