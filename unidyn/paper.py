@@ -19,7 +19,7 @@ import numpy as np
 
 from ._validate import ValidationError
 from .batch import DEFAULT_SUBSTEPS
-from .files import plain, read_metrics
+from .files import read_metrics
 from .noise import PAPER_NOISE
 
 __all__ = ["Claim", "section5_claims", "format_claims", "paper_fig11", "fig11_claims",
@@ -118,7 +118,7 @@ def paper_fig11(T: float = 250.0, gains=None, noise=PAPER_NOISE, *, base=None,
     if gains is None:
         gains = np.arange(0.5, 35.0 + 1e-9, 0.5)
     gains = [float(g) for g in np.atleast_1d(np.asarray(gains, dtype=float))]
-    b = {"T": T, "noise": None if noise is None else plain(noise)}
+    b = {"T": T, "noise": noise}  # Sweep turns a NoiseSpec into plain data
     if base:
         b.update(base)
     if b["noise"] is None:
