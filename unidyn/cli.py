@@ -130,25 +130,35 @@ def _build_scenario(args):
         sc = Scenario.from_dict(raw)
     except ValidationError as err:
         raise ValidationError(f"{where}: {err}") from None
-    d = sc.to_dict()
+    d = sc_d = sc.to_dict()
     paper_name = d.get("name") if args.paper is not None else None
-    for flag, key, value in (("--case", "case", args.case), ("--robot", "robot", args.robot),
-                             ("--T", "T", args.T)):
-        if value is None:
-            continue
-        d[key] = value
-        try:
-            Scenario.from_dict(d)
-        except ValidationError as err:
-            raise ValidationError(f"{flag} {value}: {err}") from None
+    # the flags, then every --set, in order; the scenario must be valid once all are
+    # applied (--T 400000 --set log_every=100 is fine although T alone is not)
+    steps = [(f"{flag} {value}", lambda d, k=key, v=value: {**d, k: v})
+             for flag, key, value in (("--case", "case", args.case),
+                                      ("--robot", "robot", args.robot), ("--T", "T", args.T))
+             if value is not None]
     for item in args.set or []:
         key, value = _split_set(item)
-        d = _apply_set(d, key, value, item)
+        steps.append((f"--set {item}", lambda d, k=key, v=value, i=item: _apply_set(d, k, v, i)))
+    for what, step in steps:
         try:
-            Scenario.from_dict(d)
+            d = step(d)
         except ValidationError as err:
-            raise ValidationError(f"--set {item}: {err}") from None
-    sc = Scenario.from_dict(d)
+            raise ValidationError(f"{what}: {err}") from None
+    try:
+        sc = Scenario.from_dict(d)
+    except ValidationError as err:
+        # name the flag after which the scenario never became valid again
+        culprit, trial = (steps[0][0] if steps else where), sc_d
+        for k, (what, step) in enumerate(steps[:-1]):
+            trial = step(trial)
+            try:
+                Scenario.from_dict(trial)
+                culprit = steps[k + 1][0]
+            except ValidationError:
+                pass
+        raise ValidationError(f"{culprit}: {err}") from None
     if len(sc.name) > MAX_NAME:
         raise ValidationError(f"name is {len(sc.name)} characters long; at most {MAX_NAME} "
                               f"are allowed (it titles the figures)")
@@ -210,6 +220,8 @@ def _cmd_run(args) -> int:
                             what="run results", owned=_RUN_ARTEFACTS)
     try:
         stage, result, wall, replaced = _run_staged(staging, sc, engine, out, animation)
+    except _Interrupted:  # interrupted, the computed part written: it says where
+        raise
     except KeyboardInterrupt:
         raise _Interrupted(f"{out} is as it was before this run") from None
     return _run_summary(sc, out, stage, result, wall, replaced, animation)
@@ -222,26 +234,37 @@ def _run_staged(staging, sc, engine, out, animation):
             print(f"unidyn: replacing {out}/ ({replaced}) once the new run is written; "
                   f"kept as they are if it fails or is interrupted", file=sys.stderr, flush=True)
         t0 = time.perf_counter()
-        if engine == "batch":
-            from .batch import simulate_batch
-            result = simulate_batch([sc])[0]
-        else:
-            from .runner import SimulationError, simulate
-            try:
+        from .runner import SimulationError, SimulationInterrupted, simulate
+        interrupted = False
+        try:
+            if engine == "batch":
+                from .batch import simulate_batch
+                result = simulate_batch([sc])[0]
+            else:
                 result = simulate(sc)
-            except SimulationError as err:
-                if err.result is None:
-                    raise _RunFailed(f"the run failed before its first sample: {err}; "
-                                     f"{out} is unchanged") from None
-                result = err.result  # written below, marked incomplete
+        except SimulationError as err:
+            if err.result is None:
+                raise _RunFailed(f"the run failed before its first sample: {err}; "
+                                 f"{out} is unchanged") from None
+            result = err.result  # written below, marked incomplete
+        except SimulationInterrupted as err:  # Ctrl-C: keep what was computed
+            if err.result is None or len(err.result.t) < 2:
+                raise
+            result, interrupted = err.result, True
         wall = time.perf_counter() - t0
         if not result.complete:
             stage.incomplete(result.message or "the run stopped early")
         result.save(stage.path)
-        from .plots import save_figures
-        save_figures(result, stage.path)
-        if animation is not None:
+        if not interrupted:  # after Ctrl-C the data only, at once: no figures
+            from .plots import save_figures
+            save_figures(result, stage.path)
+        if animation is not None and not interrupted:
             animation.animate(result, stage.path / "animation.gif")
+    if interrupted:
+        kept = (f"; {out} keeps its previous results" if stage.held else "")
+        raise _Interrupted(f"interrupted at t = {float(result.t[-1]):g} s of {sc.T:g} s; the "
+                           f"part computed is in {stage.final} (timeseries.csv and summary.json, complete: "
+                           f"false; no figures){kept}")
     return stage, result, wall, replaced
 
 
