@@ -109,29 +109,9 @@ def read_scenario_table(path) -> dict:
 # ------------------------------------------------------ values and scenario tables
 
 def plain(v):
-    """Plain data (str, float, int, bool, list, dict, None) for Scenario-typed values."""
-    from .model import Limits
-    from .parameters import RobotParameters
-    from .trajectories import Trajectory
-    if isinstance(v, (NoiseSpec, Limits)):
-        return v.as_dict()
-    if isinstance(v, RobotParameters):
-        from . import robots
-        try:
-            if v.name in robots.names() and robots.get(v.name) == v:
-                return v.name
-        except ValidationError:
-            pass
-        return {**v.as_dict(), "name": v.name}
-    if isinstance(v, Trajectory):
-        return plain(v.to_spec())
-    if isinstance(v, (np.floating, np.integer, np.bool_)):
-        return v.item()
-    if isinstance(v, (tuple, list, np.ndarray)):
-        return [plain(x) for x in (v.tolist() if isinstance(v, np.ndarray) else v)]
-    if isinstance(v, Mapping):
-        return {str(k): plain(x) for k, x in v.items()}
-    return v
+    """Plain data for Scenario-typed values (:func:`unidyn.scenario.plain_value`)."""
+    from .scenario import plain_value  # here: scenario.py is loaded on first use
+    return plain_value(v)
 
 
 def is_number(v) -> bool:

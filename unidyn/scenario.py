@@ -264,21 +264,7 @@ class Scenario:
     # ------------------------------------------------------------------ #
     def to_dict(self) -> dict:
         """Plain data (str, float, list, dict) that ``from_dict`` turns back into this scenario."""
-        out = {}
-        for f in dataclasses.fields(self):
-            v = getattr(self, f.name)
-            if isinstance(v, RobotParameters):
-                v = v.name if _is_preset(v) else {**v.as_dict(), "name": v.name}
-            elif isinstance(v, trajectories.Trajectory):
-                v = v.to_spec()
-            elif isinstance(v, (NoiseSpec, Limits)):
-                v = v.as_dict()
-            elif isinstance(v, tuple):
-                v = list(v)
-            if isinstance(v, dict):
-                v = {k: (list(x) if isinstance(x, tuple) else x) for k, x in v.items()}
-            out[f.name] = v
-        return out
+        return {f.name: plain_value(getattr(self, f.name)) for f in dataclasses.fields(self)}
 
     @classmethod
     def from_dict(cls, data) -> "Scenario":
@@ -302,6 +288,29 @@ def _is_preset(p: RobotParameters) -> bool:
         return p.name in robots.names() and robots.get(p.name) == p
     except ValidationError:
         return False
+
+
+def plain_value(v):
+    """Plain data (str, float, int, bool, list, dict, None) for the value of a Scenario
+    field, as TOML and JSON hold it: a preset robot by its name, any other robot as its
+    table, a trajectory by its spec, noise and limits as tables, tuples and arrays as
+    lists, numpy scalars as Python numbers. The one serialiser of scenario values, used
+    by :meth:`Scenario.to_dict` and by the sweep files."""
+    if isinstance(v, RobotParameters):
+        return v.name if _is_preset(v) else {**v.as_dict(), "name": v.name}
+    if isinstance(v, trajectories.Trajectory):
+        return plain_value(v.to_spec())
+    if isinstance(v, (NoiseSpec, Limits)):
+        return v.as_dict()
+    if isinstance(v, (np.floating, np.integer, np.bool_)):
+        return v.item()
+    if isinstance(v, np.ndarray):
+        v = v.tolist()
+    if isinstance(v, (tuple, list)):
+        return [plain_value(x) for x in v]
+    if isinstance(v, dict):
+        return {str(k): plain_value(x) for k, x in v.items()}
+    return v
 
 
 def _check_fields(data):
