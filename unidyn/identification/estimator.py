@@ -75,7 +75,7 @@ from .._validate import ValidationError, choice, nonnegative, positive
 from ..model import regressor
 from ..parameters import RobotParameters
 from ._simulate import COMMAND_CONVENTIONS, simulate_held, step_length
-from .logs import COLUMNS, MIN_SEGMENT, _short, join_logs
+from .logs import COLUMNS, MIN_SEGMENT, IdentificationWarning, _short, join_logs
 from .validation import ValidationReport, validation_report
 
 #: The ways of handling the velocity derivatives (see the module docstring).
@@ -90,12 +90,11 @@ _ROW_PARAMS = ((0, 2, 3), (1, 4, 5))
 _Z95 = 1.959963984540054
 # Newey-West lag, in windows: filtered residuals are correlated over about one window
 _LAG_WINDOWS = 1.0
+#: The output-error fit explores time constants theta1/theta4, theta2/theta6 of
+#: at least this many sample intervals (faster ones are not resolved by the log)
+TAU_MIN_SAMPLES = 0.05
 # automatic filter window = _AUTO_BAND / (the commands' 95 % band, Hz)
 _AUTO_BAND = 1.2
-
-
-class IdentificationWarning(UserWarning):
-    """A reason not to trust an identified parameter as much as its interval says."""
 
 
 def _emit(res):
@@ -554,8 +553,9 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
         fraction of its magnitude is reported as unidentified, > 0
     :param validate: simulate the identified model over the logs from their
         first measured velocities and keep the report (``result.validation``)
-    :param gap: a time step longer than this (s) splits a log; default 5 times
-        the median time step
+    :param gap: a time step longer than this (s) splits a log; default 1.4 times
+        the median time step (a step of 1.4 to 5 median steps means missing rows,
+        whose held commands are unknown; a longer one a gap)
     :param check_commands: also fit the other command convention and warn when
         it fits the log clearly better
     :raises ValidationError: for a bad log (see :func:`load_log`), constant
@@ -596,9 +596,19 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
     else:
         su, sw = _pair("noise_std", noise_std)
     warns = []
+    n_missing, n_gaps = D.get("missing", (0, 0))
+    if n_missing:
+        warns.append(f"{n_missing} missing row(s) detected (time steps of 1.4 to 5 times the "
+                     f"median step): the commands held while they were missing are unknown, "
+                     f"so the log is split there into pieces, each with its own initial "
+                     f"state (set gap= to change this)")
+    if n_gaps:
+        warns.append(f"{n_gaps} gap(s) in the log(s) (time steps over 5 times the median "
+                     f"step): the log is split there into pieces, each with its own initial "
+                     f"state")
     if dropped:
-        warns.append(f"{dropped} piece(s) of the log(s) between gaps held fewer than "
-                     f"{MIN_SEGMENT} samples and were not used")
+        warns.append(f"{dropped} piece(s) of the log(s) between gaps or missing rows held "
+                     f"fewer than {MIN_SEGMENT} samples and were not used")
     linear = commands == "linear"
     n_used = sum(b - a for a, b in segs)
     desc = (f"identified from {n_used} samples in {len(segs)} piece(s) of {len(logs)} log(s), "
@@ -648,6 +658,11 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
     stderr = np.sqrt(np.clip(np.diag(cov)[:6], 0.0, None))
     _check_physical(theta, stderr)
     idx = oe["rows"]
+    for i in oe["dead"]:
+        warns.append(f"{_NAMES[i]} is not identifiable from this log: the simulated velocities "
+                     f"do not depend on it (or only through a combination with other "
+                     f"parameters), so its value is arbitrary and its standard error is "
+                     f"reported as inf")
     warns += _warnings(theta, stderr, oe["conds"], u[idx], w[idx], dt_med, rel_stderr_max)
     warns += oe["warnings"]
     if check_commands:
@@ -656,13 +671,19 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
                       v0=oe["v0"], covariance=False)
         gain = oe["cost"] - alt["cost"]
         if gain > max(25.0, 1e-3 * idx.size):
+            if other == "held":
+                why = ("the commands are held between samples, or take effect later than "
+                       "their time stamps (see delay='auto')")
+            else:
+                why = ("the commands vary smoothly between samples, or take effect earlier "
+                       "than their time stamps (by about half a sample; delay cannot be "
+                       "negative, so delay='auto' cannot fix that: check how the commands "
+                       "and the velocities are time-stamped)")
             warns.append(
                 f"the log fits clearly better with commands={other!r} (sum of squared "
-                f"normalised velocity errors {alt['cost']:.4g} against {oe['cost']:.4g}): the "
-                f"commands {'vary smoothly' if other == 'linear' else 'are held'} between "
-                f"samples, or take effect {'earlier' if other == 'held' else 'later'} than "
-                f"their time stamps (see delay='auto'); with the wrong convention theta1 and "
-                f"theta2 are biased by about half a sample")
+                f"normalised velocity errors {alt['cost']:.4g} against {oe['cost']:.4g}): "
+                f"{why}; with the wrong convention theta1 and theta2 are biased by about "
+                f"half a sample")
     est_delay = oe["delay"]
     rp = RobotParameters(*theta.tolist(), name=name,
                          source=(f"{desc.replace(f'delay={delay:g} s', f'delay={est_delay:g} s')}"
@@ -812,6 +833,16 @@ def _oe_fit(D, segs, theta0, sig, linear, delay, est_delay, dt_med, v0=None,
         lb[6], ub[6] = 0.0, 4.0 * dt_med
         p0[6] = min(max(p0[6], 0.02 * dt_med), 3.98 * dt_med)
     p0 = np.minimum(np.maximum(p0, lb + 1e-12), ub - 1e-12)
+    # the time constants the fit may explore: at least TAU_MIN_SAMPLES of a sample
+    # interval (a faster response settles within the sample and is not resolved;
+    # the simulation's step, a tenth of the time constant, stays bounded)
+    tau_min = TAU_MIN_SAMPLES * dt_med
+    for i, j in ((0, 3), (1, 5)):
+        p0[i] = max(p0[i], 1.001 * tau_min * p0[j])
+
+    def feasible(q):
+        return q[0] >= tau_min * q[3] and q[1] >= tau_min * q[5]
+
     buf = np.full((t.size, 2), np.nan)
 
     def unpack(p):
@@ -857,12 +888,12 @@ def _oe_fit(D, segs, theta0, sig, linear, delay, est_delay, dt_med, v0=None,
                 J[idx.size + a:idx.size + b, i] = dS[:, 1] / sig[1]
         return J
 
-    p = _levenberg_marquardt(fun, jac, p0, lb, ub, max_nfev)
+    p = _levenberg_marquardt(fun, jac, p0, lb, ub, max_nfev, feasible)
     th, dl, vv = unpack(p)
     # a faster robot than the start needs more RK4 steps: refine once
     if step_length(th, dt_med) < 0.8 * hmax:
         hmax = step_length(th, dt_med)
-        p = _levenberg_marquardt(fun, jac, p, lb, ub, max_nfev)
+        p = _levenberg_marquardt(fun, jac, p, lb, ub, max_nfev, feasible)
         th, dl, vv = unpack(p)
     S = sim(p)
     R = Y - S
@@ -897,7 +928,7 @@ def _oe_fit(D, segs, theta0, sig, linear, delay, est_delay, dt_med, v0=None,
         lb_q.append(q)
         white.append(q <= _WHITE_Q)
     M = J.T @ J
-    Minv = np.linalg.pinv(M)
+    Minv, dead = _scaled_inverse(M)
     cov = Minv * (float(np.sum(Z * Z)) / max(2 * n - npar, 1))
     warns = []
     if not all(white):
@@ -929,6 +960,17 @@ def _oe_fit(D, segs, theta0, sig, linear, delay, est_delay, dt_med, v0=None,
                 f"dynamics unexplained (an input delay, see delay='auto'; the other command "
                 f"convention; saturation or friction; filtered velocity measurements); the "
                 f"intervals allow for correlated errors but the estimate may be biased")
+    # saturation: errors that grow with the size of the velocity (an odd
+    # nonlinearity: the cube of the simulated velocity, beyond its linear part)
+    sat = []
+    for c in range(2):
+        x = S[:, c]
+        B = np.stack([np.ones_like(x), x], axis=1)
+        f = x ** 3
+        f = f - B @ np.linalg.lstsq(B, f, rcond=None)[0]
+        nf, nr = float(np.linalg.norm(f)), float(np.linalg.norm(R[:, c]))
+        sat.append(float(f @ R[:, c]) / (nf * nr) if nf > 0 and nr > 0 else 0.0)
+    out["saturation"] = sat
     conds = []
     for c, cols in ((0, [0, 2, 3]), (1, [1, 4, 5])):
         B = J[c * n:(c + 1) * n][:, cols]
@@ -939,18 +981,52 @@ def _oe_fit(D, segs, theta0, sig, linear, delay, est_delay, dt_med, v0=None,
     for c in range(2):
         ss = float(np.sum((Y[:, c] - Y[:, c].mean()) ** 2))
         r2.append(1.0 - float(R[:, c] @ R[:, c]) / ss if ss > 0 else math.nan)
+    cov[dead, :] = 0.0
+    cov[:, dead] = 0.0
+    cov[dead, dead] = math.inf
     out.update(cov=cov, conds=conds, r2=r2, whiteness=[float(q) for q in lb_q],
-               warnings=warns, delay_stderr=float(np.sqrt(max(cov[6, 6], 0.0))) if nd else 0.0)
+               warnings=warns, dead=[i for i in np.flatnonzero(dead) if i < 6], delay_stderr=float(np.sqrt(max(cov[6, 6], 0.0))) if nd else 0.0)
     return out
 
 
-def _levenberg_marquardt(fun, jac, p0, lb, ub, max_iter):
+def _scaled_inverse(M, tol=1e-10):
+    """The inverse of a normal matrix M = J^T J, computed on its column-scaled
+    (correlation) form so that a parameter with small but real sensitivity
+    gets its large variance rather than the near-zero one a pseudo-inverse of
+    the unscaled M gives. Parameters with zero sensitivity, or in an (almost)
+    exactly collinear combination (an eigenvalue of the scaled matrix below
+    ``tol``), are not identifiable: they are returned in the mask ``dead``, and
+    the inverse is taken over the others (their rows and columns are 0).
+    Returns (inverse, dead mask)."""
+    p = M.shape[0]
+    d = np.sqrt(np.clip(np.diag(M), 0.0, None))
+    dead = ~(d > 1e-150 * max(float(d.max()), 1e-300))
+    for _ in range(p):
+        live = np.flatnonzero(~dead)
+        if live.size == 0:
+            break
+        Ms = M[np.ix_(live, live)] / np.outer(d[live], d[live])
+        ev, V = np.linalg.eigh(Ms)
+        if ev[0] >= tol * ev[-1]:
+            break
+        # the parameter that carries most of the null direction goes first
+        dead[live[int(np.argmax(np.abs(V[:, 0])))]] = True
+    Minv = np.zeros_like(M)
+    live = np.flatnonzero(~dead)
+    if live.size:
+        Ms = M[np.ix_(live, live)] / np.outer(d[live], d[live])
+        Minv[np.ix_(live, live)] = np.linalg.inv(Ms) / np.outer(d[live], d[live])
+    return Minv, dead
+
+
+def _levenberg_marquardt(fun, jac, p0, lb, ub, max_iter, feasible=None):
     """Minimise ||fun(p)||^2 within lb < p < ub by Levenberg-Marquardt on the
     column-scaled normal equations (the parameters are few and the residuals
     many: the p x p normal matrix is cheap, where a QR or SVD of the tall
     Jacobian is not). A step leaving the bounds is rejected like one that
     raises the cost; a parameter whose bound is finite on both sides (the
-    delay) is clipped into them instead."""
+    delay) is clipped into them instead. ``feasible(q)``, when given, rejects
+    a step like a bound does."""
     p = np.array(p0, dtype=float)
     r = fun(p)
     cost = float(r @ r)
@@ -974,7 +1050,8 @@ def _levenberg_marquardt(fun, jac, p0, lb, ub, max_iter):
                 continue
             q = p + step
             q[both] = np.minimum(np.maximum(q[both], lb[both]), ub[both])
-            if np.all(q[~both] > lb[~both]) and np.all(q[~both] < ub[~both]):
+            if np.all(q[~both] > lb[~both]) and np.all(q[~both] < ub[~both]) and \
+                    (feasible is None or feasible(q)):
                 rq = fun(q)
                 cq = float(rq @ rq)
                 if np.isfinite(cq) and cq <= cost:
@@ -1184,7 +1261,14 @@ def _warnings(theta, stderr, conds, u, w, dt, rel_max) -> list:
                        f"the commands")
     for i, j in ((0, 3), (1, 5)):
         tau = theta[i] / theta[j] if theta[j] > 0 else math.nan
-        if tau < 2 * dt:
+        if tau <= 1.05 * TAU_MIN_SAMPLES * dt:
+            out.append(f"the time constant {_NAMES[i]}/{_NAMES[j]} is not resolvable at this "
+                       f"sampling rate: the fit reached the shortest one it explores, "
+                       f"{tau:.3g} s (1/{1 / TAU_MIN_SAMPLES:g} of the {dt:g} s sample "
+                       f"interval), so the response settles within one sample; {_NAMES[i]} "
+                       f"is only known to be about this small or smaller (its interval is "
+                       f"not meaningful): log faster to identify it")
+        elif tau < 2 * dt:
             out.append(f"the time constant {_NAMES[i]}/{_NAMES[j]} = {tau:.3g} s is shorter "
                        f"than two sampling intervals (2 x {dt:g} s): the log barely resolves "
                        f"it, so {_NAMES[i]} rests on the command convention and delay being "

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import csv
 import os
+import re
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -18,10 +20,19 @@ from .._validate import ValidationError, real
 
 #: The canonical column names of a log.
 COLUMNS = ("t", "u_ref", "w_ref", "u", "w")
-# a time step longer than this many median steps is a gap
+# a time step longer than this many median steps is a gap (the robot was not logged)
 _GAP_FACTOR = 5.0
-# pieces between gaps with fewer samples are not used
-MIN_SEGMENT = 10
+# a time step longer than this many median steps (but not a gap) means missing rows:
+# the commands held while they were missing are unknown, so the log is split there
+# too (sampling jitter of +-10 % only reaches 1.2)
+_MISSING_FACTOR = 1.4
+# pieces between gaps or missing rows with fewer samples are not used
+MIN_SEGMENT = 3
+
+
+class IdentificationWarning(UserWarning):
+    """A reason not to trust an identified parameter as much as its interval
+    says, or something in a log that was read other than as written."""
 
 
 class MissingColumnsError(ValidationError):
@@ -102,12 +113,32 @@ def _sniff_delimiter(header: str) -> str:
     return ","
 
 
-def _read_csv(path: Path, wanted=None) -> tuple[dict, list]:
+# a number written with a decimal comma: 0,25  -1,5e-3
+_DECIMAL_COMMA = re.compile(r"^[+-]?\d*,\d+(?:[eE][+-]?\d+)?$|^[+-]?\d+,(?:[eE][+-]?\d+)?$")
+
+
+def _number(cell: str):
+    """The float a CSV cell holds, accepting a decimal comma; None if it holds none."""
+    try:
+        return float(cell)
+    except ValueError:
+        pass
+    if _DECIMAL_COMMA.match(cell):
+        return float(cell.replace(",", "."))
+    return None
+
+
+def _read_csv(path: Path, wanted=None) -> tuple[dict, list, list]:
     """Read the columns ``wanted`` (all if None) of a CSV log as float arrays.
 
     Lines starting with '#' and blank lines are skipped; the first other line
-    names the columns. Columns not wanted are never parsed.
-    Returns (columns found, every header name).
+    names the columns (after an optional ``sep=;`` line, as spreadsheets write
+    it). Numbers may use a decimal comma (with ';' or tab separators, or
+    quoted). A data row may end in one empty field the header lacks (a
+    trailing separator). One row of non-numbers right after the header (units
+    such as ``s,m/s,rad/s``) is skipped with an :class:`IdentificationWarning`.
+    Columns not wanted are never parsed.
+    Returns (columns found, every header name, the file line of each row).
     """
     try:
         raw = path.read_bytes()
@@ -117,16 +148,20 @@ def _read_csv(path: Path, wanted=None) -> tuple[dict, list]:
         raise ValidationError(f"log: cannot read {path}: {err.strerror or err}") from None
     text = _decode(path, raw)
     lines = text.splitlines()
-    lineno, header_line = 0, None
+    lineno, header_line, delim = 0, None, None
     for lineno, line in enumerate(lines, start=1):
         s = line.strip()
         if s and not s.startswith("#"):
+            m = re.fullmatch(r"""["']?sep=(.)["']?,*;*""", s.lstrip("\ufeff"))
+            if m and delim is None:
+                delim = "\t" if m.group(1) == "\t" else m.group(1)
+                continue
             header_line = line
             break
     if header_line is None:
         raise ValidationError(f"log: {path} has no header row; expected a first row naming "
                               f"the columns ({', '.join(COLUMNS)})")
-    delim = _sniff_delimiter(header_line)
+    delim = delim or _sniff_delimiter(header_line)
     header = [h.strip().strip('"').strip("'").strip().lstrip("\ufeff")
               for h in next(csv.reader([header_line], delimiter=delim))]
     want = list(header) if wanted is None else [w for w in dict.fromkeys(wanted) if w in header]
@@ -134,10 +169,13 @@ def _read_csv(path: Path, wanted=None) -> tuple[dict, list]:
     cols = [(h, index[h]) for h in want]
     need = max((i for _, i in cols), default=-1) + 1
     data = {h: [] for h in want}
+    rowlines = []
     body = [(n, line) for n, line in enumerate(lines[lineno:], start=lineno + 1)
             if line.strip() and not line.lstrip().startswith("#")]
     rows = csv.reader((line for _, line in body), delimiter=delim)
-    for (n, _), row in zip(body, rows):
+    for j, ((n, _), row) in enumerate(zip(body, rows)):
+        if len(row) == len(header) + 1 and not row[-1].strip():
+            row = row[:-1]                       # a trailing separator
         if len(row) > len(header):
             raise ValidationError(f"log: {path} line {n} has {len(row)} fields, the header "
                                   f"{len(header)} (a decimal comma, or an unquoted separator "
@@ -146,32 +184,46 @@ def _read_csv(path: Path, wanted=None) -> tuple[dict, list]:
             raise ValidationError(f"log: {path} line {n} has {len(row)} field(s); column "
                                   f"{header[need - 1]!r} is field {need} of the header's "
                                   f"{len(header)}")
-        for h, i in cols:
-            cell = row[i].strip()
-            try:
-                data[h].append(float(cell))
-            except ValueError:
+        vals = [_number(row[i].strip()) for _, i in cols]
+        if j == 0 and vals and all(v is None for v in vals) and \
+                all(_number(c.strip()) is None for c in row):
+            warnings.warn(f"log: {path} line {n}: skipped a row of non-numbers right after the "
+                          f"header (units?): {_short(delim.join(row))}",
+                          IdentificationWarning, stacklevel=4)
+            continue
+        for (h, i), v in zip(cols, vals):
+            if v is None:
+                cell = row[i].strip()
+                hint = ""
+                if j == 0:
+                    hint = (" (a row of units under the header? remove it, or every cell of "
+                            "it must be a non-number)")
+                elif "," in cell:
+                    hint = " (a decimal comma? use ';' or tab as the separator, or quote it)"
                 raise ValidationError(f"log: {path} line {n}, column {h!r}: {_short(cell)} is "
-                                      f"not a number") from None
-    return data, header
+                                      f"not a number{hint}")
+            data[h].append(v)
+        rowlines.append(n)
+    return data, header, rowlines
 
 
-def _get_columns(log, wanted) -> tuple[dict | None, object, str, list]:
-    """(mapping or None, object, description, available names) of a log's raw columns."""
+def _get_columns(log, wanted) -> tuple[dict | None, object, str, list, list | None]:
+    """(mapping or None, object, description, available names, file line of each
+    row or None) of a log's raw columns."""
     if isinstance(log, (str, os.PathLike)):
         path = Path(log)
-        data, header = _read_csv(path, wanted)
-        return data, None, str(path), header
+        data, header, rowlines = _read_csv(path, wanted)
+        return data, None, str(path), header, rowlines
     if isinstance(log, np.ndarray):
         if log.dtype.names is None:
             raise ValidationError("log: a numpy array must be a structured array with named "
                                   f"fields ({', '.join(COLUMNS)}), got dtype {log.dtype}")
         return {n: log[n] for n in log.dtype.names}, None, "structured array", \
-            list(log.dtype.names)
+            list(log.dtype.names), None
     if isinstance(log, Mapping) or (hasattr(log, "keys") and hasattr(log, "__getitem__")):
         keys = list(log.keys())
-        return {k: log[k] for k in keys}, None, "mapping", keys
-    return None, log, type(log).__name__, [k for k in dir(log) if not k.startswith("_")]
+        return {k: log[k] for k in keys}, None, "mapping", keys, None
+    return None, log, type(log).__name__, [k for k in dir(log) if not k.startswith("_")], None
 
 
 def load_log(log, columns=None) -> dict:
@@ -194,7 +246,11 @@ def load_log(log, columns=None) -> dict:
         fewer than 20 samples
     """
     cmap = _column_map(columns)
-    data, obj, what, available = _get_columns(log, [cmap[k] for k in COLUMNS])
+    data, obj, what, available, rowlines = _get_columns(log, [cmap[k] for k in COLUMNS])
+
+    def where(k):
+        """Sample k of the log, with its file line when it came from a file."""
+        return f"sample {k}" + (f" (line {rowlines[k]})" if rowlines else "")
     missing = [k for k in COLUMNS if (cmap[k] not in data if data is not None
                                       else not hasattr(obj, cmap[k]))]
     if missing:
@@ -221,39 +277,74 @@ def load_log(log, columns=None) -> dict:
                                   f"{arr.shape}")
         bad = np.flatnonzero(~np.isfinite(arr))
         if bad.size:
-            raise ValidationError(f"log column {k!r} has {bad.size} NaN/inf value(s), first at "
-                                  f"sample {bad[0]} ({arr[bad[0]]!r}); all values must be finite")
+            raise ValidationError(f"log {what}: column {k!r} has {bad.size} NaN/inf value(s), "
+                                  f"first at {where(int(bad[0]))} ({float(arr[bad[0]])!r}); "
+                                  f"all values must be finite")
         if n is None:
             n = arr.size
         elif arr.size != n:
             raise ValidationError(f"log columns must have equal lengths: {k!r} has {arr.size} "
                                   f"samples, 't' has {n}")
         out[k] = arr.copy()
-    if n < 20:
-        raise ValidationError(f"log has {n} samples; at least 20 are needed")
     dt = np.diff(out["t"])
+    same = np.flatnonzero(dt == 0)
+    if same.size:
+        exact = np.all([out[k][same] == out[k][same + 1] for k in COLUMNS], axis=0)
+        if not np.all(exact):
+            k = int(same[~exact][0])
+            raise ValidationError(
+                f"log {what}: time 't' is repeated with different values at {where(k)} and "
+                f"{where(k + 1)} (t = {float(out['t'][k])!r}); two different rows cannot "
+                f"share a time stamp: fix or remove one")
+        keep = np.ones(n, bool)
+        keep[same + 1] = False
+        out = {k: v[keep] for k, v in out.items()}
+        warnings.warn(f"log {what}: {same.size} exact duplicate row(s) dropped (first at "
+                      f"{where(int(same[0]) + 1)}, t = {float(out['t'][same[0]])!r})",
+                      IdentificationWarning, stacklevel=3)
+        rowlines = [ln for ln, kp in zip(rowlines, keep) if kp] if rowlines else None
+        n = out["t"].size
+        dt = np.diff(out["t"])
+    if n < 20:
+        raise ValidationError(f"log has {n} samples; at least 20 are needed ({what})")
     if np.any(dt <= 0):
         k = int(np.flatnonzero(dt <= 0)[0])
-        kind = "repeated" if dt[k] == 0 else "going back"
-        raise ValidationError(f"log time 't' must be strictly increasing; it is {kind} at "
-                              f"sample {k + 1}: t[{k}] = {out['t'][k]!r}, t[{k + 1}] = "
-                              f"{out['t'][k + 1]!r}")
+        raise ValidationError(f"log {what}: time 't' must be strictly increasing; it is going "
+                              f"back at {where(k + 1)}: t = {float(out['t'][k])!r} then "
+                              f"{float(out['t'][k + 1])!r}")
     return out
 
 
 def segments(t, gap: float = None) -> list:
     """Split sample times at gaps: the (start, stop) index ranges of the pieces.
 
-    A time step longer than ``gap`` (default 5 times the median step) is a gap:
-    the robot was not logged in between, so nothing is filtered, integrated or
-    compared across it.
+    A time step longer than ``gap`` is a gap: the robot was not logged in
+    between (or rows are missing, and with them the commands held meanwhile),
+    so nothing is filtered, integrated or compared across it. By default a
+    step longer than 1.4 times the median step splits the log: one of 1.4 to 5
+    median steps means missing rows, a longer one a gap (see
+    :func:`missing_rows`).
     """
     t = np.asarray(t, dtype=float)
     dt = np.diff(t)
-    limit = _GAP_FACTOR * float(np.median(dt)) if gap is None else float(gap)
+    limit = _MISSING_FACTOR * float(np.median(dt)) if gap is None else float(gap)
     cuts = np.flatnonzero(dt > limit) + 1
     bounds = np.concatenate([[0], cuts, [t.size]])
     return [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
+
+
+def missing_rows(t, gap: float = None) -> tuple[int, int]:
+    """(number of rows missing, number of gaps) in sample times ``t``, as
+    :func:`segments` splits them: a step of 1.4 to 5 median steps (and at most
+    ``gap`` when given) counts as round(step / median) - 1 missing rows, a
+    longer split step as a gap."""
+    t = np.asarray(t, dtype=float)
+    dt = np.diff(t)
+    med = float(np.median(dt))
+    limit = _MISSING_FACTOR * med if gap is None else float(gap)
+    split = dt > limit
+    short = split & (dt <= _GAP_FACTOR * med)
+    return int(np.sum(np.round(dt[short] / med) - 1)), int(np.sum(split & ~short))
 
 
 def split_log(log, t_split: float, columns=None) -> tuple[dict, dict]:
@@ -283,15 +374,17 @@ def join_logs(logs, columns=None, gap=None):
 
     :param logs: a sequence of logs (paths, mappings, ... as for :func:`load_log`)
     :param columns: mapping from t, u_ref, w_ref, u, w to the logs' own names
-    :param gap: a time step longer than this (s) splits a log; default 5 times
-        its median step
+    :param gap: a time step longer than this (s) splits a log; default 1.4
+        times its median step (see :func:`segments`)
     :raises ValidationError: for a bad log (prefixed "log N:" when several logs
         are given and the log is not a file) or when no piece is long enough
     :return: (dict of the joined arrays t, u_ref, w_ref, u, w; list of
         (start, stop) pieces; number of pieces dropped as too short; a
-        description of each log)
+        description of each log). The numbers of missing rows and of gaps
+        found are in the dict's ``"missing"`` entry (a pair).
     """
     parts, segs, dropped, offset, sources = [], [], 0, 0, []
+    n_missing, n_gaps = 0, 0
     for i, lg in enumerate(logs):
         try:
             d = load_log(lg, columns)
@@ -301,6 +394,8 @@ def join_logs(logs, columns=None, gap=None):
             raise type(err)(f"log {i + 1}: {err}") if type(err) is ValidationError else err
         parts.append(d)
         sources.append(str(lg) if isinstance(lg, (str, os.PathLike)) else type(lg).__name__)
+        m_, g_ = missing_rows(d["t"], gap)
+        n_missing, n_gaps = n_missing + m_, n_gaps + g_
         for a, b in segments(d["t"], gap):
             if b - a >= MIN_SEGMENT:
                 segs.append((a + offset, b + offset))
@@ -311,4 +406,5 @@ def join_logs(logs, columns=None, gap=None):
         raise ValidationError(f"every piece of the log(s) between gaps holds fewer than "
                               f"{MIN_SEGMENT} samples: nothing to identify from")
     D = {k: np.concatenate([p[k] for p in parts]) for k in COLUMNS}
+    D["missing"] = (n_missing, n_gaps)
     return D, segs, dropped, sources
