@@ -258,6 +258,8 @@ INVALID = {
     "positive_or_none": st.one_of(not_a_number.filter(lambda v: v is not None), zero, negative,
                                   neg_inf, nan, inf),
     "positive_or_inf": st.one_of(not_a_number, zero, negative, neg_inf, nan),
+    "positive_int": st.one_of(not_a_number, zero, negative, neg_inf, nan, inf,
+                              st.just(1.5), st.just(True)),
     "nonnegative": st.one_of(not_a_number, negative, neg_inf, nan, inf),
     "real": st.one_of(not_a_number, nan, inf, neg_inf),
     "nonzero_real": st.one_of(not_a_number, nan, inf, neg_inf, zero),
@@ -322,7 +324,7 @@ SCENARIO_FIELDS = {"case": "case", "robot": "robot", "a": "positive", "x0": "vec
                    "gamma": "positive_vector6", "sigma": "nonnegative_vector6",
                    "adapt_from": "nonnegative", "leakage": "leakage", "noise": "noise",
                    "limits": "limits_table", "control": "control", "vd_dot": "vd_dot",
-                   "name": "name",
+                   "name": "name", "log_every": "positive_int",
                    **{k: "positive" for k in ("kx", "ky", "lx", "ly", "ku", "kw", "lu", "lw",
                                               "T", "Ts", "tau")}}
 
