@@ -14,16 +14,7 @@ from unidyn.trajectories import FigureEight, FunctionTrajectory
 
 pytestmark = pytest.mark.reliability
 
-F8 = FigureEight()
-
-
-def _nan_after(t_bad):
-    def f(t):
-        p = F8.position(t)
-        if t > t_bad:
-            p = np.array([np.nan, p[1]])
-        return p, F8.velocity(t)
-    return FunctionTrajectory(f, acceleration=F8.acceleration)
+from ._faults import F8, nan_after as _nan_after
 
 
 def _strict(text):
