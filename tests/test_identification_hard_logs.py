@@ -123,6 +123,24 @@ def test_commands_acting_early_are_told_to_act_earlier_not_to_use_a_delay():
     assert "later than their time stamps" not in conv[0]
 
 
+# ------------------------------------------------------- commands the robot clips
+
+@pytest.mark.parametrize("hz", [10, 50])
+def test_a_robot_that_clips_its_commands_is_named_and_an_unclipped_one_is_not(hz):
+    """A robot whose firmware clips the commands to 0.45 m/s and 0.6 rad/s (the log
+    keeps what was sent, up to 0.8 m/s and 1.5 rad/s) is not Eq. (2): the
+    velocity errors fall as the speed grows. The fit must say so on both
+    channels; the same log without clipping must not get that warning."""
+    clipped, msgs = fit(make_log(P3, 60.0, hz, seed=8, clip=(0.45, 0.6)))
+    sat = [m for m in msgs if "shrink the robot's fast motion" in m]
+    assert len(sat) == 2 and "errors on u" in sat[0] and "errors on w" in sat[1], msgs
+    assert not covers(clipped, P3).all()       # why the warning matters: it is biased
+    # a log that Eq. (2) does not fit either way is no evidence for the other convention
+    assert not [m for m in msgs if "fits clearly better" in m], msgs
+    _, clean = fit(make_log(P3, 60.0, hz, seed=8))
+    assert not [m for m in clean if "fast motion" in m], clean
+
+
 # ------------------------------------------- a parameter the log does not reveal
 
 def test_parameter_without_effect_gets_no_tiny_standard_error():

@@ -84,6 +84,10 @@ SMOOTHING_METHODS = ("filter", "savgol")
 METHODS = ("output-error", "equation-error")
 # Ljung-Box statistic over 10 lags above which residuals are not white (chi2(10), p = 0.001)
 _WHITE_Q = 29.588
+# correlation of the velocity errors with the cube of the fitted velocity (beyond its
+# linear part) below which the robot looks saturated: logs made by Eq. (2) with
+# clipped commands give -0.7 to -0.85, unclipped ones stay within +/- 0.1
+_SATURATION_CORR = -0.3
 _NAMES = ("theta1", "theta2", "theta3", "theta4", "theta5", "theta6")
 # The rows of Eq. (11): which parameters each decoupled problem estimates.
 _ROW_PARAMS = ((0, 2, 3), (1, 4, 5))
@@ -670,7 +674,9 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
         alt = _oe_fit(D, segs, theta, oe["sig"], not linear, oe["delay"], False, dt_med,
                       v0=oe["v0"], covariance=False)
         gain = oe["cost"] - alt["cost"]
-        if gain > max(25.0, 1e-3 * idx.size):
+        # an absolute floor (noise), and a relative one: a log that Eq. (2) does not
+        # fit (a saturating robot) can fit a little better either way
+        if gain > max(25.0, 1e-3 * idx.size, 0.02 * oe["cost"]):
             if other == "held":
                 why = ("the commands are held between samples, or take effect later than "
                        "their time stamps (see delay='auto')")
@@ -971,6 +977,16 @@ def _oe_fit(D, segs, theta0, sig, linear, delay, est_delay, dt_med, v0=None,
         nf, nr = float(np.linalg.norm(f)), float(np.linalg.norm(R[:, c]))
         sat.append(float(f @ R[:, c]) / (nf * nr) if nf > 0 and nr > 0 else 0.0)
     out["saturation"] = sat
+    for c, (k, unit) in enumerate((("u", "m/s"), ("w", "rad/s"))):
+        if sat[c] < _SATURATION_CORR:
+            big = float(np.max(np.abs(Y[:, c])))
+            warns.append(
+                f"the velocity errors on {k} shrink the robot's fast motion: they correlate "
+                f"{sat[c]:.2f} with the cube of the fitted {k} (measured |{k}| up to {big:.3g} "
+                f"{unit}), as when the motors or the firmware limit the speed or the command. "
+                f"Eq. (2) has no such limit, so the fit trades accuracy at low speed for the "
+                f"clipped peaks; identify on a log whose commands stay within the robot's reach "
+                f"(see excitation()), or leave out the saturated stretches")
     conds = []
     for c, cols in ((0, [0, 2, 3]), (1, [1, 4, 5])):
         B = J[c * n:(c + 1) * n][:, cols]
