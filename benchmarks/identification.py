@@ -67,6 +67,11 @@ def run(rp, hz, seed, limits):
     return res, ee, wall
 
 
+# runs without a flag a parameter's coverage rate is checked on (one miss in 10 is
+# already 90 %: fewer runs cannot tell 85 % from 95 %)
+MIN_COVER_RUNS = 10
+
+
 def accuracy(seeds, limits):
     print(f"Table 1. Held commands, {T:g} s, noise std {NOISE}, {seeds} seeds per row, "
           f"excitation within {limits}. "
@@ -104,17 +109,27 @@ def accuracy(seeds, limits):
                   f" {np.mean(walls):6.2f}", flush=True)
             tol = 4.0 if hz == 10 else 2.0
             acc_ok = bool(np.all(mean[[0, 1, 3, 5]] < tol))
-            # coverage over the runs that did not flag the parameter
-            cov_ok = True
+            # coverage over the runs that did not flag the parameter; a rate of 85 %
+            # needs at least MIN_COVER_RUNS runs to mean anything
+            missed, unchecked = [], []
             for i in range(6):
                 ok_runs = np.ones(seeds, bool) if i not in (2, 4) else ~flags[:, (i - 2) // 2]
-                if ok_runs.sum() >= max(5, seeds // 2):
-                    cov_ok &= bool(cover[ok_runs, i].mean() >= 0.85)
-            verdict.append((label, hz, acc_ok, cov_ok))
+                if ok_runs.sum() < MIN_COVER_RUNS:
+                    unchecked.append(names[i])
+                elif cover[ok_runs, i].mean() < 0.85:
+                    missed.append(names[i])
+            if missed:
+                cov_word = "MISSED for " + ", ".join(missed)
+            elif len(unchecked) == 6:
+                cov_word = f"not checked (too few seeds: {seeds} < {MIN_COVER_RUNS})"
+            else:
+                cov_word = "met" + (f" (not checked for {', '.join(unchecked)}: flagged in "
+                                    f"too many runs)" if unchecked else "")
+            verdict.append((label, hz, acc_ok, cov_word))
     print()
-    for label, hz, acc_ok, cov_ok in verdict:
+    for label, hz, acc_ok, cov_word in verdict:
         print(f"  {label:27s} {hz:3d} Hz: accuracy target {'met' if acc_ok else 'MISSED'}; "
-              f"coverage >= 85 % for unflagged thetas {'met' if cov_ok else 'MISSED'}")
+              f"coverage >= 85 % for unflagged thetas {cov_word}")
 
 
 def timing():
