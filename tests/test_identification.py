@@ -342,7 +342,7 @@ def test_time_must_increase_strictly():
 
 def test_too_few_samples_and_unequal_lengths():
     log = {k: v[:10] for k, v in small_log().items()}
-    with pytest.raises(ValidationError, match="log has 10 samples; at least 20"):
+    with pytest.raises(ValidationError, match="has 10 rows; fitting six parameters and the initial velocities needs at least 20"):
         ident.identify(log)
     log = small_log()
     log["w"] = log["w"][:-1]

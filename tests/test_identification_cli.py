@@ -118,6 +118,8 @@ def test_several_logs_no_validate_columns_and_convention(tmp_path, capsys):
     (["--delay", "-1"], ["--delay"]),
     (["--validate", "nothere.csv"], ["nothere.csv"]),
     (["--commands", "zoh"], ["--commands", "zoh"]),
+    (["--gap", "0"], ["gap", "> 0"]),
+    (["--gap", "nan"], ["gap"]),
 ])
 def test_bad_options_name_the_option(tmp_path, capsys, argv, words):
     p = write(tmp_path / "a.csv", {k: v[:100] for k, v in held_log().items()})
@@ -136,3 +138,20 @@ def test_delay_auto_on_the_command_line(tmp_path, capsys):
     assert code == 0, err
     theta = json.loads((tmp_path / "I" / "theta.json").read_text())
     assert theta["delay"] == pytest.approx(0.05, abs=0.01)
+
+
+def test_gap_sets_where_a_log_is_split(tmp_path, capsys):
+    """A 5 s gap splits the log by default; --gap 10 keeps it whole (one piece, its
+    held command bridging the gap), --gap 0.15 splits it too."""
+    t = held_log()["t"]
+    keep = np.ones(t.size, bool)
+    keep[(t > 40.0) & (t < 45.0)] = False
+    p = write(tmp_path / "gap.csv", held_log(), keep)
+    pieces = {}
+    for gap in (None, "10", "0.15"):
+        argv = [] if gap is None else ["--gap", gap]
+        code, _, err = run(capsys, "identify", p, *argv, "--no-validate", "--out",
+                           tmp_path / f"I{gap}")
+        assert code == 0, err
+        pieces[gap] = json.loads((tmp_path / f"I{gap}" / "theta.json").read_text())["segments"]
+    assert pieces == {None: 2, "10": 1, "0.15": 2}

@@ -495,7 +495,7 @@ def _cmd_identify(args) -> int:
                                   f"or auto, got {text[:40]!r}")
     kwargs = {"columns": columns, "commands": args.commands, "delay": delay,
               "method": args.method, "validate": False}
-    for k in ("smoothing", "window", "name"):
+    for k in ("smoothing", "window", "name", "gap"):
         if getattr(args, k) is not None:
             kwargs[k] = getattr(args, k)
     out = Path(args.out)
@@ -638,6 +638,9 @@ def _parser() -> argparse.ArgumentParser:
     i.add_argument("--delay", metavar="SECONDS|auto",
                    help="input delay: seconds (0.1), samples ('1 samples') or auto to "
                         "estimate it (default 0)")
+    i.add_argument("--gap", type=float, metavar="SECONDS",
+                   help="a time step longer than this splits a log into pieces, each with "
+                        "its own initial state (default: 1.4 times the median step)")
     i.add_argument("--method", choices=("output-error", "equation-error"),
                    default="output-error",
                    help="output-error (default): fit simulated velocities to the measured "

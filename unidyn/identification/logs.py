@@ -306,7 +306,10 @@ def load_log(log, columns=None) -> dict:
         n = out["t"].size
         dt = np.diff(out["t"])
     if n < 20:
-        raise ValidationError(f"log has {n} samples; at least 20 are needed ({what})")
+        raise ValidationError(
+            f"log {what} has {n} rows; fitting six parameters and the initial velocities "
+            f"needs at least 20, and an accurate estimate many more: log a minute or more of "
+            f"varied commands (see excitation())")
     if np.any(dt <= 0):
         k = int(np.flatnonzero(dt <= 0)[0])
         raise ValidationError(f"log {what}: time 't' must be strictly increasing; it is going "
