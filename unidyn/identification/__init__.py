@@ -49,7 +49,7 @@ The workflow, all pure numpy/scipy (nothing here imports bdsim)::
 The package is split by job: :mod:`~unidyn.identification.logs` reads and
 checks logs, :mod:`~unidyn.identification.estimator` holds the output-error and
 equation-error fits (its docstring explains how the equation-error estimate
-handles the velocity derivatives), :mod:`~unidyn.identification.excitation`
+handles the velocity derivatives), :mod:`~unidyn.identification.design`
 designs commands and simulates logs, and :mod:`~unidyn.identification.validation`
 compares a model with a log.
 """
@@ -57,9 +57,9 @@ compares a model with a log.
 from __future__ import annotations
 
 from ._simulate import COMMAND_CONVENTIONS, FAST
+from .design import excitation, simulate_log
 from .estimator import (METHODS, SMOOTHING_METHODS, IdentificationResult,
                         IdentificationWarning, identify)
-from .excitation import excitation, simulate_log
 from .logs import COLUMNS, MissingColumnsError, join_logs, load_log, segments, split_log
 from .validation import ValidationReport, nrmse_fit, plot_validation, validate, validation_report
 
