@@ -46,6 +46,19 @@ class _Interrupted(KeyboardInterrupt):
     """Ctrl-C, with what it left behind (one line, exit status 130)."""
 
 
+class _Formatter(argparse.HelpFormatter):
+    """Wraps descriptions as usual; keeps an epilog of examples line by line."""
+
+    def _fill_text(self, text, width, indent):
+        if text.startswith("examples:"):
+            return "".join(indent + line for line in text.splitlines(keepends=True))
+        return super()._fill_text(text, width, indent)
+
+
+def _examples(*lines: str) -> str:
+    return "examples:\n" + "\n".join(f"  {line}" for line in lines)
+
+
 class _Parser(argparse.ArgumentParser):
     def error(self, message):
         raise _UsageError(f"{message} (see '{self.prog} --help')")
@@ -558,7 +571,13 @@ def _parser() -> argparse.ArgumentParser:
     r = sub.add_parser("run", help="simulate one scenario and write its results",
                        description="Simulate one scenario (the paper's defaults, a TOML file, "
                        "then flags, then --set) and write timeseries.csv, summary.json and "
-                       "figures into --out.")
+                       "figures into --out.",
+                       formatter_class=_Formatter, epilog=_examples(
+                           "unidyn run --paper 4 --T 20 --out out/p4     # the paper's 4th, 20 s",
+                           "unidyn run examples/scenario.toml --out out/circle",
+                           "unidyn run --case compensated --robot p3dx --set kx=1 --set ky=1 "
+                           "--set noise=off --T 15 --out out/c",
+                           "unidyn run --paper 2 --T 10 --engine bdsim --out out/p2-diagram"))
     r.add_argument("scenario", nargs="?", metavar="SCENARIO.toml",
                    help="scenario fields (top level or a [scenario] table)")
     r.add_argument("--paper", type=int, choices=(1, 2, 3, 4),
@@ -582,7 +601,11 @@ def _parser() -> argparse.ArgumentParser:
     s = sub.add_parser("sweep", help="run a parameter sweep (resumable)",
                        description="Run every point of a sweep file, or the paper's Fig. 11, "
                        "writing metrics.csv (one row per point), sweep.json and metrics.png "
-                       "into --out. An interrupted sweep resumes where it stopped.")
+                       "into --out. An interrupted sweep resumes where it stopped.",
+                       formatter_class=_Formatter, epilog=_examples(
+                           "unidyn sweep examples/sweep.toml --out out/sweep",
+                           "unidyn sweep --paper-fig11 --gains '[1, 5, 23]' --T 50 "
+                           "--out out/fig11-three-gains     # all 70 gains: leave out --gains"))
     s.add_argument("sweep", nargs="?", metavar="SWEEP.toml", help="the sweep file")
     s.add_argument("--paper-fig11", action="store_true",
                    help="the paper's Fig. 11: IAE against kx = ky, four cases; also writes "
@@ -609,11 +632,15 @@ def _parser() -> argparse.ArgumentParser:
     s.set_defaults(func=_cmd_sweep)
 
     rb = sub.add_parser("robots", help="list the preset robots",
-                        description="The preset robots: theta1..theta6 and their source.")
+                        description="The preset robots: theta1..theta6 and their source.",
+                        formatter_class=_Formatter, epilog=_examples("unidyn robots"))
     rb.set_defaults(func=_cmd_robots)
 
     pr = sub.add_parser("properties", help="check the model's properties for a robot",
-                        description="Check properties 1-7 of Section 3 for a robot.")
+                        description="Check properties 1-7 of Section 3 for a robot.",
+                        formatter_class=_Formatter, epilog=_examples(
+                            "unidyn properties p3dx",
+                            "unidyn properties wheelchair_125kg --u-max 1.0"))
     pr.add_argument("robot", metavar="ROBOT", help="preset name or a theta.json file")
     pr.add_argument("--u-max", type=float, help="speed range |u| <= U_MAX, m/s "
                                                 "(default: the paper's for the robot)")
@@ -625,7 +652,11 @@ def _parser() -> argparse.ArgumentParser:
                        "--columns maps other names). Commands are taken as held from their "
                        "time stamp to the next (--commands linear for smooth ones); gaps in "
                        "the time stamps split a log. Writes theta.json, validation.json and "
-                       "validation.png into --out.")
+                       "validation.png into --out.",
+                       formatter_class=_Formatter, epilog=_examples(
+                           "unidyn identify examples/log.csv --out out/id",
+                           "unidyn identify examples/log.csv --delay auto --no-validate "
+                           "--out out/id-delay"))
     i.add_argument("log", nargs="+", metavar="LOG.csv", help="one or more logs of one robot")
     i.add_argument("--columns", metavar="NAME=COLUMN,...",
                    help="map t, u_ref, w_ref, u, w to the log's column names, "
