@@ -273,7 +273,7 @@ class MeasurementNoise(SampledBlock):
 
     The noise :math:`\eta` on the components ``indices`` is
     ``std * rng.standard_normal(len(indices))``, a new draw at every tick of the
-    clock and held in between (the paper's noise, spec section 5); other
+    clock and held in between (the paper's noise, Section 5); other
     components pass unchanged (the paper feeds psi back clean). The k-th held
     value is the k-th draw of ``numpy.random.default_rng(seed)``, so a run is
     reproducible from its seed.

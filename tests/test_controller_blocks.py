@@ -1,7 +1,7 @@
 """The controller and source blocks, against Eqs. (10), (14), (18), (20) written out
 by hand here, analytic solutions of the update law, and hand-stepped sampled updates.
 
-The formulas below are deliberately re-typed from the paper (spec section 4), not
+The formulas below are deliberately re-typed from the paper (Eqs. 10-20), not
 imported from :mod:`unidyn.control`, so that a slip in the library cannot be
 copied into its own reference. Continuous runs use rtol 1e-10, atol 1e-12, so the
 comparison tolerances (1e-7 and tighter) measure the blocks, not the solver.

@@ -21,7 +21,7 @@ from unidyn import Limits, RobotParameters, ValidationError
 
 THETA_NAMES = ("theta1", "theta2", "theta3", "theta4", "theta5", "theta6")
 
-# Spec section 3: name -> (theta1..theta6, comes from Table 1 of the paper)
+# Table 1 and MATLAB Central File Exchange 44850: name -> (theta1..theta6, comes from Table 1 of the paper)
 PRESETS = {
     "p3dx": ((0.5338, 0.2168, -0.0134, 0.9560, -0.0843, 1.0590), True),
     "p3dx_laser": ((0.2604, 0.2509, -0.000499, 0.9965, 0.00263, 1.0768), True),
@@ -110,7 +110,7 @@ def test_parameters_vector_roundtrips():
 
 
 def test_scaled_gives_the_papers_initial_estimate():
-    # Spec section 5: theta_hat(0) = theta/1.5 = [0.1736 0.1673 -0.0003 0.6643 0.0018 0.7179]
+    # Section 5 of the paper: theta_hat(0) = theta/1.5 = [0.1736 0.1673 -0.0003 0.6643 0.0018 0.7179]
     est = robots.get("p3dx_laser").scaled(1 / 1.5)
     np.testing.assert_allclose(est.theta, [0.1736, 0.1673, -0.0003, 0.6643, 0.0018, 0.7179],
                                atol=5e-5)

@@ -1,4 +1,4 @@
-"""Scenario: the paper's settings as defaults (spec section 5, typed in again here),
+"""Scenario: the paper's settings as defaults (the paper's Section 5, typed in again here),
 the four cases of Section 5, plain-data round trips (dict, JSON, TOML), and loud
 validation of every field."""
 
@@ -20,7 +20,7 @@ except ModuleNotFoundError:  # Python 3.10
 from unidyn import Limits, NoiseSpec, RobotParameters, ValidationError, robots, trajectories
 from unidyn.scenario import Scenario
 
-# spec section 3/5: the Pioneer 3-DX with laser of the paper's simulations
+# Table 1 and Section 5: the Pioneer 3-DX with laser of the paper's simulations
 P3DX_LASER = [0.2604, 0.2509, -0.000499, 0.9965, 0.00263, 1.0768]
 PAPER_GAMMA = [1.7, 1.1, 0.5, 0.3, 0.01, 0.5]
 PAPER_SIGMA = [0.0005, 0.001, 0.001, 0.00006, 0.001, 0.001]

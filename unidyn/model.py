@@ -25,7 +25,7 @@ __all__ = ["Limits", "kinematics", "dynamics", "inertia", "coriolis", "damping",
 
 @dataclass(frozen=True)
 class Limits:
-    r"""Speed and acceleration limits of the robot (spec section 5).
+    r"""Speed and acceleration limits of the robot (the paper's Section 5).
 
     Commands are clipped to the speed limits, and the actual velocities are
     kept inside them; accelerations are clipped to the acceleration limits.

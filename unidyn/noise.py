@@ -1,4 +1,4 @@
-"""Seeded measurement noise, white and held over each sample interval (spec section 5).
+"""Seeded measurement noise, white and held over each sample interval (the paper's Section 5).
 
 The paper adds noise to the x and y fed to the kinematic controller and to the
 u and w fed to the dynamic compensator and to the update law; psi is fed back

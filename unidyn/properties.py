@@ -37,7 +37,7 @@ __all__ = ["PropertyResult", "PropertyReport", "check_properties",
 #: in :data:`unidyn.robots.SPEED_LIMITS` (the paper's value for the Pioneers).
 DEFAULT_U_MAX = 1.2
 #: Angular-speed range (rad/s) of the grid used for properties 5 and 7: the
-#: limit of the paper's simulations (spec section 5, :data:`unidyn.PAPER_LIMITS`).
+#: limit of the paper's simulations (Section 5, :data:`unidyn.PAPER_LIMITS`).
 DEFAULT_W_MAX = float(model.PAPER_LIMITS.steer_max)
 #: Property 6 reads "theta6 >> |(theta5 - theta3) u|"; it is reported as holding
 #: when max |(theta5 - theta3) u| / theta6 over the speed range is below this.

@@ -1,4 +1,5 @@
-"""Identified parameter sets of real robots (spec section 3).
+"""Identified parameter sets of real robots (the paper's Table 1 and the block help of
+MATLAB Central File Exchange 44850).
 
 The first five come from Table 1 of Martins et al. (2017); all nine are listed in
 the block help of the authors' MATLAB/Simulink package (MATLAB Central File
@@ -49,7 +50,7 @@ SPEED_LIMITS = {
 
 
 def names() -> list[str]:
-    """The names of the preset robots, in the order of spec section 3."""
+    """The names of the preset robots, Table 1's first, then the others."""
     return list(_PRESETS)
 
 

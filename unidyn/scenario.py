@@ -1,6 +1,6 @@
 """A validated, immutable description of one closed-loop run (Fig. 2, Section 5).
 
-Defaults are the paper's simulation settings (spec section 5); ``Scenario.paper(n)``
+Defaults are the paper's simulation settings (Section 5); ``Scenario.paper(n)``
 gives the paper's simulation n = 1..4. Scenarios are plain data: they convert to
 and from dicts (TOML and JSON files) and nothing in them is ever evaluated as code.
 """

@@ -12,7 +12,7 @@ from unidyn.trajectories import Circle, Line
 
 
 def _fig11_cases(k, T, noise=None):
-    """The four cases of Fig. 11 at gain k (spec section 5)."""
+    """The four cases of Fig. 11 at gain k (the paper's Section 5)."""
     base = dict(T=T, kx=k, ky=k, noise=noise)
     theta = unidyn.robots.get("p3dx_laser").theta
     return [Scenario(case="uncompensated", **base),
