@@ -138,6 +138,7 @@ def test_whole_block_connect_as_in_rvc_models():
     bd.connect(vehicle, xy, theta)
 
 
+@pytest.mark.slow
 def test_fast_robot_approaches_kinematic_unicycle():
     """theta1 = theta2 = eps, theta4 = theta6 = 1, theta3 = theta5 = 0 is the kinematic
     unicycle behind a first-order velocity lag of eps seconds: the pose lags by about

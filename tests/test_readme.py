@@ -255,9 +255,9 @@ def _sh_params():
         if b.lang != "sh" or _marker(b, "not-run") is not None:
             continue
         for k, (text, words) in enumerate(_commands(b)):
-            slow = any(s in " ".join(words) for s in SLOW)
-            params.append(pytest.param(b, k, id=f"{b.id}-{k}",
-                                       marks=[pytest.mark.slow] if slow else []))
+            # each command is a process of its own, a few seconds each: the fast tier
+            # leaves them to the full run (the CLI itself is tested in test_cli.py)
+            params.append(pytest.param(b, k, id=f"{b.id}-{k}", marks=[pytest.mark.slow]))
     return params
 
 
@@ -333,8 +333,7 @@ def _epilog_commands():
             line = line.strip().removeprefix("$ ")
             if line.startswith("unidyn "):
                 found.append(pytest.param(name, line, id=f"{name}-{len(found)}",
-                                          marks=[pytest.mark.slow] if any(s in line for s in SLOW)
-                                          else []))
+                                          marks=[pytest.mark.slow]))
     return found
 
 

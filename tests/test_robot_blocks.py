@@ -169,6 +169,7 @@ def test_pose_is_point_of_interest_and_matches_solve_ivp(sim):
     assert np.ptp(psi) > 1.0 and np.ptp(h[:, 0]) > 1.0
 
 
+@pytest.mark.slow
 def test_fast_robot_tracks_toolbox_unicycle(sim):
     # theta1 = theta2 = 1 ms, unit gains, no coupling: v follows v_ref with a 1 ms lag
     fast = [1e-3, 1e-3, 0.0, 1.0, 0.0, 1.0]

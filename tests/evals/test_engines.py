@@ -47,6 +47,7 @@ def test_compiled_kernel_rhs_equals_the_numpy_closed_loop():
     assert worst < 1e-12
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("noise", [None, unidyn.NoiseSpec(seed=3)])
 def test_numba_and_numpy_backends_agree(noise):
     if not _kernels.AVAILABLE:
@@ -103,7 +104,8 @@ def test_same_seed_gives_the_same_noise_in_both_engines():
     assert np.all(meas_q[:, 2] == true_q[:, 2])  # psi is fed back clean
 
 
-@pytest.mark.parametrize("n", [2, 3, 4])
+@pytest.mark.parametrize("n", [2, pytest.param(3, marks=pytest.mark.slow),
+                               pytest.param(4, marks=pytest.mark.slow)])
 def test_noisy_runs_agree_between_engines_at_the_papers_gains(n):
     # with noise the loop is smooth inside each 0.1 s interval (the noise is
     # held), so both engines agree to the integration error

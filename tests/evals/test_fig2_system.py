@@ -25,7 +25,8 @@ def _reference_run(sc):
     return np.array(xs)
 
 
-@pytest.mark.parametrize("n", [1, 2, 3, 4])
+@pytest.mark.parametrize("n", [1, 2, pytest.param(3, marks=pytest.mark.slow),
+                               pytest.param(4, marks=pytest.mark.slow)])
 @pytest.mark.parametrize("noisy", [False, True])
 def test_diagram_agrees_with_one_solve_ivp_of_the_core(n, noisy):
     sc = Scenario.paper(n, T=15.0, adapt_from=5.0)

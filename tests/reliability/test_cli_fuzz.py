@@ -227,6 +227,7 @@ def test_run_survives_random_bytes(capsys, tmp_path, content):
     _record("run_random_bytes", status)
 
 
+@pytest.mark.slow
 @_settings("run_random_text")
 @given(content=st.one_of(st.text(max_size=300), st.text(alphabet="[]{}=.\"'# \n,abxk0123e+-",
                                                          max_size=120)))
@@ -235,6 +236,7 @@ def test_run_survives_random_text(capsys, tmp_path, content):
     _record("run_random_text", status)
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore:Glyph .* missing from font")
 @_settings("run_random_tables")
 @given(table=st.dictionaries(field_keys, toml_values, max_size=6), wrap=st.booleans())

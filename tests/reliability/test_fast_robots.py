@@ -15,6 +15,9 @@ t = KHEPERA.theta
 # ten times faster: both time constants (theta1, theta2, and the coupling terms) / 10
 FAST = RobotParameters(t[0] / 10, t[1] / 10, t[2] / 10, t[3], t[4] / 10, t[5], name="khepera3_x10")
 ROBOTS = [KHEPERA, FAST]
+# the diagram on the ten-times-faster robot takes 10-45 s a run (rtol 1e-10 on a
+# 2.3 ms time constant): the whole-system tier (pytest -m slow) runs those
+DIAGRAM_ROBOTS = [KHEPERA, pytest.param(FAST, marks=pytest.mark.slow, id=FAST.name)]
 
 
 @pytest.mark.parametrize("robot", ROBOTS, ids=lambda r: r.name)
@@ -31,8 +34,9 @@ def test_the_batch_engine_picks_a_stable_step_from_the_time_constant(robot):
     assert r.substeps == m and r.complete
 
 
-@pytest.mark.parametrize("robot", ROBOTS, ids=lambda r: r.name)
-@pytest.mark.parametrize("n", [2, 3, 4])
+@pytest.mark.parametrize("robot", DIAGRAM_ROBOTS, ids=lambda r: r.name)
+@pytest.mark.parametrize("n", [2, pytest.param(3, marks=pytest.mark.slow),
+                               pytest.param(4, marks=pytest.mark.slow)])
 def test_fast_robots_agree_between_the_diagram_and_the_batch_engine(robot, n):
     sc = Scenario.paper(n, robot=robot, T=10.0, adapt_from=2.0, noise=None,
                         limits=unidyn.Limits(speed_max=0.5, steer_max=3.0))
@@ -48,7 +52,8 @@ def test_fast_robots_agree_between_the_diagram_and_the_batch_engine(robot, n):
     assert np.max(np.abs(fine.pose[:, :2] - rd.pose[:, :2])) < (2e-6 if n == 4 else 1e-7)
 
 
-@pytest.mark.parametrize("robot", ROBOTS, ids=lambda r: r.name)
+@pytest.mark.slow
+@pytest.mark.parametrize("robot", DIAGRAM_ROBOTS, ids=lambda r: r.name)
 def test_fast_robots_follow_the_kinematic_design_with_exact_compensation(robot):
     # a fast robot with exact compensation behaves like an ideal one: with no
     # limits the position error follows sinh(k e/l) = sinh(k e0/l) exp(-k t)
@@ -64,7 +69,8 @@ def test_fast_robots_follow_the_kinematic_design_with_exact_compensation(robot):
         assert np.max(np.abs(e[i0:, i] - analytic)) < 1e-6
 
 
-@pytest.mark.parametrize("robot", ROBOTS, ids=lambda r: r.name)
+@pytest.mark.slow
+@pytest.mark.parametrize("robot", DIAGRAM_ROBOTS, ids=lambda r: r.name)
 @pytest.mark.parametrize("case", ["uncompensated", "compensated", "adaptive"])
 def test_fast_robots_under_sampled_control_are_integrated_exactly_between_ticks(robot, case):
     # A 10 Hz digital controller on a robot whose time constant is 23 ms (or

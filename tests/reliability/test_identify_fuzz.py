@@ -63,7 +63,7 @@ def with_cell(line, col, value):
 CASES = {
     "empty": ("", ["log.csv", "no header row"]),
     "comments only": ("# a\n# b\n", ["log.csv", "no header row"]),
-    "header only": (HEADER + "\n", ["log has 0 samples"]),
+    "header only": (HEADER + "\n", ["has 0 rows", "at least 20"]),
     "latin-1 C1 byte": (csv_text(valid_rows()).encode().replace(b"\n0.5000,",
                                                                  b"\n0.5000\x81\x8d,", 1),
                         ["log.csv line 7", "not text"]),

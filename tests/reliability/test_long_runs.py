@@ -9,7 +9,8 @@ from unidyn.batch import simulate_batch
 from unidyn.scenario import Scenario
 from unidyn.trajectories import Circle
 
-pytestmark = pytest.mark.reliability
+# thousands of simulated seconds per run: the whole-system tier
+pytestmark = [pytest.mark.reliability, pytest.mark.slow]
 
 T = 10_000.0
 # a circle: u_d and w_d are constant, so u_d' = w_d' = 0 and the theta1, theta2

@@ -157,6 +157,7 @@ def test_an_interrupted_first_run_leaves_nothing_or_everything(tmp_path):
         assert "Traceback" not in err or loading(code, err), err
 
 
+@pytest.mark.slow
 def test_ctrl_c_during_a_long_bdsim_run_stops_quickly_and_keeps_the_old_results(tmp_path):
     rng = random.Random(4)
     assert cli(tmp_path, "run", "--paper", "4", "--T", "1", "--engine", "batch",
@@ -179,6 +180,7 @@ def test_ctrl_c_during_a_long_bdsim_run_stops_quickly_and_keeps_the_old_results(
     assert 0 < partial["t_end"] < 200 and partial["partial_metrics"]["iae"] > 0
 
 
+@pytest.mark.slow
 def test_ctrl_c_during_a_long_batch_run_writes_the_part_computed(tmp_path):
     """The compiled engine returns to Python between time slices, so Ctrl-C stops it
     within a second and the CLI writes the computed part, marked incomplete."""
@@ -226,7 +228,7 @@ def kill_after_rows(p, path: Path, rows: int, sig, timeout=120) -> tuple:
 
 
 @pytest.mark.parametrize("engine, T, gains, chunk", [
-    ("batch", 30, "[0.5, 1.0, 2.0, 4.0, 8.0, 16.0]", 2),
+    pytest.param("batch", 30, "[0.5, 1.0, 2.0, 4.0, 8.0, 16.0]", 2, marks=pytest.mark.slow),
     pytest.param("batch-numpy", 10, "[0.5, 2.0, 8.0]", 2, marks=pytest.mark.slow),
     pytest.param("bdsim", 1, "[1.0, 4.0]", 1, marks=pytest.mark.slow),
 ], ids=["batch", "batch-numpy", "bdsim"])
@@ -333,6 +335,7 @@ def test_two_sweeps_into_one_folder_never_both_write_it(tmp_path):
     assert idx == [str(i) for i in range(6)]
 
 
+@pytest.mark.slow
 def test_a_failed_sweep_start_leaves_no_folder(tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text("[grid]\nkxy = [1, -2]\n")
