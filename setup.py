@@ -4,8 +4,8 @@ bdsim 1.4 discovers block libraries only in the packages named by the
 ``BDSIMPATH`` environment variable (plus its own toolboxes). The ``.pth`` file,
 run by Python at start-up, appends ``unidyn`` to ``BDSIMPATH``, so that
 ``bd.DYNAMICUNICYCLE(...)`` works after a plain ``pip install`` with no extra
-step. Editable installs have no ``unidyn/blocks`` folder on ``sys.path``; there
-``import unidyn`` before creating ``bdsim.BDSim()`` does the same (see README).
+step. An editable install gets no hook; there ``import unidyn`` before creating
+``bdsim.BDSim()`` does the same (see README).
 """
 
 from pathlib import Path

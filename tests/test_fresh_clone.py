@@ -65,7 +65,7 @@ def test_fresh_clone_named_unidyn_installs_and_passes_install_and_readme_tests(t
     r = subprocess.run([str(py), str(elsewhere / "where.py")], cwd=tmp_path,
                        capture_output=True, text=True, env=env, timeout=120)
     assert r.returncode == 0, r.stderr
-    assert Path(r.stdout.strip()) == clone / "unidyn" / "__init__.py", r.stdout
+    assert Path(r.stdout.strip()) == clone / "src" / "unidyn" / "__init__.py", r.stdout
 
     # the install tests in full (building the wheel too); the README's blocks without
     # the minutes-long commands, which the slow tier of the checkout runs anyway

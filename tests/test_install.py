@@ -69,6 +69,39 @@ def test_import_after_bdsim_still_registers():
     assert r.returncode == 0 and "DynamicUnicycle" in r.stdout, r.stdout + r.stderr
 
 
+def test_import_changes_only_bdsimpath_in_this_process():
+    """import unidyn leaves sys.path and the temp folder as they were; it adds
+    unidyn to BDSIMPATH (documented) and nothing else to the environment."""
+    r = _run("""
+        import os, sys, tempfile
+        before_path, before_env = list(sys.path), dict(os.environ)
+        before_tmp = set(os.listdir(tempfile.gettempdir()))
+        import unidyn, unidyn.blocks, unidyn.diagrams
+        new_tmp = set(os.listdir(tempfile.gettempdir())) - before_tmp
+        changed = {k for k in set(os.environ) | set(before_env)
+                   if os.environ.get(k) != before_env.get(k)}
+        assert sys.path == before_path, (before_path, sys.path)
+        assert not [n for n in new_tmp if 'unidyn' in n], new_tmp
+        assert changed == {'BDSIMPATH'}, changed
+        assert os.environ['BDSIMPATH'].split(':')[-1] == 'unidyn'
+        print('ok')
+    """, env={"BDSIMPATH": ""})
+    assert r.returncode == 0 and "ok" in r.stdout, r.stdout + r.stderr
+
+
+def test_python_started_in_the_checkout_imports_the_package_not_a_folder():
+    """From the checkout's own folder (sys.path[0] = ''), import unidyn and its
+    diagrams resolve to the package, never to a top-level folder of the checkout."""
+    full = {**os.environ, "MPLBACKEND": "Agg"}
+    r = subprocess.run([sys.executable, "-c", "import unidyn, unidyn.diagrams, unidyn.blocks; "
+                        "print(unidyn.__file__); print(unidyn.diagrams.__file__)"],
+                       capture_output=True, text=True, env=full, cwd=ROOT, timeout=300)
+    assert r.returncode == 0, r.stderr
+    init, diagrams = (Path(x) for x in r.stdout.split())
+    assert init.name == "__init__.py" and init.parent.name == "unidyn"
+    assert init.parent != ROOT / "unidyn" and diagrams.parent.parent == init.parent
+
+
 def test_core_does_not_import_bdsim():
     r = _run("""
         import sys, unidyn, unidyn.model, unidyn.control, unidyn.trajectories, unidyn.robots
