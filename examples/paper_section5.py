@@ -13,6 +13,9 @@ leaves what was there before.
 """
 
 import argparse
+import multiprocessing
+import os
+import signal
 import sys
 import time
 
@@ -118,27 +121,57 @@ def fig9_figure(r4, path):
     return figstyle.save(fig, path)
 
 
+def _ignore_sigint():
+    # Ctrl-C is the main process's to handle: it stops the pool and keeps --out as it was
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _simulate_case(job):
+    """One of the four simulations, in a worker process: (n, result, seconds)."""
+    n, T = job
+    t0 = time.perf_counter()
+    r = unidyn.simulate(unidyn.Scenario.paper(n, T=T), progress=False)
+    return n, r, time.perf_counter() - t0
+
+
+def _simulations(T, processes):
+    """The four simulations as they finish, (n, result, seconds), on ``processes``
+    worker processes (1: one after the other in this process)."""
+    jobs = [(n, T) for n in (1, 2, 3, 4)]
+    if processes <= 1:
+        yield from map(_simulate_case, jobs)
+        return
+    with multiprocessing.Pool(processes, initializer=_ignore_sigint) as pool:
+        # the slowest (adaptive) first; leaving the block terminates the workers
+        yield from pool.imap_unordered(_simulate_case, jobs[::-1])
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", default="out/section5", help="output folder")
     p.add_argument("--T", type=float, default=200.0, help="duration, s (paper: 200)")
     p.add_argument("--overwrite", action="store_true", help="replace results already in --out")
+    p.add_argument("--processes", type=int, default=min(4, os.cpu_count() or 1),
+                   help="simulations run side by side (default: one per core, at most 4)")
     args = p.parse_args(argv)
+    if args.processes < 1:
+        p.error(f"--processes must be >= 1, got {args.processes}")
     try:
         with staged_output(args.out, overwrite=args.overwrite, results=OWNED,
                            what="Section 5 results") as stage:
             out = stage.path
             results = {}
-            for n in (1, 2, 3, 4):
-                t0 = time.perf_counter()
-                sc = unidyn.Scenario.paper(n, T=args.T)
-                r = unidyn.simulate(sc)
+            unidyn.Scenario.paper(1, T=args.T)            # a bad --T is refused here
+            print(f"the four simulations of {args.T:g} s through the bdsim diagram, "
+                  f"{args.processes} at a time", flush=True)
+            for n, r, seconds in _simulations(args.T, args.processes):
                 results[n] = r
+                sc = r.scenario
                 folder = out / f"case{n}_{sc.case}"
                 r.save(folder)
                 save_figures(r, folder)
                 print(f"case {n} {sc.case:14s} IAE = {r.metrics['iae']:7.3f} m·s   "
-                      f"final error = {r.error[-1]:.4f} m   ({time.perf_counter() - t0:.1f} s)")
+                      f"final error = {r.error[-1]:.4f} m   ({seconds:.1f} s)", flush=True)
             section5_figure(results, out / "section5.png")
             if results[4].scenario.adapt_from < args.T:
                 fig9_figure(results[4], out / "fig9_adaptive.png")
@@ -150,6 +183,9 @@ def main(argv=None):
     except unidyn.ValidationError as err:
         print(f"paper_section5.py: error: {err}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print(f"paper_section5.py: interrupted; {args.out} is as it was", file=sys.stderr)
+        return 130
     print(f"\nfigures and data in {stage.final}/")
     return 0
 

@@ -386,3 +386,45 @@ def test_an_interrupted_identify_keeps_the_old_theta(tmp_path):
     before = files(tmp_path / "I")
     code, _, err = cli(tmp_path, "identify", "bad.csv", "--overwrite", "--out", "I")
     assert code == 2 and files(tmp_path / "I") == before
+
+
+@pytest.mark.slow
+def test_ctrl_c_during_the_default_job_stops_its_workers_and_keeps_the_old_results(tmp_path):
+    """examples/paper_section5.py runs the four simulations in worker processes;
+    Ctrl-C to it (the main process only, as a terminal sends it to the whole group
+    but the workers ignore it) stops it and its workers promptly and leaves --out
+    as it was."""
+    script = Path(__file__).resolve().parents[2] / "examples" / "paper_section5.py"
+    out = tmp_path / "S"
+    out.mkdir()
+    (out / "claims.md").write_text("earlier results\n")
+    old = files(out)
+    env = dict(os.environ, MPLBACKEND="Agg", PYTHONUNBUFFERED="1")
+    p = subprocess.Popen([sys.executable, str(script), "--out", str(out), "--overwrite",
+                          "--processes", "2"], cwd=tmp_path, env=env, stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True, preexec_fn=_no_sigint_ignore)
+    deadline = time.monotonic() + 60
+    workers = []
+    while len(workers) < 2 and time.monotonic() < deadline and p.poll() is None:
+        time.sleep(0.5)
+        workers = subprocess.run(["pgrep", "-P", str(p.pid)], capture_output=True,
+                                 text=True).stdout.split()
+    assert len(workers) >= 2, "the workers did not start"
+    time.sleep(random.Random(5).uniform(1.0, 3.0))
+    assert p.poll() is None
+    t0 = time.monotonic()
+    p.send_signal(signal.SIGINT)
+    code, out_text, err = finish(p, timeout=60)
+    assert time.monotonic() - t0 < 10.0
+    assert code == 130 and "Traceback" not in err, err
+    assert "interrupted" in err
+    assert files(out) == old and leftovers(tmp_path, "S") == []
+    time.sleep(0.5)
+    assert [w for w in workers if _running(w)] == [], "workers left running"
+
+
+def _running(pid: str) -> bool:
+    try:
+        return "zombie" not in Path(f"/proc/{pid}/status").read_text().lower()
+    except (FileNotFoundError, ProcessLookupError):
+        return False
