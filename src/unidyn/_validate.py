@@ -18,6 +18,10 @@ class ValidationError(ValueError):
     """A parameter is missing, of the wrong kind or outside its allowed range."""
 
 
+class NonFiniteSignalError(FloatingPointError):
+    """A block received or produced NaN or infinity; the message says where and when."""
+
+
 def real(name: str, value, *, low: float | None = None, high: float | None = None,
          low_open: bool = False, high_open: bool = False, allow_inf: bool = False) -> float:
     """Return ``value`` as a float after checking it is a finite real in range.

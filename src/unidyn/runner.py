@@ -9,7 +9,7 @@ import time
 
 import numpy as np
 
-from ._validate import ValidationError, positive
+from ._validate import NonFiniteSignalError, ValidationError, positive
 from .result import Result
 from .scenario import Scenario
 
@@ -44,7 +44,6 @@ def _root_cause(err):
     while e is not None and e not in seen:
         seen.append(e)
         e = e.__cause__ or e.__context__
-    from unidyn.blocks._common import NonFiniteSignalError
     for e in seen:
         if isinstance(e, (NonFiniteSignalError, ValidationError, GuardStop)):
             return e

@@ -6,11 +6,7 @@ import math
 
 import numpy as np
 
-from unidyn._validate import ValidationError
-
-
-class NonFiniteSignalError(FloatingPointError):
-    """A block received or produced NaN or infinity; the message says where and when."""
+from unidyn._validate import NonFiniteSignalError, ValidationError
 
 
 def as_vector(value, n: int, block, port: str, t: float) -> np.ndarray:
