@@ -21,9 +21,14 @@ def _fig11_cases(k, T, noise=None):
             Scenario(case="compensated", **base)]
 
 
-def test_compiled_kernel_rhs_equals_the_numpy_closed_loop():
-    if not _kernels.AVAILABLE:
-        pytest.skip("numba not installed")
+# the kernel's right-hand side as plain Python (what runs without numba) always, and
+# compiled where numba is installed
+KERNEL_RHS = [pytest.param(getattr(_kernels.rhs, "py_func", _kernels.rhs), id="python")] + (
+    [pytest.param(_kernels.rhs, id="compiled")] if _kernels.AVAILABLE else [])
+
+
+@pytest.mark.parametrize("rhs", KERNEL_RHS)
+def test_compiled_kernel_rhs_equals_the_numpy_closed_loop(rhs):
     rng = np.random.default_rng(7)
     scs = [Scenario.paper(n, T=5.0, adapt_from=1.0) for n in (1, 2, 3, 4)]
     scs += [Scenario.paper(4, T=5.0, vd_dot="filter", leakage=lk, adapt_from=0.0,
@@ -42,7 +47,7 @@ def test_compiled_kernel_rhs_equals_the_numpy_closed_loop():
         ref = loop.rhs(t, X, k)
         for i in range(loop.B):
             dX, sig = np.empty(13), np.empty(22)
-            _kernels.rhs(t, X[i], P[i], *loop.pos_noise[i, k], *loop.vel_noise[i, k], dX, sig)
+            rhs(t, X[i], P[i], *loop.pos_noise[i, k], *loop.vel_noise[i, k], dX, sig)
             worst = max(worst, np.max(np.abs(dX - ref[i]) / (1.0 + np.abs(ref[i]))))
     assert worst < 1e-12
 
