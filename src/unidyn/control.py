@@ -12,12 +12,17 @@ import numpy as np
 from .model import point_velocity
 
 __all__ = ["kinematic_control", "kinematic_control_rate", "compensation_regressor",
-           "compensation", "adaptation_rate", "LEAKAGE_FORMS"]
+           "compensation", "adaptation_rate", "LEAKAGE_FORMS", "PAPER_GAMMA", "PAPER_SIGMA"]
 
 #: Forms of the sigma-modification (leakage) term in the update law:
 #: ``"paper"`` is Eq. (20), ``- gamma Sigma theta_hat``; ``"fx44850"`` is the
 #: authors' Simulink package, ``- Sigma theta_hat``; ``"none"`` is Eq. (18).
 LEAKAGE_FORMS = ("paper", "fx44850", "none")
+
+#: The adaptation gains (the diagonal of gamma) and leakage (of Sigma) of the
+#: paper's simulations (Section 5), for Eqs. (18)/(20).
+PAPER_GAMMA = (1.7, 1.1, 0.5, 0.3, 0.01, 0.5)
+PAPER_SIGMA = (0.0005, 0.001, 0.001, 0.00006, 0.001, 0.001)
 
 #: Adaptation is on for t >= adapt_from - SWITCH_TOL (s): the switch then falls on
 #: the same side of a solver stage that lands on adapt_from up to rounding, in

@@ -16,7 +16,7 @@ import numpy as np
 
 from . import robots, trajectories
 from ._validate import ValidationError, choice, nonnegative, positive, positive_vector, real, vector
-from .control import LEAKAGE_FORMS
+from .control import LEAKAGE_FORMS, PAPER_GAMMA, PAPER_SIGMA
 from .model import Limits, PAPER_LIMITS
 from .noise import NoiseSpec, PAPER_NOISE
 from .parameters import RobotParameters
@@ -46,8 +46,6 @@ MAX_LOGGED = 3_000_000
 DIVERGENCE_FACTOR = 1e6
 #: Samples of [0, T] at which the reference is evaluated for its scale.
 _SCALE_POINTS = 257
-PAPER_GAMMA = (1.7, 1.1, 0.5, 0.3, 0.01, 0.5)
-PAPER_SIGMA = (0.0005, 0.001, 0.001, 0.00006, 0.001, 0.001)
 
 
 def _tuple(name, value, n):

@@ -7,6 +7,7 @@ import numpy as np
 from bdsim.components import ContinuousBlock, FunctionBlock, SampledBlock
 
 from unidyn import control, robots
+from unidyn.control import PAPER_GAMMA, PAPER_SIGMA
 from unidyn._validate import ValidationError, choice, flag, nonnegative, positive, positive_vector, real, vector
 
 from ._common import as_vector, check_blockargs, check_clock, check_finite
@@ -236,9 +237,6 @@ class _CompensatorSettings:
             return np.zeros(6)
         return control.adaptation_rate(G, v_d - v, theta_hat, self.gamma, self.sigma, self.leakage)
 
-
-PAPER_GAMMA = (1.7, 1.1, 0.5, 0.3, 0.01, 0.5)
-PAPER_SIGMA = (0.0005, 0.001, 0.001, 0.00006, 0.001, 0.001)
 
 
 class DynamicCompensator(ContinuousBlock):
