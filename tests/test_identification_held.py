@@ -23,7 +23,6 @@ The noise-free response of each log is simulated once and the noise seeds vary.
 from __future__ import annotations
 
 import functools
-import math
 
 import numpy as np
 import pytest

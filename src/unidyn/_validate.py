@@ -48,6 +48,17 @@ def real(name: str, value, *, low: float | None = None, high: float | None = Non
     return v
 
 
+def integer(name: str, value, low: int | None = None, high: int | None = None) -> int:
+    """An integer (Python or numpy, not a bool) in [low, high]; the error names the
+    parameter and the range."""
+    rng = ("" if low is None and high is None else f" >= {low}" if high is None
+           else f" <= {high}" if low is None else f" in {low}..{high}")
+    if (isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer))
+            or (low is not None and value < low) or (high is not None and value > high)):
+        raise ValidationError(f"{name} must be an integer{rng}, got {_short(value)}")
+    return int(value)
+
+
 def positive(name: str, value, *, allow_inf: bool = False) -> float:
     """A finite (or, with ``allow_inf``, infinite) real number > 0."""
     return real(name, value, low=0.0, low_open=True, allow_inf=allow_inf)

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._validate import ValidationError
+from ._validate import ValidationError, integer
 from .closedloop import ClosedLoop
 from .result import Result
 from .scenario import Scenario
@@ -186,9 +186,7 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
         if s.control != "continuous":
             raise ValidationError("the batch engine runs control='continuous' only; "
                                   "use unidyn.simulate (engine 'bdsim') for sampled control")
-    if (isinstance(substeps, bool) or not isinstance(substeps, (int, np.integer))
-            or not 1 <= substeps <= MAX_SUBSTEPS):
-        raise ValidationError(f"substeps must be an integer in 1..{MAX_SUBSTEPS}, got {substeps!r}")
+    substeps = integer("substeps", substeps, 1, MAX_SUBSTEPS)
     if backend not in BACKENDS:
         raise ValidationError(f"backend must be one of {', '.join(BACKENDS)}; got {backend!r}")
     from . import _kernels

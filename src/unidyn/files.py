@@ -28,8 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._validate import ValidationError, positive, real
-from .noise import NoiseSpec
+from ._validate import ValidationError, integer, positive, real
 from .result import write_atomic
 
 __all__ = ["read_toml", "parse_toml_value", "read_scenario_table", "expand_range",
@@ -183,9 +182,7 @@ def check_keys(where: str, d, allow_label: bool = False) -> dict:
 
 def _special(where: str, key: str, value):
     if key == "seed":
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
-            raise ValidationError(f"{where}.seed must be an integer >= 0, got {value!r}")
-        return int(value)
+        return integer(f"{where}.seed", value, 0)
     return positive(f"{where}.{key}", value)
 
 

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validate import ValidationError, nonnegative
+from ._validate import integer, nonnegative
 
 __all__ = ["NoiseSpec", "noise_seeds", "held_sequence", "PAPER_NOISE"]
 
@@ -34,9 +34,7 @@ class NoiseSpec:
     def __post_init__(self):
         object.__setattr__(self, "position_std", nonnegative("noise.position_std", self.position_std))
         object.__setattr__(self, "velocity_std", nonnegative("noise.velocity_std", self.velocity_std))
-        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
-            raise ValidationError(f"noise.seed must be an integer >= 0, got {self.seed!r}")
-        object.__setattr__(self, "seed", int(self.seed))
+        object.__setattr__(self, "seed", integer("noise.seed", self.seed, 0))
 
     def as_dict(self) -> dict:
         return {"position_std": self.position_std, "velocity_std": self.velocity_std,

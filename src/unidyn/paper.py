@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -21,6 +22,9 @@ from ._validate import ValidationError
 from .batch import DEFAULT_SUBSTEPS
 from .files import read_metrics
 from .noise import PAPER_NOISE
+
+if TYPE_CHECKING:  # sweep imports this module
+    from .sweep import Sweep
 
 __all__ = ["Claim", "section5_claims", "format_claims", "paper_fig11", "fig11_claims",
            "format_fig11_claims", "fig11_table", "Fig11Claim", "FIG11_CASES"]

@@ -26,7 +26,7 @@ from numbers import Integral
 import numpy as np
 
 from . import model, robots
-from ._validate import ValidationError, positive
+from ._validate import ValidationError, integer, positive
 from .parameters import RobotParameters
 
 __all__ = ["PropertyResult", "PropertyReport", "check_properties",
@@ -56,17 +56,6 @@ _NAMES = {
     6: "F(v) approximately constant",
     7: "v_ref -> v strictly output passive",
 }
-
-
-def _integer(name: str, value, low: int, high: int | None = None) -> int:
-    if isinstance(value, bool) or not isinstance(value, Integral):
-        rng = f">= {low}" if high is None else f"in [{low}, {high}]"
-        raise ValidationError(f"{name} must be an integer {rng}, got {value!r}")
-    v = int(value)
-    if v < low or (high is not None and v > high):
-        rng = f">= {low}" if high is None else f"in [{low}, {high}]"
-        raise ValidationError(f"{name} must be an integer {rng}, got {v!r}")
-    return v
 
 
 # ----------------------------------------------------------------------------- properties
@@ -126,7 +115,7 @@ class PropertyReport:
 
     def result(self, number: int) -> PropertyResult:
         """The :class:`PropertyResult` of property ``number`` (1-7)."""
-        number = _integer("number", number, 1, 7)
+        number = integer("number", number, 1, 7)
         return self.results[number - 1]
 
     @property
@@ -244,9 +233,9 @@ def check_properties(robot, u_max=None, w_max=DEFAULT_W_MAX, n: int = 41,
         u_max = positive("u_max", u_max)
         source = "given"
     w_max = positive("w_max", w_max)
-    n = _integer("n", n, 2, 1001)
+    n = integer("n", n, 2, 1001)
     tol6 = positive("constant_tolerance", constant_tolerance)
-    seed = _integer("seed", seed, 0)
+    seed = integer("seed", seed, 0)
 
     theta = params.theta
     t1, t2, t3, t4, t5, t6 = theta
@@ -482,10 +471,10 @@ def rank_test(K: int = 1000, decimals=(2, 3, 4), seed: int | None = 0,
     :return: :class:`RankTestResult`
     :raises ValidationError: for an argument out of range
     """
-    K = _integer("K", K, 6, 1_000_000)
+    K = integer("K", K, 6, 1_000_000)
     decs = _check_decimals(decimals)
     if seed is not None:
-        seed = _integer("seed", seed, 0)
+        seed = integer("seed", seed, 0)
     rngs = _check_ranges(ranges)
 
     gen = np.random.default_rng(seed)

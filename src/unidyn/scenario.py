@@ -15,7 +15,7 @@ from functools import cached_property
 import numpy as np
 
 from . import robots, trajectories
-from ._validate import ValidationError, choice, nonnegative, positive, positive_vector, real, vector
+from ._validate import ValidationError, choice, nonnegative, positive, positive_vector, vector
 from .control import LEAKAGE_FORMS, PAPER_GAMMA, PAPER_SIGMA
 from .model import Limits, PAPER_LIMITS
 from .noise import NoiseSpec, PAPER_NOISE

@@ -51,7 +51,7 @@ from pathlib import Path
 import numpy as np
 
 from ._dask import run_on_dask
-from ._validate import ValidationError, choice
+from ._validate import ValidationError, choice, integer
 from .batch import DEFAULT_SUBSTEPS
 from .files import (ID_NAME, MAX_POINTS, METRICS, RECORD_NAME, cell, check_keys,
                     expand_range, finished_rows, plain, read_rows, read_sweep_id,
@@ -120,10 +120,7 @@ class Sweep:
             raise ValidationError(f"name is {len(self.name)} characters long; at most "
                                   f"{MAX_NAME} are allowed (it titles the figures)")
         from .batch import MAX_SUBSTEPS
-        if (isinstance(self.substeps, bool) or not isinstance(self.substeps, (int, np.integer))
-                or not 1 <= self.substeps <= MAX_SUBSTEPS):
-            raise ValidationError(f"substeps must be an integer in 1..{MAX_SUBSTEPS}, "
-                                  f"got {self.substeps!r}")
+        integer("substeps", self.substeps, 1, MAX_SUBSTEPS)
         s("substeps", int(self.substeps))
         s("base", check_keys("base", self.base))
         if not isinstance(self.grid, Mapping):
@@ -470,9 +467,7 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
     engine = choice("engine", engine, ENGINES)
     if chunk_size is None:
         chunk_size = DEFAULT_CHUNK[engine]
-    if isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer)) or chunk_size < 1:
-        raise ValidationError(f"chunk_size must be an integer >= 1, got {chunk_size!r}")
-    chunk_size = int(chunk_size)
+    chunk_size = integer("chunk_size", chunk_size, 1)
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ValidationError(f"output folder {out} is a file")

@@ -10,7 +10,6 @@ import unidyn
 from unidyn.batch import simulate_batch
 from unidyn.cli import main
 from unidyn.scenario import Scenario
-from unidyn.trajectories import FigureEight, FunctionTrajectory
 
 pytestmark = pytest.mark.reliability
 

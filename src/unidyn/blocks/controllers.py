@@ -8,7 +8,7 @@ from bdsim.components import ContinuousBlock, FunctionBlock, SampledBlock
 
 from unidyn import control, robots
 from unidyn.control import PAPER_GAMMA, PAPER_SIGMA
-from unidyn._validate import ValidationError, choice, flag, nonnegative, positive, positive_vector, real, vector
+from unidyn._validate import ValidationError, choice, flag, nonnegative, positive, positive_vector, vector
 
 from ._common import as_vector, check_blockargs, check_clock, check_finite
 

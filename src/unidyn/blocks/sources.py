@@ -8,7 +8,7 @@ from bdsim.components import SampledBlock, SourceBlock
 from unidyn import trajectories as traj
 from unidyn._validate import ValidationError, nonnegative, vector
 
-from ._common import as_vector, check_blockargs, check_clock
+from ._common import check_blockargs, check_clock
 
 class TrajectorySource(SourceBlock):
     r"""

@@ -10,7 +10,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from .. import robots
-from .._validate import ValidationError, choice, nonnegative, positive, real, vector
+from .._validate import ValidationError, choice, integer, nonnegative, positive, real, vector
 from ..model import NO_LIMITS, PAPER_LIMITS, Limits, unicycle_deriv
 from ._simulate import COMMAND_CONVENTIONS, simulate_stepwise
 from .logs import load_log
@@ -76,8 +76,7 @@ def excitation(T: float, dt: float, robot=None, limits: Limits = PAPER_LIMITS,
     if dt > T / 20:
         raise ValidationError(f"dt must be <= T / 20 ({T / 20:g} s), got {dt!r}")
     kind = choice("kind", kind, ("multisine", "prbs"))
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValidationError(f"seed must be an integer >= 0, got {seed!r}")
+    seed = integer("seed", seed, 0)
     amplitude = real("amplitude", amplitude, low=0.0, high=1.0, low_open=True)
     if isinstance(limits, Mapping):
         limits = Limits(**limits)
@@ -110,12 +109,8 @@ def excitation(T: float, dt: float, robot=None, limits: Limits = PAPER_LIMITS,
     t = np.arange(n) * dt
     rng = np.random.default_rng(seed)
     if kind == "multisine":
-        if isinstance(n_freq, bool) or not isinstance(n_freq, (int, np.integer)) or n_freq < 1:
-            raise ValidationError(f"n_freq must be an integer >= 1, got {n_freq!r}")
-        if isinstance(crest_iterations, bool) or \
-                not isinstance(crest_iterations, (int, np.integer)) or crest_iterations < 0:
-            raise ValidationError(f"crest_iterations must be an integer >= 0, "
-                                  f"got {crest_iterations!r}")
+        n_freq = integer("n_freq", n_freq, 1)
+        crest_iterations = integer("crest_iterations", crest_iterations, 0)
         k_lo = max(1, int(math.ceil(f_min * T - 1e-9)))
         k_hi = max(k_lo, int(math.floor(f_max * T + 1e-9)))
         ks = np.unique(np.round(np.geomspace(k_lo, k_hi, int(n_freq))).astype(int))
@@ -292,8 +287,7 @@ def simulate_log(robot, excitation, noise_std: float = 0.0, seed: int = 0, x0=No
         raise ValidationError("delay needs commands='held' or 'linear'")
     rp = robots.resolve(robot, "robot")
     noise_std = nonnegative("noise_std", noise_std)
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValidationError(f"seed must be an integer >= 0, got {seed!r}")
+    seed = integer("seed", seed, 0)
     if not isinstance(limits, Limits):
         raise ValidationError(f"limits must be a unidyn.model.Limits, got {limits!r}")
     need = ("t", "u_ref", "w_ref")

@@ -71,7 +71,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._validate import ValidationError, choice, nonnegative, positive
+from .._validate import ValidationError, choice, integer, nonnegative, positive
 from ..model import regressor
 from ..parameters import RobotParameters
 from ._simulate import COMMAND_CONVENTIONS, simulate_held, step_length
@@ -571,9 +571,7 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
     commands = choice("commands", commands, COMMAND_CONVENTIONS)
     method = choice("method", method, METHODS)
     smoothing = choice("smoothing", smoothing, SMOOTHING_METHODS)
-    if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or not 2 <= order <= 6:
-        raise ValidationError(f"order must be an integer in 2..6, got {order!r}")
-    order = int(order)
+    order = integer("order", order, 2, 6)
     if window is not None:
         window = positive("window", window)
     rel_stderr_max = positive("rel_stderr_max", rel_stderr_max)
