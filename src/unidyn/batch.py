@@ -23,6 +23,7 @@ import numpy as np
 
 from ._validate import ValidationError, integer
 from .closedloop import ClosedLoop
+from .equations import TRAJECTORY_KINDS
 from .result import Result
 from .scenario import Scenario
 
@@ -190,7 +191,7 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
     if backend not in BACKENDS:
         raise ValidationError(f"backend must be one of {', '.join(BACKENDS)}; got {backend!r}")
     from . import _kernels
-    compilable = all(getattr(s.trajectory, "kind", None) in _kernels.TRAJ_CODES for s in scs)
+    compilable = all(getattr(s.trajectory, "kind", None) in TRAJECTORY_KINDS for s in scs)
     if backend == "numba" and not _kernels.AVAILABLE:
         raise ValidationError("backend='numba' needs numba (pip install unidyn[fast])")
     if backend == "numba" and not compilable:
@@ -286,7 +287,7 @@ def _integrate_numba(run: _Run, bar):
     loop = run.loop
     run.backend = "numba (compiled)"
     n, B = loop.steps, loop.B
-    P = _kernels.pack(loop)
+    P = loop.P
     X = loop.initial_state()
     _kernels.start(X, P, loop.pos_noise, loop.vel_noise, run.bounds, run.Xs, run.SIG, run.status)
     import os

@@ -1,10 +1,13 @@
 r"""The closed loop of Fig. 2 as one pure right-hand side, batched over scenarios.
 
 This is the same loop the bdsim diagram of :func:`unidyn.diagrams.build_fig2`
-wires, written as one function of time and state using the same core functions
-(:mod:`unidyn.model`, :mod:`unidyn.control`). It serves as the independent
-reference the diagram is tested against, and as the right-hand side of the batch
-engine. Continuous control only (``Scenario.control == "continuous"``).
+wires block by block, here as one function of time and state,
+:func:`unidyn.equations.loop_derivative`, evaluated on all runs at once (the
+compiled engine, :mod:`unidyn._kernels`, evaluates the same function one run at
+a time). It is the reference the diagram is tested against, and the right-hand
+side of the batch engine. Continuous control only
+(``Scenario.control == "continuous"``). The runs' parameters are one named
+table (:meth:`ClosedLoop.parameter_table`).
 
 State of each run (13 values): ``x, y, psi, u, w`` (robot; u and w unused for a
 kinematic robot), ``theta_hat1..6`` (compensator estimate), ``z_u, z_w``
@@ -18,14 +21,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import control, model
+from . import control, equations
+from .equations import LOOP_PARAMETERS, TRAJECTORY_KINDS, P
 from .noise import held_sequence, noise_seeds
-from .scenario import CASES, Scenario
+from .scenario import Scenario
 
 __all__ = ["ClosedLoop", "NSTATE"]
 
-NSTATE = 13
-_KIN, _UNC, _COMP, _ADAPT = (CASES.index(c) for c in CASES)
+NSTATE = len(equations.STATE)
 
 
 class ClosedLoop:
@@ -52,24 +55,9 @@ class ClosedLoop:
         self.T, self.Ts = T, Ts
         self.steps = scs[0].steps
         B = self.B = len(scs)
-        f = lambda attr: np.array([getattr(s, attr) for s in scs], dtype=float)  # noqa: E731
-        self.case = np.array([CASES.index(s.case) for s in scs])
-        self.theta = np.array([s.robot.theta for s in scs])
-        self.a = f("a")
-        self.kK = np.stack([f("kx"), f("ky")], -1)
-        self.lK = np.stack([f("lx"), f("ly")], -1)
-        self.kD = np.stack([f("ku"), f("kw")], -1)
-        self.lD = np.stack([f("lu"), f("lw")], -1)
-        self.gamma = np.array([s.gamma for s in scs])
-        self.sigma = np.array([s.sigma for s in scs])
-        self.adapt_from = np.where(self.case == _ADAPT, f("adapt_from"), np.inf)
-        self.tau = f("tau")
-        self.filt = np.array([s.derivative == "filter" for s in scs])
-        self.leak = np.array([{"paper": 0, "fx44850": 1, "none": 2}[s.leakage] for s in scs])
-        self.vmax = np.array([s.limits.speed for s in scs])
-        self.amax = np.array([s.limits.accel for s in scs])
-        self.dynamic = self.case != _KIN
-        self.compensated = self.case >= _COMP
+        self.case = [s.case for s in scs]
+        self.P = self.parameter_table()
+        self.vmax = self.P[:, [P.speed_u, P.speed_w]]
         # trajectories: evaluate each distinct one once
         self._traj = {}
         self.traj_index = np.empty(B, dtype=int)
@@ -107,44 +95,69 @@ class ClosedLoop:
         idx = self.traj_index
         return tuple(np.array([o[j] for o in out])[idx] for j in range(3))
 
-    def signals(self, t, X, k):
-        """Everything the loop computes at (t, X) in interval k: a dict of (B, ...) arrays."""
-        h, psi, v = X[:, 0:2], X[:, 2], X[:, 3:5]
-        theta_hat, z = X[:, 5:11], X[:, 11:13]
+    def parameter_table(self) -> np.ndarray:
+        """The per-run parameters, (B, len(LOOP_PARAMETERS)): row i holds run i's
+        values in the order of :data:`unidyn.equations.LOOP_PARAMETERS`."""
+        table = np.zeros((self.B, len(LOOP_PARAMETERS)))
+        for i, s in enumerate(self.scenarios):
+            adaptive = s.case == "adaptive"
+            tr = s.trajectory
+            kind = getattr(tr, "kind", None)
+            values = dict(
+                zip(("theta1", "theta2", "theta3", "theta4", "theta5", "theta6"), s.robot.theta),
+                a=s.a, kx=s.kx, ky=s.ky, lx=s.lx, ly=s.ly, ku=s.ku, kw=s.kw, lu=s.lu, lw=s.lw,
+                adapt_from=s.adapt_from if adaptive else np.inf, tau=s.tau,
+                filtered=float(s.derivative == "filter"), dynamic=float(s.case != "kinematic"),
+                compensated=float(s.case in ("compensated", "adaptive")),
+                speed_u=s.limits.speed[0], speed_w=s.limits.speed[1],
+                accel_u=s.limits.accel[0], accel_w=s.limits.accel[1],
+                trajectory=TRAJECTORY_KINDS.index(kind) if kind in TRAJECTORY_KINDS else -1)
+            leak = control.leakage_rate(s.gamma, s.sigma, s.leakage)
+            for j in range(6):
+                values[f"gamma{j + 1}"] = s.gamma[j]
+                values[f"leak{j + 1}"] = leak[j]
+            if kind == "figure_eight":
+                path = (tr.ax, tr.ay, tr.wx, tr.wy, tr.center[0], tr.center[1])
+            elif kind == "circle":
+                path = (tr.radius, tr.omega, tr.center[0], tr.center[1], tr.phase)
+            elif kind == "line":
+                path = (*tr.start, *tr.velocity_)
+            else:  # evaluated by its own methods (the numpy engine only)
+                path = ()
+            for j, v in enumerate(path):
+                values[f"path{j + 1}"] = v
+            for name, v in values.items():
+                table[i, getattr(P, name)] = v
+        return table
+
+    @property
+    def compilable(self) -> bool:
+        """Whether the compiled engine can evaluate every run's reference itself."""
+        return bool((self.P[:, P.trajectory] >= 0).all())
+
+    def _reference_tuple(self, t):
         h_d, h_d_dot, h_d_ddot = self.reference(t)
-        h_meas = h + self.pos_noise[:, k]
-        v_meas = v + self.vel_noise[:, k]
-        v_d = control.kinematic_control(h_d, h_d_dot, h_meas, psi, self.a, self.kK, self.lK)
-        rate = control.kinematic_control_rate(h_d, h_d_dot, h_d_ddot, h_meas, psi, v_meas,
-                                              self.a, self.kK, self.lK)
-        v_d_dot = np.where(self.filt[:, None], (v_d - z) / self.tau[:, None], rate)
-        G = control.compensation_regressor(v_d, v_d_dot, v_meas, self.kD, self.lD)
-        v_r = control.compensation(G, theta_hat)
-        v_ref = np.where(self.compensated[:, None], v_r, v_d)
-        return dict(h_d=h_d, v_d=v_d, v_d_dot=v_d_dot, G=G, v_ref=v_ref, v_meas=v_meas)
+        return (h_d[:, 0], h_d[:, 1], h_d_dot[:, 0], h_d_dot[:, 1], h_d_ddot[:, 0],
+                h_d_ddot[:, 1])
+
+    def _noise(self, k):
+        return (self.pos_noise[:, k, 0], self.pos_noise[:, k, 1],
+                self.vel_noise[:, k, 0], self.vel_noise[:, k, 1])
+
+    def signals(self, t, X, k):
+        """Everything the loop computes at (t, X) in interval k: a dict of (B, ...) arrays
+        (:func:`unidyn.equations.loop_signals`)."""
+        ref = self._reference_tuple(t)
+        ud, wd, udd, wdd, G, u_ref, w_ref, um, wm = equations.loop_signals(
+            X.T, ref, self.P.T, self._noise(k))
+        stack = lambda a, b: np.stack(np.broadcast_arrays(a, b), axis=-1)  # noqa: E731
+        G = np.stack([np.broadcast_to(g, (self.B,)) for g in G], axis=-1).reshape(self.B, 2, 6)
+        return dict(h_d=stack(ref[0], ref[1]), v_d=stack(ud, wd), v_d_dot=stack(udd, wdd),
+                    G=G, v_ref=stack(u_ref, w_ref), v_meas=stack(um, wm))
 
     def rhs(self, t, X, k):
-        """dX/dt, (B, 13), at time t in noise interval k."""
-        s = self.signals(t, X, k)
-        dX = np.zeros_like(X)
-        lim_v = np.clip(s["v_ref"], -self.vmax, self.vmax)
-        # dynamic robot, Eqs. (1)-(2) with limits
-        vdot = model.dynamics(X[:, 3:5], lim_v, self.theta)
-        vdot = np.clip(vdot, -self.amax, self.amax)
-        v = X[:, 3:5]
-        outward = ((v >= self.vmax) & (vdot > 0)) | ((v <= -self.vmax) & (vdot < 0))
-        vdot = np.where(outward, 0.0, vdot)
-        v_move = np.where(self.dynamic[:, None], v, lim_v)
-        dX[:, 0:2] = model.point_velocity(X[:, 2], v_move, self.a)
-        dX[:, 2] = v_move[:, 1]
-        dX[:, 3:5] = np.where(self.dynamic[:, None], vdot, 0.0)
-        # adaptation, Eqs. (18)/(20), switched on at adapt_from
-        v_tilde = s["v_d"] - s["v_meas"]
-        grad = np.einsum("bij,bi->bj", s["G"], v_tilde)
-        th = X[:, 5:11]
-        leak = np.select([self.leak[:, None] == 0, self.leak[:, None] == 1],
-                         [self.gamma * self.sigma * th, self.sigma * th], 0.0)
-        on = control.adaptation_on(t, self.adapt_from)[:, None]
-        dX[:, 5:11] = np.where(on, self.gamma * grad - leak, 0.0)
-        dX[:, 11:13] = np.where(self.filt[:, None], s["v_d_dot"], 0.0)
-        return dX
+        """dX/dt, (B, 13), at time t in noise interval k
+        (:func:`unidyn.equations.loop_derivative` on all runs at once)."""
+        dX = np.empty((NSTATE, self.B))
+        equations.loop_derivative(t, X.T, self._reference_tuple(t), self.P.T, self._noise(k), dX)
+        return dX.T

@@ -2,17 +2,20 @@ r"""The controllers of Fig. 2 as pure functions: kinematic controller (Eq. 10),
 dynamic compensation (Eqs. 12 and 14) and its adaptive update (Eqs. 18 and 20).
 
 Shapes follow :mod:`unidyn.model`: a leading batch axis is allowed everywhere.
-Nothing here imports bdsim.
+The arithmetic is that of :mod:`unidyn.equations`; these functions give it
+array-shaped arguments and results. Nothing here imports bdsim.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .model import point_velocity
+from . import equations as eq
+from .equations import SWITCH_TOL
 
 __all__ = ["kinematic_control", "kinematic_control_rate", "compensation_regressor",
-           "compensation", "adaptation_rate", "LEAKAGE_FORMS", "PAPER_GAMMA", "PAPER_SIGMA"]
+           "compensation", "adaptation_rate", "leakage_rate", "LEAKAGE_FORMS", "PAPER_GAMMA",
+           "PAPER_SIGMA", "SWITCH_TOL"]
 
 #: Forms of the sigma-modification (leakage) term in the update law:
 #: ``"paper"`` is Eq. (20), ``- gamma Sigma theta_hat``; ``"fx44850"`` is the
@@ -24,26 +27,24 @@ LEAKAGE_FORMS = ("paper", "fx44850", "none")
 PAPER_GAMMA = (1.7, 1.1, 0.5, 0.3, 0.01, 0.5)
 PAPER_SIGMA = (0.0005, 0.001, 0.001, 0.00006, 0.001, 0.001)
 
-#: Adaptation is on for t >= adapt_from - SWITCH_TOL (s): the switch then falls on
-#: the same side of a solver stage that lands on adapt_from up to rounding, in
-#: every engine.
-SWITCH_TOL = 1e-9
-
 
 def adaptation_on(t, adapt_from):
     """Whether the update law is switched on at time t (see :data:`SWITCH_TOL`)."""
     return t >= adapt_from - SWITCH_TOL
 
 
-def _inv_jacobian(psi, a):
-    """A^-1(psi) of Eq. (10), shape (..., 2, 2)."""
-    c, s = np.cos(psi), np.sin(psi)
-    out = np.empty(np.shape(c) + (2, 2))
-    out[..., 0, 0] = c
-    out[..., 0, 1] = s
-    out[..., 1, 0] = -s / a
-    out[..., 1, 1] = c / a
+def _pair(x, y):
+    """Two arrays of broadcastable shapes stacked into shape + (2,)."""
+    x, y = np.broadcast_arrays(x, y)
+    out = np.empty(x.shape + (2,))
+    out[..., 0] = x
+    out[..., 1] = y
     return out
+
+
+def _xy(v):
+    v = np.asarray(v, dtype=float)
+    return v[..., 0], v[..., 1]
 
 
 def kinematic_control(h_d, h_d_dot, h, psi, a, k, l):
@@ -66,11 +67,9 @@ def kinematic_control(h_d, h_d_dot, h, psi, a, k, l):
     :param l: saturation constants [l_x, l_y], m/s
     :return: v_d = [u_d, w_d], shape ``(..., 2)``
     """
-    k = np.asarray(k, dtype=float)
-    l = np.asarray(l, dtype=float)
-    h_tilde = np.asarray(h_d, dtype=float) - np.asarray(h, dtype=float)
-    nu = np.asarray(h_d_dot, dtype=float) + l * np.tanh(k * h_tilde / l)
-    return (_inv_jacobian(psi, a) @ nu[..., None])[..., 0]
+    (kx, ky), (lx, ly) = _xy(k), _xy(l)
+    return _pair(*eq.kinematic_law(*_xy(h_d), *_xy(h_d_dot), *_xy(h), np.asarray(psi, float),
+                                   a, kx, ky, lx, ly))
 
 
 def kinematic_control_rate(h_d, h_d_dot, h_d_ddot, h, psi, v, a, k, l):
@@ -87,23 +86,10 @@ def kinematic_control_rate(h_d, h_d_dot, h_d_ddot, h, psi, v, a, k, l):
     :param v: the robot's actual (or measured) velocities [u, w], shape ``(..., 2)``
     :return: [u_d', w_d'], shape ``(..., 2)``
     """
-    k = np.asarray(k, dtype=float)
-    l = np.asarray(l, dtype=float)
-    v = np.asarray(v, dtype=float)
-    h_d_dot = np.asarray(h_d_dot, dtype=float)
-    h_tilde = np.asarray(h_d, dtype=float) - np.asarray(h, dtype=float)
-    z = k * h_tilde / l
-    nu = h_d_dot + l * np.tanh(z)
-    c, s = np.cos(psi), np.sin(psi)
-    w = v[..., 1]
-    h_dot = point_velocity(psi, v, a)
-    nu_dot = np.asarray(h_d_ddot, dtype=float) + k / np.cosh(z) ** 2 * (h_d_dot - h_dot)
-    # d/dt A^-1(psi) = w [[-sin, cos], [-cos/a, -sin/a]]
-    out = np.empty(np.broadcast(nu[..., 0], w).shape + (2,))
-    out[..., 0] = w * (-s * nu[..., 0] + c * nu[..., 1]) + c * nu_dot[..., 0] + s * nu_dot[..., 1]
-    out[..., 1] = (w * (-c * nu[..., 0] - s * nu[..., 1]) - s * nu_dot[..., 0]
-                   + c * nu_dot[..., 1]) / a
-    return out
+    (kx, ky), (lx, ly) = _xy(k), _xy(l)
+    out = eq.kinematic_law_rate(*_xy(h_d), *_xy(h_d_dot), *_xy(h_d_ddot), *_xy(h),
+                                np.asarray(psi, float), *_xy(v), a, kx, ky, lx, ly)
+    return _pair(out[2], out[3])
 
 
 def compensation_regressor(v_d, v_d_dot, v, k, l):
@@ -125,28 +111,35 @@ def compensation_regressor(v_d, v_d_dot, v, k, l):
     :param l: saturation constants [l_u, l_w]
     :return: G, shape ``(..., 2, 6)``
     """
-    k = np.asarray(k, dtype=float)
-    l = np.asarray(l, dtype=float)
-    v_d = np.asarray(v_d, dtype=float)
-    v = np.asarray(v, dtype=float)
-    sig = np.asarray(v_d_dot, dtype=float) + l * np.tanh(k * (v_d - v) / l)
-    ud, wd = v_d[..., 0], v_d[..., 1]
-    u, w = v[..., 0], v[..., 1]
-    G = np.zeros(np.broadcast(sig[..., 0], u, ud).shape + (2, 6))
-    G[..., 0, 0] = sig[..., 0]
-    G[..., 0, 2] = -wd * w
-    G[..., 0, 3] = ud
-    G[..., 1, 1] = sig[..., 1]
-    G[..., 1, 2] = ud * w - u * wd
-    G[..., 1, 4] = u * wd
-    G[..., 1, 5] = wd
-    return G
+    (ku, kw), (lu, lw) = _xy(k), _xy(l)
+    entries = np.broadcast_arrays(*eq.compensation_regressor(*_xy(v_d), *_xy(v_d_dot), *_xy(v),
+                                                             ku, kw, lu, lw))
+    return np.stack(entries, axis=-1).reshape(entries[0].shape + (2, 6))
 
 
 def compensation(G, theta_hat):
     r"""The compensator's command, Eq. (12) in the linear form of Eq. (14):
     :math:`v_r = G\hat\theta`, shape ``(..., 2)``."""
-    return (np.asarray(G) @ np.asarray(theta_hat, dtype=float)[..., None])[..., 0]
+    G = np.asarray(G, dtype=float)
+    th = np.asarray(theta_hat, dtype=float)
+    entries = [G[..., i, j] for i in range(2) for j in range(6)]
+    return _pair(*eq.compensation(entries, [th[..., j] for j in range(6)]))
+
+
+def leakage_rate(gamma, sigma, leakage="paper"):
+    r"""The leakage rates :math:`\lambda_j` of :func:`unidyn.equations.update_rate`
+    for a named leakage form: :math:`\gamma_j\sigma_j` for ``"paper"`` (Eq. 20),
+    :math:`\sigma_j` for ``"fx44850"`` (the authors' Simulink package), 0 for
+    ``"none"`` (Eq. 18)."""
+    gamma = np.asarray(gamma, dtype=float)
+    sigma = np.asarray(sigma, dtype=float)
+    if leakage == "paper":
+        return gamma * sigma
+    if leakage == "fx44850":
+        return np.broadcast_to(sigma, np.broadcast_shapes(gamma.shape, sigma.shape)).copy()
+    if leakage == "none":
+        return np.zeros(np.broadcast_shapes(gamma.shape, sigma.shape))
+    raise ValueError(f"leakage must be one of {LEAKAGE_FORMS}, got {leakage!r}")
 
 
 def adaptation_rate(G, v_tilde, theta_hat, gamma, sigma, leakage="paper"):
@@ -166,13 +159,15 @@ def adaptation_rate(G, v_tilde, theta_hat, gamma, sigma, leakage="paper"):
     :param sigma: diagonal of the leakage gain Sigma, shape ``(6,)``
     """
     gamma = np.asarray(gamma, dtype=float)
-    grad = (np.swapaxes(np.asarray(G), -1, -2) @ np.asarray(v_tilde, dtype=float)[..., None])[..., 0]
-    rate = gamma * grad
+    leak = leakage_rate(gamma, sigma, leakage)
+    G = np.asarray(G, dtype=float)
+    v_tilde = np.asarray(v_tilde, dtype=float)
     theta_hat = np.asarray(theta_hat, dtype=float)
-    if leakage == "paper":
-        rate = rate - gamma * np.asarray(sigma) * theta_hat
-    elif leakage == "fx44850":
-        rate = rate - np.asarray(sigma) * theta_hat
-    elif leakage != "none":
-        raise ValueError(f"leakage must be one of {LEAKAGE_FORMS}, got {leakage!r}")
-    return rate
+    shape = np.broadcast_shapes(G.shape[:-2], v_tilde.shape[:-1], theta_hat.shape[:-1],
+                                gamma.shape[:-1])
+    out = np.empty(shape + (6,))
+    for j in range(6):
+        out[..., j] = eq.update_rate(G[..., 0, j], G[..., 1, j], v_tilde[..., 0],
+                                     v_tilde[..., 1], gamma[..., j], leak[..., j],
+                                     theta_hat[..., j])
+    return out

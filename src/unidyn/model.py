@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import equations as eq
 from ._validate import positive
 
 __all__ = ["Limits", "kinematics", "dynamics", "inertia", "coriolis", "damping",
@@ -84,6 +85,15 @@ PAPER_LIMITS = Limits(0.75, 1.745, 0.3, 1.745)
 NO_LIMITS = Limits()
 
 
+def _pair(x, y):
+    """Two arrays of broadcastable shapes stacked into shape + (2,)."""
+    x, y = np.broadcast_arrays(x, y)
+    out = np.empty(x.shape + (2,))
+    out[..., 0] = x
+    out[..., 1] = y
+    return out
+
+
 def _th(theta):
     theta = np.asarray(theta, dtype=float)
     return (theta[..., 0], theta[..., 1], theta[..., 2],
@@ -101,12 +111,7 @@ def point_velocity(psi, v, a):
     :return: [x', y'], shape ``(..., 2)``
     """
     v = np.asarray(v, dtype=float)
-    u, w = v[..., 0], v[..., 1]
-    c, s = np.cos(psi), np.sin(psi)
-    out = np.empty(np.broadcast(u, c).shape + (2,))
-    out[..., 0] = u * c - a * w * s
-    out[..., 1] = u * s + a * w * c
-    return out
+    return _pair(*eq.point_velocity(np.asarray(psi, dtype=float), v[..., 0], v[..., 1], a))
 
 
 def kinematics(x, a):
@@ -135,14 +140,8 @@ def dynamics(v, v_ref, theta):
     """
     v = np.asarray(v, dtype=float)
     v_ref = np.asarray(v_ref, dtype=float)
-    t1, t2, t3, t4, t5, t6 = _th(theta)
-    u, w = v[..., 0], v[..., 1]
-    ud = (t3 * w * w - t4 * u + v_ref[..., 0]) / t1
-    wd = (-t5 * u * w - t6 * w + v_ref[..., 1]) / t2
-    out = np.empty(np.broadcast(ud, wd).shape + (2,))
-    out[..., 0] = ud
-    out[..., 1] = wd
-    return out
+    return _pair(*eq.robot_acceleration(v[..., 0], v[..., 1], v_ref[..., 0], v_ref[..., 1],
+                                        *_th(theta)))
 
 
 def inertia(theta):
@@ -195,12 +194,9 @@ def regressor(v, v_dot):
     """
     v = np.asarray(v, dtype=float)
     v_dot = np.asarray(v_dot, dtype=float)
-    u, w = v[..., 0], v[..., 1]
-    ud, wd = v_dot[..., 0], v_dot[..., 1]
-    z = np.zeros_like(u * ud)
-    row1 = np.stack([ud + z, z, -w * w + z, u + z, z, z], -1)
-    row2 = np.stack([z, wd + z, z, z, u * w + z, w + z], -1)
-    return np.stack([row1, row2], -2)
+    entries = np.broadcast_arrays(*eq.dynamics_regressor(v[..., 0], v[..., 1], v_dot[..., 0],
+                                                         v_dot[..., 1]))
+    return np.stack(entries, axis=-1).reshape(entries[0].shape + (2, 6))
 
 
 def storage(v, theta):
@@ -211,12 +207,10 @@ def storage(v, theta):
 
 
 def _limit_velocity_rate(v, vdot, limits: Limits):
-    """Clip accelerations, and stop a velocity already at its speed limit from growing."""
-    vmax = limits.speed
-    amax = limits.accel
-    vdot = np.clip(vdot, -amax, amax)
-    outward = ((v >= vmax) & (vdot > 0)) | ((v <= -vmax) & (vdot < 0))
-    return np.where(outward, 0.0, vdot)
+    """Clip accelerations, and stop a velocity already at its speed limit from growing
+    (:func:`unidyn.equations.limited_acceleration`)."""
+    return _pair(*eq.limited_acceleration(v[..., 0], v[..., 1], vdot[..., 0], vdot[..., 1],
+                                          *limits.speed, *limits.accel))
 
 
 def unicycle_deriv(x, v_ref, theta, a, limits: Limits = NO_LIMITS, delta=None):
@@ -237,7 +231,7 @@ def unicycle_deriv(x, v_ref, theta, a, limits: Limits = NO_LIMITS, delta=None):
     v_ref = np.asarray(v_ref, dtype=float)
     v = x[..., 3:5]
     if limits.active:
-        v_ref = np.clip(v_ref, -limits.speed, limits.speed)
+        v_ref = _pair(*(eq.saturate(v_ref[..., i], limits.speed[i]) for i in range(2)))
     vdot = dynamics(v, v_ref, theta)
     out = np.empty(np.broadcast_shapes(x.shape[:-1], vdot.shape[:-1]) + (5,))
     out[..., 0:3] = kinematics(x, a)
@@ -262,6 +256,6 @@ def kinematic_unicycle_deriv(q, v_ref, a, limits: Limits = NO_LIMITS):
     q = np.asarray(q, dtype=float)
     v = np.asarray(v_ref, dtype=float)
     if limits.active:
-        v = np.clip(v, -limits.speed, limits.speed)
+        v = _pair(*(eq.saturate(v[..., i], limits.speed[i]) for i in range(2)))
     hdot = point_velocity(q[..., 2], v, a)
     return np.concatenate([hdot, v[..., 1:2]], axis=-1)

@@ -1,4 +1,5 @@
-r"""Reference trajectories h_d(t) with analytic first and second derivatives.
+r"""Reference trajectories h_d(t) with analytic first and second derivatives
+(the functions of :mod:`unidyn.equations`).
 
 Each trajectory is an immutable object with ``position(t)``, ``velocity(t)`` and
 ``acceleration(t)``; ``t`` may be a scalar or an array, and the result has shape
@@ -13,6 +14,7 @@ from typing import Callable
 
 import numpy as np
 
+from . import equations as eq
 from ._validate import ValidationError, positive, real, vector
 
 __all__ = ["Trajectory", "FigureEight", "Circle", "Line", "FunctionTrajectory", "from_spec",
@@ -48,7 +50,7 @@ def _t(t):
 
 def _xy(x, y):
     """Stack two arrays of equal shape into shape + (2,) (faster than np.stack)."""
-    out = np.empty(np.shape(x) + (2,))
+    out = np.empty(np.broadcast_shapes(np.shape(x), np.shape(y)) + (2,))
     out[..., 0] = x
     out[..., 1] = y
     return out
@@ -81,20 +83,17 @@ class FigureEight(Trajectory):
             object.__setattr__(self, k, positive(k, getattr(self, k)))
         object.__setattr__(self, "center", tuple(vector("center", self.center, 2).tolist()))
 
+    def _eval(self, t):
+        return eq.figure_eight(_t(t), self.ax, self.ay, self.wx, self.wy, *self.center)
+
     def position(self, t):
-        t = _t(t)
-        return _xy(self.center[0] + self.ax * np.sin(self.wx * t),
-                   self.center[1] + self.ay * (np.cos(self.wy * t) - 1.0))
+        return _xy(*self._eval(t)[0:2])
 
     def velocity(self, t):
-        t = _t(t)
-        return _xy(self.ax * self.wx * np.cos(self.wx * t),
-                   -self.ay * self.wy * np.sin(self.wy * t))
+        return _xy(*self._eval(t)[2:4])
 
     def acceleration(self, t):
-        t = _t(t)
-        return _xy(-self.ax * self.wx**2 * np.sin(self.wx * t),
-                   -self.ay * self.wy**2 * np.cos(self.wy * t))
+        return _xy(*self._eval(t)[4:6])
 
 
 @dataclass(frozen=True)
@@ -124,23 +123,17 @@ class Circle(Trajectory):
         object.__setattr__(self, "phase", real("phase", self.phase))
         object.__setattr__(self, "center", tuple(vector("center", self.center, 2).tolist()))
 
-    def _arg(self, t):
-        return self.omega * _t(t) + self.phase
+    def _eval(self, t):
+        return eq.circle(_t(t), self.radius, self.omega, *self.center, self.phase)
 
     def position(self, t):
-        a = self._arg(t)
-        return _xy(self.center[0] + self.radius * np.cos(a),
-                   self.center[1] + self.radius * np.sin(a))
+        return _xy(*self._eval(t)[0:2])
 
     def velocity(self, t):
-        a = self._arg(t)
-        r = self.radius * self.omega
-        return _xy(-r * np.sin(a), r * np.cos(a))
+        return _xy(*self._eval(t)[2:4])
 
     def acceleration(self, t):
-        a = self._arg(t)
-        r = self.radius * self.omega**2
-        return _xy(-r * np.cos(a), -r * np.sin(a))
+        return _xy(*self._eval(t)[4:6])
 
 
 @dataclass(frozen=True)
@@ -159,17 +152,17 @@ class Line(Trajectory):
         object.__setattr__(self, "start", tuple(vector("start", start, 2).tolist()))
         object.__setattr__(self, "velocity_", tuple(vector("velocity", velocity, 2).tolist()))
 
+    def _eval(self, t):
+        return eq.line(_t(t), *self.start, *self.velocity_)
+
     def position(self, t):
-        t = _t(t)[..., None]
-        return np.asarray(self.start) + np.asarray(self.velocity_) * t
+        return _xy(*self._eval(t)[0:2])
 
     def velocity(self, t):
-        t = _t(t)
-        return np.broadcast_to(np.asarray(self.velocity_), t.shape + (2,)).copy()
+        return _xy(*self._eval(t)[2:4])
 
     def acceleration(self, t):
-        t = _t(t)
-        return np.zeros(t.shape + (2,))
+        return _xy(*self._eval(t)[4:6])
 
     def to_spec(self) -> dict:
         return {"type": self.kind, "start": list(self.start), "velocity": list(self.velocity_)}

@@ -17,6 +17,9 @@ import math
 
 import numpy as np
 
+from .._jit import AVAILABLE as FAST
+from .._jit import jit
+from ..equations import point_velocity, robot_acceleration
 from ..model import unicycle_deriv
 
 #: How the logged commands act between their time stamps.
@@ -82,20 +85,16 @@ def _sim_segments(theta, t, u_ref, w_ref, starts, stops, v0, delay, linear, hmax
                     dm = cw0 + sw * (tt + 0.5 * h)
                     cb = cu0 + su * (tt + h)
                     db = cw0 + sw * (tt + h)
-                    k1u = (t3 * w * w - t4 * u + ca) / t1
-                    k1w = (-t5 * u * w - t6 * w + da) / t2
+                    k1u, k1w = robot_acceleration(u, w, ca, da, t1, t2, t3, t4, t5, t6)
                     uu = u + 0.5 * h * k1u
                     ww = w + 0.5 * h * k1w
-                    k2u = (t3 * ww * ww - t4 * uu + cm) / t1
-                    k2w = (-t5 * uu * ww - t6 * ww + dm) / t2
+                    k2u, k2w = robot_acceleration(uu, ww, cm, dm, t1, t2, t3, t4, t5, t6)
                     uu = u + 0.5 * h * k2u
                     ww = w + 0.5 * h * k2w
-                    k3u = (t3 * ww * ww - t4 * uu + cm) / t1
-                    k3w = (-t5 * uu * ww - t6 * ww + dm) / t2
+                    k3u, k3w = robot_acceleration(uu, ww, cm, dm, t1, t2, t3, t4, t5, t6)
                     uu = u + h * k3u
                     ww = w + h * k3w
-                    k4u = (t3 * ww * ww - t4 * uu + cb) / t1
-                    k4w = (-t5 * uu * ww - t6 * ww + db) / t2
+                    k4u, k4w = robot_acceleration(uu, ww, cb, db, t1, t2, t3, t4, t5, t6)
                     u = u + h / 6.0 * (k1u + 2.0 * k2u + 2.0 * k3u + k4u)
                     w = w + h / 6.0 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w)
                 cur = nxt
@@ -103,13 +102,9 @@ def _sim_segments(theta, t, u_ref, w_ref, starts, stops, v0, delay, linear, hmax
             out[k + 1, 1] = w
 
 
-try:  # numba is optional (the ``fast`` extra); without it the same code runs in Python
-    import numba as _numba
-    _sim_compiled = _numba.njit(cache=True, nogil=True)(_sim_segments)
-    FAST = True
-except ImportError:  # pragma: no cover - exercised where numba is absent
-    _sim_compiled = _sim_segments
-    FAST = False
+# compiled where numba is installed (the ``fast`` extra); without it the same code runs
+# in Python
+_sim_compiled = jit(_sim_segments)
 
 
 def step_length(theta, dt) -> float:
@@ -170,11 +165,11 @@ def simulate_stepwise(theta, t, u_ref, w_ref, x0, limits, linear, delay):
     def rhs(tt, x):
         if limits.active:
             return unicycle_deriv(x, command(tt), theta, 0.0, limits)
-        # Eqs. (1)-(2) with a = 0 on scalars (the same equations, far less overhead)
+        # Eqs. (1)-(2) with a = 0 on scalars (far less overhead than on arrays)
         c = command(tt)
         u, w, psi = x[3], x[4], x[2]
-        return [u * math.cos(psi), u * math.sin(psi), w,
-                (t3 * w * w - t4 * u + c[0]) / t1, (-t5 * u * w - t6 * w + c[1]) / t2]
+        xd, yd = point_velocity(psi, u, w, 0.0)
+        return [xd, yd, w, *robot_acceleration(u, w, c[0], c[1], t1, t2, t3, t4, t5, t6)]
 
     r = ode(rhs).set_integrator("dop853", rtol=1e-10, atol=1e-12, nsteps=100000)
     brk = np.union1d(t, t[(t + delay > t[0]) & (t + delay < t[-1])] + delay)

@@ -1,0 +1,305 @@
+r"""The paper's equations, written once.
+
+Every equation of the model and the controllers of Martins et al. (2017) is here,
+once, as plain arithmetic: Eq. (1) (:func:`point_velocity`), Eq. (2)
+(:func:`robot_acceleration`) with the speed and acceleration limits, Eq. (10) and
+its time derivative (:func:`kinematic_law`, :func:`kinematic_law_rate`), the
+compensation of Eqs. (12)/(14) (:func:`compensation_regressor`,
+:func:`compensation`), the update law of Eqs. (18)/(20) (:func:`update_rate`),
+the reference trajectories, and the whole Fig. 2 loop built from them
+(:func:`loop_signals`, :func:`loop_derivative`).
+
+The arguments may be Python floats or numpy arrays of any broadcastable shape
+(the runs of a batch, the samples of a log), and numba compiles the same
+functions for the batch engine and for identification (:mod:`unidyn._jit`
+registers every function of this module with numba, so they call each other in
+compiled code). Vectors are passed as their components and results come back as
+tuples of components, so no function allocates an array of its own;
+:mod:`unidyn.model`, :mod:`unidyn.control` and :mod:`unidyn.trajectories` stack
+them into the array shapes of their public interfaces.
+
+What this module may use, so that numba compiles it: arithmetic, comparisons,
+``np.sin/cos/tanh/cosh/minimum/maximum/where``, indexing, loops of fixed length,
+and calls to functions of this module; no Python branch on a value (it may be an
+array).
+"""
+
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+
+__all__ = ["point_velocity", "robot_acceleration", "dynamics_regressor", "saturate", "limited_acceleration",
+           "kinematic_law", "kinematic_law_rate", "compensation_regressor", "compensation",
+           "update_rate", "figure_eight", "circle", "line", "loop_signals",
+           "loop_derivative", "STATE", "S", "LOOP_PARAMETERS", "P", "TRAJECTORY_KINDS",
+           "SWITCH_TOL"]
+
+#: Adaptation is on for t >= adapt_from - SWITCH_TOL (s): the switch then falls on
+#: the same side of a solver stage that lands on adapt_from up to rounding, in
+#: every engine.
+SWITCH_TOL = 1e-9
+
+
+# --------------------------------------------------------------------------- robot
+def point_velocity(psi, u, w, a):
+    r"""Eq. (1), first two rows: the velocity of the point of interest h,
+    :math:`\dot x = u\cos\psi - a w\sin\psi,\ \dot y = u\sin\psi + a w\cos\psi`."""
+    c = np.cos(psi)
+    s = np.sin(psi)
+    return u * c - a * w * s, u * s + a * w * c
+
+
+def robot_acceleration(u, w, u_ref, w_ref, th1, th2, th3, th4, th5, th6):
+    r"""Eq. (2): the accelerations of the robot's velocities under the commands
+    u_ref, w_ref (no disturbance),
+
+    .. math::
+
+        \dot u = \frac{\theta_3}{\theta_1} w^2 - \frac{\theta_4}{\theta_1} u
+                 + \frac{u_{ref}}{\theta_1},\quad
+        \dot\omega = -\frac{\theta_5}{\theta_2} u\omega - \frac{\theta_6}{\theta_2}\omega
+                 + \frac{\omega_{ref}}{\theta_2}
+    """
+    return ((th3 * w * w - th4 * u + u_ref) / th1,
+            (-th5 * u * w - th6 * w + w_ref) / th2)
+
+
+def dynamics_regressor(u, w, du, dw):
+    r"""The regressor Y of Eq. (11), the linear parametrisation of Eq. (2),
+    :math:`v_{ref} = Y(v, \dot v)\,\theta`, row by row (12 entries):
+
+    .. math::
+
+        Y = \begin{bmatrix} \dot u & 0 & -\omega^2 & u & 0 & 0 \\
+                            0 & \dot\omega & 0 & 0 & u\omega & \omega \end{bmatrix}
+    """
+    return (du, 0.0, -w * w, u, 0.0, 0.0,
+            0.0, dw, 0.0, 0.0, u * w, w)
+
+
+def saturate(x, limit):
+    """x clipped to [-limit, limit] (limit may be inf); NaN stays NaN."""
+    return np.minimum(np.maximum(x, -limit), limit)
+
+
+def limited_acceleration(u, w, du, dw, speed_u, speed_w, accel_u, accel_w):
+    """The acceleration limits on (du, dw), and no acceleration that pushes a velocity
+    already at its speed limit beyond it (how the limits act on Eq. 2)."""
+    du = saturate(du, accel_u)
+    dw = saturate(dw, accel_w)
+    du = np.where(((u >= speed_u) & (du > 0.0)) | ((u <= -speed_u) & (du < 0.0)), 0.0, du)
+    dw = np.where(((w >= speed_w) & (dw > 0.0)) | ((w <= -speed_w) & (dw < 0.0)), 0.0, dw)
+    return du, dw
+
+
+# --------------------------------------------------------------------- controllers
+def kinematic_law(xd, yd, vxd, vyd, x, y, psi, a, kx, ky, lx, ly):
+    r"""Eq. (10): the desired velocities (u_d, w_d) that make h = (x, y) track
+    h_d = (xd, yd) moving at (vxd, vyd),
+
+    .. math::
+
+        \begin{bmatrix} u_d \\ \omega_d \end{bmatrix} =
+        \begin{bmatrix} \cos\psi & \sin\psi \\ -\frac{\sin\psi}{a} & \frac{\cos\psi}{a}
+        \end{bmatrix}
+        \begin{bmatrix} \dot x_d + l_x \tanh(k_x \tilde x / l_x) \\
+                        \dot y_d + l_y \tanh(k_y \tilde y / l_y) \end{bmatrix}
+    """
+    nux = vxd + lx * np.tanh(kx * (xd - x) / lx)
+    nuy = vyd + ly * np.tanh(ky * (yd - y) / ly)
+    c = np.cos(psi)
+    s = np.sin(psi)
+    return c * nux + s * nuy, (-s * nux + c * nuy) / a
+
+
+def kinematic_law_rate(xd, yd, vxd, vyd, axd, ayd, x, y, psi, u, w, a, kx, ky, lx, ly):
+    r"""Eq. (10) and its time derivative along the motion (the exact v_d'):
+    returns (u_d, w_d, u_d', w_d').
+
+    .. math::
+
+        \dot v_d = \frac{d A^{-1}(\psi)}{dt}\,\nu + A^{-1}(\psi)\,\dot\nu,\quad
+        \dot\nu = \ddot h_d + K\,\mathrm{sech}^2(K\tilde h/L)\,(\dot h_d - \dot h)
+
+    with :math:`\dot h` from Eq. (1) at the velocities (u, w) and
+    :math:`\dot\psi = \omega`.
+    """
+    zx = kx * (xd - x) / lx
+    zy = ky * (yd - y) / ly
+    nux = vxd + lx * np.tanh(zx)
+    nuy = vyd + ly * np.tanh(zy)
+    c = np.cos(psi)
+    s = np.sin(psi)
+    hdx, hdy = point_velocity(psi, u, w, a)
+    chx = np.cosh(zx)
+    chy = np.cosh(zy)
+    ndx = axd + kx / (chx * chx) * (vxd - hdx)
+    ndy = ayd + ky / (chy * chy) * (vyd - hdy)
+    # d/dt A^-1(psi) = w [[-sin, cos], [-cos/a, -sin/a]]
+    return (c * nux + s * nuy, (-s * nux + c * nuy) / a,
+            w * (-s * nux + c * nuy) + c * ndx + s * ndy,
+            (w * (-c * nux - s * nuy) - s * ndx + c * ndy) / a)
+
+
+def compensation_regressor(ud, wd, udd, wdd, u, w, ku, kw, lu, lw):
+    r"""The regressor G of Eq. (14), row by row (12 entries, G[0, 0..5], G[1, 0..5]):
+
+    .. math::
+
+        G = \begin{bmatrix} \sigma_1 & 0 & -\omega_d\omega & u_d & 0 & 0 \\
+            0 & \sigma_2 & u_d\omega - u\,\omega_d & 0 & u\,\omega_d & \omega_d \end{bmatrix},
+        \quad \sigma_1 = \dot u_d + l_u\tanh\!\left(\frac{k_u}{l_u}\tilde u\right),\
+        \sigma_2 = \dot\omega_d + l_\omega\tanh\!\left(\frac{k_\omega}{l_\omega}\tilde\omega\right)
+    """
+    s1 = udd + lu * np.tanh(ku * (ud - u) / lu)
+    s2 = wdd + lw * np.tanh(kw * (wd - w) / lw)
+    return (s1, 0.0, -wd * w, ud, 0.0, 0.0,
+            0.0, s2, ud * w - u * wd, 0.0, u * wd, wd)
+
+
+def compensation(G, th):
+    r"""Eq. (12) in the linear form of Eq. (14), :math:`v_r = G\hat\theta`:
+    (u_r, w_r) from the 12 entries of G (:func:`compensation_regressor`) and
+    the six estimates th[0..5]."""
+    ur = G[0] * th[0]
+    wr = G[6] * th[0]
+    for j in range(1, 6):
+        ur = ur + G[j] * th[j]
+        wr = wr + G[6 + j] * th[j]
+    return ur, wr
+
+
+def update_rate(g0, g1, u_tilde, w_tilde, gamma, leak, theta_hat):
+    r"""Eqs. (18)/(20) for one parameter j: :math:`\dot{\hat\theta}_j =
+    \gamma_j (G_{0j}\tilde u + G_{1j}\tilde\omega) - \lambda_j \hat\theta_j`, with the
+    leakage rate :math:`\lambda_j = \gamma_j\sigma_j` (Eq. 20), :math:`\sigma_j`
+    (the authors' Simulink package) or 0 (Eq. 18); see
+    :func:`unidyn.control.leakage_rate`."""
+    return gamma * (g0 * u_tilde + g1 * w_tilde) - leak * theta_hat
+
+
+# -------------------------------------------------------------------- trajectories
+def figure_eight(t, ax, ay, wx, wy, cx, cy):
+    r"""The paper's figure eight (Section 5), :math:`x_d = c_x + A_x\sin\omega_x t,\
+    y_d = c_y + A_y(\cos\omega_y t - 1)`: (x_d, y_d, x_d', y_d', x_d'', y_d'')."""
+    sx = np.sin(wx * t)
+    cxw = np.cos(wx * t)
+    sy = np.sin(wy * t)
+    cyw = np.cos(wy * t)
+    return (cx + ax * sx, cy + ay * (cyw - 1.0), ax * wx * cxw, -ay * wy * sy,
+            -ax * wx * wx * sx, -ay * wy * wy * cyw)
+
+
+def circle(t, radius, omega, cx, cy, phase):
+    r"""A circle, :math:`h_d = c + R[\cos(\omega t + \phi), \sin(\omega t + \phi)]`:
+    (x_d, y_d, x_d', y_d', x_d'', y_d'')."""
+    arg = omega * t + phase
+    c = np.cos(arg)
+    s = np.sin(arg)
+    return (cx + radius * c, cy + radius * s, -radius * omega * s, radius * omega * c,
+            -radius * omega * omega * c, -radius * omega * omega * s)
+
+
+def line(t, x0, y0, vx, vy):
+    r"""A straight line at constant velocity, :math:`h_d = p_0 + v t`:
+    (x_d, y_d, x_d', y_d', x_d'', y_d'')."""
+    return x0 + vx * t, y0 + vy * t, vx + 0.0 * t, vy + 0.0 * t, 0.0 * t, 0.0 * t
+
+
+#: The kinds of reference the compiled engine evaluates itself (the value of the
+#: table entry ``trajectory`` is the index in this tuple).
+TRAJECTORY_KINDS = ("figure_eight", "circle", "line")
+
+
+# ---------------------------------------------------------------- the Fig. 2 loop
+#: The state of one run of the Fig. 2 loop: the robot (u, w unused for a kinematic
+#: robot), the compensator's estimate, the derivative filter's states.
+STATE = ("x", "y", "psi", "u", "w", "theta_hat1", "theta_hat2", "theta_hat3",
+         "theta_hat4", "theta_hat5", "theta_hat6", "z_u", "z_w")
+#: Index of each state by name (S.x, S.theta_hat1, ...).
+S = namedtuple("LoopState", STATE)(*range(len(STATE)))
+
+#: The per-run parameter table of the Fig. 2 loop, one value per name; see
+#: :meth:`unidyn.closedloop.ClosedLoop.parameter_table`. ``dynamic`` (1: the robot has
+#: Eq. 2, 0: kinematic), ``compensated`` (1: v_ref = G theta_hat, Eq. 14; 0: v_ref = v_d)
+#: and ``filtered`` (1: v_d' from the filter (v_d - z)/tau; 0: the exact rate) are
+#: 0/1; ``leak1..6`` are the leakage rates of :func:`update_rate`; ``adapt_from`` is
+#: inf where the estimate is not adapted; ``path1..6`` are the reference's
+#: parameters, in the order of the function of its kind.
+LOOP_PARAMETERS = (
+    ("theta1", "theta2", "theta3", "theta4", "theta5", "theta6", "a",
+     "kx", "ky", "lx", "ly", "ku", "kw", "lu", "lw")
+    + tuple(f"gamma{j}" for j in range(1, 7)) + tuple(f"leak{j}" for j in range(1, 7))
+    + ("adapt_from", "tau", "filtered", "dynamic", "compensated",
+       "speed_u", "speed_w", "accel_u", "accel_w", "trajectory")
+    + tuple(f"path{j}" for j in range(1, 7)))
+#: Index of each parameter by name (P.kx, P.gamma1, ...).
+P = namedtuple("LoopParameter", LOOP_PARAMETERS)(*range(len(LOOP_PARAMETERS)))
+
+
+def loop_signals(X, ref, p, noise):
+    r"""The signals of the Fig. 2 loop at state X: returns
+    (u_d, w_d, u_d', w_d', G, u_ref, w_ref, u_meas, w_meas).
+
+    :param X: the state, indexed by :data:`S` (X[S.x] a float, or an array of runs)
+    :param ref: (x_d, y_d, x_d', y_d', x_d'', y_d'')
+    :param p: the parameters, indexed by :data:`P`
+    :param noise: (position noise x, y, velocity noise u, w), added to the measurements
+
+    Eq. (10) on the measured position and heading, its exact rate (or the derivative
+    filter), the regressor of Eq. (14) on the measured velocities, and the command:
+    :math:`G\hat\theta` with compensation, v_d without (before the speed limits).
+    """
+    um = X[S.u] + noise[2]
+    wm = X[S.w] + noise[3]
+    ud, wd, rate_u, rate_w = kinematic_law_rate(
+        ref[0], ref[1], ref[2], ref[3], ref[4], ref[5], X[S.x] + noise[0], X[S.y] + noise[1],
+        X[S.psi], um, wm, p[P.a], p[P.kx], p[P.ky], p[P.lx], p[P.ly])
+    filtered = p[P.filtered] != 0.0
+    udd = np.where(filtered, (ud - X[S.z_u]) / p[P.tau], rate_u)
+    wdd = np.where(filtered, (wd - X[S.z_w]) / p[P.tau], rate_w)
+    G = compensation_regressor(ud, wd, udd, wdd, um, wm, p[P.ku], p[P.kw], p[P.lu], p[P.lw])
+    ur, wr = compensation(G, X[S.theta_hat1:S.theta_hat6 + 1])
+    compensated = p[P.compensated] != 0.0
+    return (ud, wd, udd, wdd, G, np.where(compensated, ur, ud), np.where(compensated, wr, wd),
+            um, wm)
+
+
+def loop_derivative(t, X, ref, p, noise, dX):
+    r"""dX/dt of the Fig. 2 loop, written into dX (indexed by :data:`S`).
+
+    The commands are clipped to the speed limits; the robot follows Eqs. (1)-(2)
+    with the acceleration limits (:func:`limited_acceleration`), or Eq. (1) with
+    v = the clipped command for a kinematic robot; the estimate follows
+    Eqs. (18)/(20) from ``adapt_from`` on (:func:`update_rate`, with the velocity
+    error v_d - v_meas); the derivative filter integrates v_d'. Arguments as
+    :func:`loop_signals`.
+    """
+    ud, wd, udd, wdd, G, u_ref, w_ref, um, wm = loop_signals(X, ref, p, noise)
+    uc = saturate(u_ref, p[P.speed_u])
+    wc = saturate(w_ref, p[P.speed_w])
+    u = X[S.u]
+    w = X[S.w]
+    du, dw = robot_acceleration(u, w, uc, wc, p[P.theta1], p[P.theta2], p[P.theta3],
+                                p[P.theta4], p[P.theta5], p[P.theta6])
+    du, dw = limited_acceleration(u, w, du, dw, p[P.speed_u], p[P.speed_w],
+                                  p[P.accel_u], p[P.accel_w])
+    dynamic = p[P.dynamic] != 0.0
+    u_move = np.where(dynamic, u, uc)
+    w_move = np.where(dynamic, w, wc)
+    dX[S.x], dX[S.y] = point_velocity(X[S.psi], u_move, w_move, p[P.a])
+    dX[S.psi] = w_move
+    dX[S.u] = np.where(dynamic, du, 0.0)
+    dX[S.w] = np.where(dynamic, dw, 0.0)
+    on = t >= p[P.adapt_from] - SWITCH_TOL
+    u_tilde = ud - um
+    w_tilde = wd - wm
+    for j in range(6):
+        r = update_rate(G[j], G[6 + j], u_tilde, w_tilde, p[P.gamma1 + j], p[P.leak1 + j],
+                        X[S.theta_hat1 + j])
+        dX[S.theta_hat1 + j] = np.where(on, r, 0.0)
+    filtered = p[P.filtered] != 0.0
+    dX[S.z_u] = np.where(filtered, udd, 0.0)
+    dX[S.z_w] = np.where(filtered, wdd, 0.0)
