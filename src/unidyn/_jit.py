@@ -10,6 +10,9 @@ the library runs, not a copy of them.
 
 from __future__ import annotations
 
+import hashlib
+from pathlib import Path
+
 from . import equations
 
 try:  # numba is optional
@@ -21,10 +24,56 @@ except ImportError:  # pragma: no cover - exercised where numba is absent
     AVAILABLE = False
 
 if AVAILABLE:
+    import numpy as np
+    from numba.core import types
+    from numba.extending import overload
+
     for _name in equations.__all__:
         _f = getattr(equations, _name)
-        if callable(_f) and getattr(_f, "__module__", None) == equations.__name__:
+        if (callable(_f) and getattr(_f, "__module__", None) == equations.__name__
+                and _f is not equations.select):
             register_jitable(_f)
+
+    @overload(equations.select)
+    def _select(condition, a, b):
+        """equations.select compiled: a branch on scalars (np.where would allocate a 0-d
+        array per call), np.where on arrays."""
+        if (isinstance(condition, types.Boolean) and isinstance(a, types.Number)
+                and isinstance(b, types.Number)):
+            return lambda condition, a, b: a if condition else b
+        return lambda condition, a, b: np.where(condition, a, b)
+
+
+def _invalidate_stale_cache():
+    """Drop numba's cached machine code of this package when the equations changed.
+
+    numba's on-disk cache (``cache=True``) is keyed on the source file of each
+    compiled function only, not on the functions it calls: a kernel in
+    ``_kernels.py`` would keep running the equations as they were when it was
+    cached after :mod:`unidyn.equations` was edited. A stamp of the equations'
+    source beside the cache files tells; when it differs, the package's cache files
+    are removed and compiled anew. (An installed release changes every file, and
+    with them numba's own stamps.)"""
+    root = Path(__file__).resolve().parent
+    stamp = hashlib.sha256(Path(equations.__file__).read_bytes()
+                           + Path(__file__).read_bytes()).hexdigest()
+    marker = root / "__pycache__" / "equations.numba-stamp"
+    try:
+        if marker.read_text() == stamp:
+            return
+    except OSError:
+        pass
+    try:
+        for cached in root.rglob("__pycache__/*.nb[ic]"):
+            cached.unlink(missing_ok=True)
+        marker.parent.mkdir(exist_ok=True)
+        marker.write_text(stamp)
+    except OSError:  # a read-only install: numba caches elsewhere, keyed on its files
+        pass
+
+
+if AVAILABLE:
+    _invalidate_stale_cache()
 
 
 def jit(f=None, *, parallel: bool = False):

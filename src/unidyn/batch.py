@@ -23,7 +23,7 @@ import numpy as np
 
 from ._validate import ValidationError, integer
 from .closedloop import ClosedLoop
-from .equations import TRAJECTORY_KINDS
+from .equations import TRAJECTORY_KINDS, saturate
 from .result import Result
 from .scenario import Scenario
 
@@ -347,7 +347,7 @@ def _steps(run, loop, X, m, h, check, record, bar):
             k4 = loop.rhs(t + h, X + h * k3, k)
             X = X + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
             # the speed limits are hard: a step that crosses one ends on it
-            X[:, 3:5] = np.clip(X[:, 3:5], -loop.vmax, loop.vmax)
+            X[:, 3:5] = saturate(X[:, 3:5], loop.vmax)
         status = np.where(running, check(X), run.status)
         stopped = running & (status != OK)
         # the sample at the end of interval k is logged with interval k's
@@ -400,7 +400,7 @@ def _results(run: _Run) -> list:
                  3: abs(run.Xs[i, nrow - 1, 3]), 4: abs(run.Xs[i, nrow - 1, 4])}.get(status, 0.0)
             cause = _CAUSE[status].format(v=v, b=run.bounds[i, status - 2] if status > 1 else 0.0)
             message = f"{cause} at t = {t_stop:.6g} s (scenario {label})"
-        v_ref = np.clip(S[:, 6:8], -loop.vmax[i], loop.vmax[i])
+        v_ref = saturate(S[:, 6:8], loop.vmax[i])
         vel = X_i[:, 3:5] if sc.case != "kinematic" else v_ref
         out.append(Result(scenario=sc, t=t, pose=X_i[:, 0:3], velocity=vel,
                           reference=S[:, 0:2], v_d=S[:, 2:4], v_ref=v_ref,

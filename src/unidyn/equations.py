@@ -19,7 +19,8 @@ tuples of components, so no function allocates an array of its own;
 them into the array shapes of their public interfaces.
 
 What this module may use, so that numba compiles it: arithmetic, comparisons,
-``np.sin/cos/tanh/cosh/minimum/maximum/where``, indexing, loops of fixed length,
+``np.sin/cos/tanh/cosh/minimum/maximum``, :func:`select` (not ``np.where``, which
+allocates an array per call in compiled code), indexing, loops of fixed length,
 and calls to functions of this module; no Python branch on a value (it may be an
 array).
 """
@@ -30,7 +31,7 @@ from collections import namedtuple
 
 import numpy as np
 
-__all__ = ["point_velocity", "robot_acceleration", "dynamics_regressor", "saturate", "limited_acceleration",
+__all__ = ["select", "point_velocity", "robot_acceleration", "dynamics_regressor", "saturate", "limited_acceleration",
            "kinematic_law", "kinematic_law_rate", "compensation_regressor", "compensation",
            "update_rate", "figure_eight", "circle", "line", "loop_signals",
            "loop_derivative", "STATE", "S", "LOOP_PARAMETERS", "P", "TRAJECTORY_KINDS",
@@ -40,6 +41,12 @@ __all__ = ["point_velocity", "robot_acceleration", "dynamics_regressor", "satura
 #: the same side of a solver stage that lands on adapt_from up to rounding, in
 #: every engine.
 SWITCH_TOL = 1e-9
+
+
+def select(condition, a, b):
+    """a where condition holds, else b (``np.where``; on floats in compiled code, a
+    plain branch)."""
+    return np.where(condition, a, b)
 
 
 # --------------------------------------------------------------------------- robot
@@ -89,8 +96,8 @@ def limited_acceleration(u, w, du, dw, speed_u, speed_w, accel_u, accel_w):
     already at its speed limit beyond it (how the limits act on Eq. 2)."""
     du = saturate(du, accel_u)
     dw = saturate(dw, accel_w)
-    du = np.where(((u >= speed_u) & (du > 0.0)) | ((u <= -speed_u) & (du < 0.0)), 0.0, du)
-    dw = np.where(((w >= speed_w) & (dw > 0.0)) | ((w <= -speed_w) & (dw < 0.0)), 0.0, dw)
+    du = select(((u >= speed_u) & (du > 0.0)) | ((u <= -speed_u) & (du < 0.0)), 0.0, du)
+    dw = select(((w >= speed_w) & (dw > 0.0)) | ((w <= -speed_w) & (dw < 0.0)), 0.0, dw)
     return du, dw
 
 
@@ -258,12 +265,12 @@ def loop_signals(X, ref, p, noise):
         ref[0], ref[1], ref[2], ref[3], ref[4], ref[5], X[S.x] + noise[0], X[S.y] + noise[1],
         X[S.psi], um, wm, p[P.a], p[P.kx], p[P.ky], p[P.lx], p[P.ly])
     filtered = p[P.filtered] != 0.0
-    udd = np.where(filtered, (ud - X[S.z_u]) / p[P.tau], rate_u)
-    wdd = np.where(filtered, (wd - X[S.z_w]) / p[P.tau], rate_w)
+    udd = select(filtered, (ud - X[S.z_u]) / p[P.tau], rate_u)
+    wdd = select(filtered, (wd - X[S.z_w]) / p[P.tau], rate_w)
     G = compensation_regressor(ud, wd, udd, wdd, um, wm, p[P.ku], p[P.kw], p[P.lu], p[P.lw])
     ur, wr = compensation(G, X[S.theta_hat1:S.theta_hat6 + 1])
     compensated = p[P.compensated] != 0.0
-    return (ud, wd, udd, wdd, G, np.where(compensated, ur, ud), np.where(compensated, wr, wd),
+    return (ud, wd, udd, wdd, G, select(compensated, ur, ud), select(compensated, wr, wd),
             um, wm)
 
 
@@ -287,19 +294,19 @@ def loop_derivative(t, X, ref, p, noise, dX):
     du, dw = limited_acceleration(u, w, du, dw, p[P.speed_u], p[P.speed_w],
                                   p[P.accel_u], p[P.accel_w])
     dynamic = p[P.dynamic] != 0.0
-    u_move = np.where(dynamic, u, uc)
-    w_move = np.where(dynamic, w, wc)
+    u_move = select(dynamic, u, uc)
+    w_move = select(dynamic, w, wc)
     dX[S.x], dX[S.y] = point_velocity(X[S.psi], u_move, w_move, p[P.a])
     dX[S.psi] = w_move
-    dX[S.u] = np.where(dynamic, du, 0.0)
-    dX[S.w] = np.where(dynamic, dw, 0.0)
+    dX[S.u] = select(dynamic, du, 0.0)
+    dX[S.w] = select(dynamic, dw, 0.0)
     on = t >= p[P.adapt_from] - SWITCH_TOL
     u_tilde = ud - um
     w_tilde = wd - wm
     for j in range(6):
         r = update_rate(G[j], G[6 + j], u_tilde, w_tilde, p[P.gamma1 + j], p[P.leak1 + j],
                         X[S.theta_hat1 + j])
-        dX[S.theta_hat1 + j] = np.where(on, r, 0.0)
+        dX[S.theta_hat1 + j] = select(on, r, 0.0)
     filtered = p[P.filtered] != 0.0
-    dX[S.z_u] = np.where(filtered, udd, 0.0)
-    dX[S.z_w] = np.where(filtered, wdd, 0.0)
+    dX[S.z_u] = select(filtered, udd, 0.0)
+    dX[S.z_w] = select(filtered, wdd, 0.0)

@@ -10,6 +10,7 @@ import time
 import numpy as np
 
 from ._validate import NonFiniteSignalError, ValidationError, positive
+from .equations import saturate
 from .result import Result
 from .scenario import Scenario
 
@@ -218,7 +219,7 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
     t = grid * sc.Ts
     velocity = signals.get("velocity")
     if velocity is None:  # kinematic robot: v = v_d clipped to the speed limits
-        velocity = np.clip(signals["v_d"], -sc.limits.speed, sc.limits.speed)
+        velocity = saturate(signals["v_d"], sc.limits.speed)
     theta_hat = signals.get("theta_hat")
     if theta_hat is None:
         theta_hat = np.tile(sc.theta_hat_initial, (len(t), 1))
