@@ -27,7 +27,8 @@ EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 NOTEBOOKS = sorted(EXAMPLES.glob("*.ipynb"))
 CELL_TIMEOUT = 120  # s
 EXPECTED = ("01_model.ipynb", "02_fig2_diagram.ipynb", "03_adaptive.ipynb",
-            "04_toolbox_dropin.ipynb", "05_identification.ipynb", "06_long_runs.ipynb")
+            "04_toolbox_dropin.ipynb", "05_identification.ipynb", "06_long_runs.ipynb",
+            "07_linear_loop.ipynb")
 
 
 @pytest.fixture(scope="module")

@@ -35,6 +35,12 @@ def __getattr__(name):
         "batch": ("batch", None),
         "check_properties": ("properties", "check_properties"),
         "rank_test": ("properties", "rank_test"),
+        # python-control and ipywidgets are optional (unidyn[control], unidyn[teach])
+        "to_iosys": ("iosys", "to_iosys"),
+        "iosys": ("iosys", None),
+        "widgets": ("widgets", None),
+        "LoopExplorer": ("widgets", "LoopExplorer"),
+        "equations": ("equations", None),
     }
     if name in lazy:
         import importlib
