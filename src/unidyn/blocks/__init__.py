@@ -5,10 +5,14 @@ upper-cased class name (``bd.DYNAMICUNICYCLE(...)``), and can also be built
 directly (``DynamicUnicycle(..., bd=bd)``).
 """
 
-from .robots import DynamicUnicycle, KinematicUnicycle
-from .controllers import KinematicController, DynamicCompensator
-from .sources import FigureEight, Circle, Line, TrajectorySource, MeasurementNoise
+from .robots import DynamicUnicycle, DynamicUnicycleWithVelocity, KinematicUnicycle
+from .controllers import (DynamicCompensator, DynamicCompensatorWithRateInput,
+                          KinematicController, KinematicControllerWithRate)
+from .sources import FigureEight, Circle, Line, TrajectorySource, MeasurementNoise, SensorNoise
 
 __all__ = ["DynamicUnicycle", "KinematicUnicycle", "KinematicController",
            "DynamicCompensator", "FigureEight", "Circle", "Line", "TrajectorySource",
-           "MeasurementNoise"]
+           "MeasurementNoise",
+           # the same blocks with fixed ports (drawn by bdedit, loaded from .bd files)
+           "DynamicUnicycleWithVelocity", "KinematicControllerWithRate",
+           "DynamicCompensatorWithRateInput", "SensorNoise"]

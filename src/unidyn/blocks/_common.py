@@ -70,3 +70,37 @@ def check_clock(clock, block_name: str):
         raise ValidationError(f"{block_name}: clock must be a bdsim Clock (e.g. "
                               f"bd.clock(0.1, name='controller')), got {clock!r}")
     return clock
+
+
+def check_fixed_blockargs(block, blockargs: dict) -> None:
+    """For a fixed-port block: raise a ValidationError naming the block type and the
+    keyword when ``blockargs`` holds anything but bdsim's naming and wiring options
+    (``name``, ``inputs``, ``inames``, ``onames``, ...). The port-changing options of
+    the parent class, and bdsim's ``nin``/``nout``, are refused: they would change
+    the ports that the class declares."""
+    import difflib
+    import inspect
+
+    cls = type(block)
+    common = set()
+    for k in cls.__mro__:
+        init = k.__dict__.get("__init__")
+        if init is not None and k.__module__.startswith("bdsim"):
+            common.update(n for n, p in inspect.signature(init).parameters.items()
+                          if n != "self" and p.kind not in (p.VAR_KEYWORD, p.VAR_POSITIONAL))
+    # options that set ports, states or the block's class are the class's own business
+    common &= {"name", "inputs", "bd", "pos", "inames", "onames"}
+    own = {n for n, p in inspect.signature(cls.__init__).parameters.items()
+           if n != "self" and p.kind not in (p.VAR_KEYWORD, p.VAR_POSITIONAL)}
+    unknown = sorted(set(blockargs) - common)
+    if unknown:
+        close = difflib.get_close_matches(unknown[0], sorted(own | common), n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise ValidationError(
+            f"{cls.__name__}: unknown keyword {unknown[0]!r}{hint}; it accepts "
+            f"{', '.join(sorted(own))} and bdsim's block options {', '.join(sorted(common))}")
+
+
+def optional_limit(name: str, value):
+    """A limit given as None (no limit) or a number: inf for None, else the number."""
+    return np.inf if value is None else value

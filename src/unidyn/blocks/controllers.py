@@ -3,14 +3,18 @@ compensator D (Eqs. 12, 14, 18, 20), continuous or sampled on a bdsim clock."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
-from bdsim.components import ContinuousBlock, FunctionBlock, SampledBlock
+from bdsim.components import Clock, ContinuousBlock, FunctionBlock, SampledBlock
 
 from unidyn import control, robots
 from unidyn.control import PAPER_GAMMA, PAPER_SIGMA
 from unidyn._validate import ValidationError, choice, flag, nonnegative, positive, positive_vector, vector
 
-from ._common import as_vector, check_blockargs, check_clock, check_finite
+from unidyn.parameters import RobotParameters
+
+from ._common import as_vector, check_blockargs, check_clock, check_finite, check_fixed_blockargs
 
 VD_DOT_CONTINUOUS = ("input", "filter")
 VD_DOT_SAMPLED = ("input", "difference")
@@ -87,7 +91,8 @@ class KinematicController(FunctionBlock):
     inlabels = ("h_d", "h_d_dot", "q")
     outlabels = ("v_d",)
 
-    def __init__(self, a=0.2, kx=0.1, ky=0.1, lx=0.1, ly=0.1, rate=False, **blockargs):
+    def __init__(self, a: float = 0.2, kx: float = 0.1, ky: float = 0.1, lx: float = 0.1,
+                 ly: float = 0.1, rate: bool = False, **blockargs):
         r"""
         :param a: distance from the axle centre to the controlled point h, m, > 0, defaults to 0.2
         :type a: float
@@ -177,7 +182,8 @@ class SampledKinematicController(SampledBlock):
     inlabels = ("h_d", "h_d_dot", "q")
     outlabels = ("v_d",)
 
-    def __init__(self, clock, a=0.2, kx=0.1, ky=0.1, lx=0.1, ly=0.1, v_d0=(0.0, 0.0),
+    def __init__(self, clock: Clock, a: float = 0.2, kx: float = 0.1, ky: float = 0.1,
+                 lx: float = 0.1, ly: float = 0.1, v_d0: Sequence[float] = (0.0, 0.0),
                  **blockargs):
         r"""
         :param clock: the controller's clock (name it)
@@ -308,9 +314,12 @@ class DynamicCompensator(ContinuousBlock):
     inlabels = ("v_d", "v")
     outlabels = ("v_r", "theta_hat")
 
-    def __init__(self, theta_hat0="p3dx_laser", ku=4.0, kw=4.0, lu=1.0, lw=1.0,
-                 adaptive=False, gamma=PAPER_GAMMA, sigma=PAPER_SIGMA, adapt_from=0.0,
-                 leakage="paper", vd_dot="filter", tau=0.05, **blockargs):
+    def __init__(self, theta_hat0: str | RobotParameters | Sequence[float] = "p3dx_laser",
+                 ku: float = 4.0, kw: float = 4.0, lu: float = 1.0, lw: float = 1.0,
+                 adaptive: bool = False, gamma: Sequence[float] = PAPER_GAMMA,
+                 sigma: Sequence[float] = PAPER_SIGMA, adapt_from: float = 0.0,
+                 leakage: str = "paper", vd_dot: str = "filter", tau: float = 0.05,
+                 **blockargs):
         r"""
         :param theta_hat0: initial (or fixed) estimate: robot name, ``RobotParameters``
             or six numbers, defaults to ``"p3dx_laser"``
@@ -447,9 +456,12 @@ class SampledDynamicCompensator(SampledBlock):
     inlabels = ("v_d", "v")
     outlabels = ("v_r", "theta_hat")
 
-    def __init__(self, clock, theta_hat0="p3dx_laser", ku=4.0, kw=4.0, lu=1.0, lw=1.0,
-                 adaptive=False, gamma=PAPER_GAMMA, sigma=PAPER_SIGMA, adapt_from=0.0,
-                 leakage="paper", vd_dot="difference", **blockargs):
+    def __init__(self, clock: Clock,
+                 theta_hat0: str | RobotParameters | Sequence[float] = "p3dx_laser",
+                 ku: float = 4.0, kw: float = 4.0, lu: float = 1.0, lw: float = 1.0,
+                 adaptive: bool = False, gamma: Sequence[float] = PAPER_GAMMA,
+                 sigma: Sequence[float] = PAPER_SIGMA, adapt_from: float = 0.0,
+                 leakage: str = "paper", vd_dot: str = "difference", **blockargs):
         r"""
         :param clock: the controller's clock (name it)
         :type clock: bdsim Clock
@@ -508,3 +520,188 @@ class SampledDynamicCompensator(SampledBlock):
         check_finite(v_r, self, "output v_r", t)
         check_finite(theta_next, self, "theta_hat", t)
         return np.r_[theta_next, v_r, v_d]
+
+
+class KinematicControllerWithRate(KinematicController):
+    r"""
+    :blockname:`KINEMATICCONTROLLERWITHRATE`
+
+    Kinematic controller K of Fig. 2, Eq. (10), with the exact rate of its output as a second output.
+
+    :inputs: 5
+    :outputs: 2
+    :states: 0
+
+    .. list-table::
+        :header-rows: 1
+
+        *   - Port type
+            - Port number
+            - Types
+            - Description
+        *   - Input
+            - 0
+            - ndarray(2)
+            - :math:`h_d`, desired position of the point of interest, m (label ``h_d``)
+        *   - Input
+            - 1
+            - ndarray(2)
+            - :math:`\dot h_d`, desired velocity, m/s (label ``h_d_dot``)
+        *   - Input
+            - 2
+            - ndarray(3)
+            - :math:`q = (x, y, \psi)`, measured pose of h (label ``q``)
+        *   - Input
+            - 3
+            - ndarray(2)
+            - :math:`\ddot h_d`, desired acceleration, m/s² (label ``h_d_ddot``)
+        *   - Input
+            - 4
+            - ndarray(2)
+            - :math:`v = (u, \omega)`, measured velocities, m/s and rad/s (label ``v``)
+        *   - Output
+            - 0
+            - ndarray(2)
+            - :math:`v_d = (u_d, \omega_d)`, desired velocities, m/s and rad/s (label ``v_d``)
+        *   - Output
+            - 1
+            - ndarray(2)
+            - :math:`\dot v_d`, their exact time derivative, m/s² and rad/s² (label ``v_d_dot``)
+
+    :class:`KinematicController` with ``rate=True``, as a block whose ports never
+    change (so that bdedit draws it). Output 0 is Eq. (10); output 1 is Eq. (10)
+    differentiated along the motion (:func:`unidyn.control.kinematic_control_rate`),
+    the :math:`\dot v_d` of the compensator's Eq. (12):
+
+    .. math::
+
+        v_d = \begin{bmatrix} \cos\psi & \sin\psi \\ -\frac{\sin\psi}{a} & \frac{\cos\psi}{a} \end{bmatrix}
+        \begin{bmatrix} \dot x_d + l_x \tanh(k_x \tilde x / l_x) \\
+                        \dot y_d + l_y \tanh(k_y \tilde y / l_y) \end{bmatrix} \qquad \text{Eq. (10)}
+
+    :seealso: :class:`KinematicController`, :class:`DynamicCompensatorWithRateInput`
+    """
+
+    nin = 5
+    nout = 2
+    inlabels = ("h_d", "h_d_dot", "q", "h_d_ddot", "v")
+    outlabels = ("v_d", "v_d_dot")
+
+    def __init__(self, a: float = 0.2, kx: float = 0.1, ky: float = 0.1, lx: float = 0.1,
+                 ly: float = 0.1, **blockargs):
+        r"""
+        :param a: distance from the axle centre to the controlled point h, m, > 0; 0.2 (default)
+        :type a: float
+        :param kx: gain on the x error, 1/s, > 0; 0.1 (default)
+        :type kx: float
+        :param ky: gain on the y error, 1/s, > 0; 0.1 (default)
+        :type ky: float
+        :param lx: saturation of the x correction, m/s, > 0; 0.1 (default)
+        :type lx: float
+        :param ly: saturation of the y correction, m/s, > 0; 0.1 (default)
+        :type ly: float
+        :param blockargs: common block options
+        :type blockargs: dict
+        """
+        check_fixed_blockargs(self, blockargs)
+        super().__init__(a=a, kx=kx, ky=ky, lx=lx, ly=ly, rate=True, **blockargs)
+
+
+class DynamicCompensatorWithRateInput(DynamicCompensator):
+    r"""
+    :blockname:`DYNAMICCOMPENSATORWITHRATEINPUT`
+
+    Dynamic compensation controller D of Fig. 2 (Eqs. 12, 14, 18, 20) taking the rate of v_d as an input.
+
+    :inputs: 3
+    :outputs: 2
+    :states: 6
+
+    .. list-table::
+        :header-rows: 1
+
+        *   - Port type
+            - Port number
+            - Types
+            - Description
+        *   - Input
+            - 0
+            - ndarray(2)
+            - :math:`v_d = (u_d, \omega_d)`, desired velocities from K, m/s and rad/s (label ``v_d``)
+        *   - Input
+            - 1
+            - ndarray(2)
+            - :math:`v = (u, \omega)`, measured velocities of the robot (label ``v``)
+        *   - Input
+            - 2
+            - ndarray(2)
+            - :math:`\dot v_d`, rate of the desired velocities, e.g. output 1 of
+              :class:`KinematicControllerWithRate` (label ``v_d_dot``)
+        *   - Output
+            - 0
+            - ndarray(2)
+            - :math:`v_r = (u_r, \omega_r)`, velocity commands for the robot (label ``v_r``)
+        *   - Output
+            - 1
+            - ndarray(6)
+            - :math:`\hat\theta`, current parameter estimate (label ``theta_hat``)
+
+    :class:`DynamicCompensator` with ``vd_dot="input"``, as a block whose ports
+    never change (so that bdedit draws it). The command is Eqs. (12)/(14),
+
+    .. math::
+
+        v_r = G\hat\theta, \quad
+        G = \begin{bmatrix} \sigma_1 & 0 & -\omega_d\omega & u_d & 0 & 0 \\
+            0 & \sigma_2 & u_d\omega - u\omega_d & 0 & u\omega_d & \omega_d \end{bmatrix}, \quad
+        \sigma = \dot v_d + L\tanh(K\tilde v / L), \quad \tilde v = v_d - v
+
+    with :math:`\hat\theta = \hat\theta_0` fixed (``adaptive=False``: exact
+    compensation when it equals the robot's theta, the paper's third simulation)
+    or, from ``t = adapt_from`` on, updated by Eq. (20) (``leakage="paper"``,
+    :math:`\dot{\hat\theta} = \gamma G^T\tilde v - \gamma\Sigma\hat\theta`), by the
+    form :math:`\gamma G^T\tilde v - \Sigma\hat\theta` (``"fx44850"``) or by Eq. (18)
+    without leakage (``"none"``): the paper's fourth simulation.
+
+    :seealso: :class:`DynamicCompensator`, :func:`unidyn.control.compensation`
+    """
+
+    nin = 3
+    nout = 2
+    inlabels = ("v_d", "v", "v_d_dot")
+    outlabels = ("v_r", "theta_hat")
+
+    def __init__(self, theta_hat0: str | RobotParameters | Sequence[float] = "p3dx_laser",
+                 ku: float = 4.0, kw: float = 4.0, lu: float = 1.0, lw: float = 1.0,
+                 adaptive: bool = False, gamma: Sequence[float] | None = None,
+                 sigma: Sequence[float] | None = None, adapt_from: float = 0.0,
+                 leakage: str = "paper", **blockargs):
+        r"""
+        :param theta_hat0: initial (or fixed) estimate: a robot preset name or six numbers, defaults to p3dx_laser
+        :type theta_hat0: str, RobotParameters or array_like(6)
+        :param ku: gain on the linear-velocity error, 1/s, > 0, defaults to 4
+        :type ku: float
+        :param kw: gain on the angular-velocity error, 1/s, > 0, defaults to 4
+        :type kw: float
+        :param lu: saturation of the linear correction, m/s², > 0, defaults to 1
+        :type lu: float
+        :param lw: saturation of the angular correction, rad/s², > 0, defaults to 1
+        :type lw: float
+        :param adaptive: update the estimate with Eq. (18)/(20), defaults to False
+        :type adaptive: bool
+        :param gamma: diagonal of the adaptation gain, six values > 0, or None for the paper's, defaults to None
+        :type gamma: array_like(6) or None
+        :param sigma: diagonal of the leakage gain Sigma, six values >= 0, or None for the paper's, defaults to None
+        :type sigma: array_like(6) or None
+        :param adapt_from: time the update is switched on, s, >= 0, defaults to 0
+        :type adapt_from: float
+        :param leakage: form of the leakage term: "paper" (Eq. 20), "fx44850" or "none" (Eq. 18), defaults to paper
+        :type leakage: str
+        :param blockargs: common block options
+        :type blockargs: dict
+        """
+        check_fixed_blockargs(self, blockargs)
+        super().__init__(theta_hat0=theta_hat0, ku=ku, kw=kw, lu=lu, lw=lw, adaptive=adaptive,
+                         gamma=PAPER_GAMMA if gamma is None else gamma,
+                         sigma=PAPER_SIGMA if sigma is None else sigma,
+                         adapt_from=adapt_from, leakage=leakage, vd_dot="input", **blockargs)

@@ -2,13 +2,18 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 from bdsim.components import ContinuousBlock
 
 from unidyn import model, robots
 from unidyn._validate import ValidationError, flag, positive, real, vector
+from unidyn.model import Limits
+from unidyn.parameters import RobotParameters
 
-from ._common import as_vector, check_blockargs, check_finite, limits_from_args
+from ._common import (as_vector, check_blockargs, check_finite, check_fixed_blockargs,
+                      limits_from_args, optional_limit)
 
 
 class DynamicUnicycle(ContinuousBlock):
@@ -85,9 +90,12 @@ class DynamicUnicycle(ContinuousBlock):
     inlabels = ("v", "ω")
     outlabels = ("q",)
 
-    def __init__(self, robot="p3dx_laser", a=0.0, x0=None, speed_max=np.inf,
-                 accel_max=np.inf, steer_max=np.inf, angular_accel_max=np.inf,
-                 limits=None, disturbance=False, velocity_output=False, w=None, **blockargs):
+    def __init__(self, robot: str | RobotParameters | Sequence[float] = "p3dx_laser",
+                 a: float = 0.0, x0: Sequence[float] | None = None, speed_max: float = np.inf,
+                 accel_max: float = np.inf, steer_max: float = np.inf,
+                 angular_accel_max: float = np.inf, limits: Limits | None = None,
+                 disturbance: bool = False, velocity_output: bool = False,
+                 w: float | None = None, **blockargs):
         r"""
         :param robot: preset name (see ``unidyn.robots.names()``), ``RobotParameters``
             or six numbers theta1..theta6, defaults to ``"p3dx_laser"``
@@ -214,8 +222,9 @@ class KinematicUnicycle(ContinuousBlock):
     inlabels = ("v", "ω")
     outlabels = ("q",)
 
-    def __init__(self, a=0.0, x0=None, speed_max=np.inf, steer_max=np.inf, limits=None,
-                 **blockargs):
+    def __init__(self, a: float = 0.0, x0: Sequence[float] | None = None,
+                 speed_max: float = np.inf, steer_max: float = np.inf,
+                 limits: Limits | None = None, **blockargs):
         r"""
         :param a: distance from the axle centre to the point of interest h, m, >= 0, defaults to 0
         :type a: float
@@ -252,3 +261,94 @@ class KinematicUnicycle(ContinuousBlock):
 
     def output(self, t, inports, x):
         return [np.array(x[0:3])]
+
+
+class DynamicUnicycleWithVelocity(DynamicUnicycle):
+    r"""
+    :blockname:`DYNAMICUNICYCLEWITHVELOCITY`
+
+    Dynamic unicycle of Eqs. (1)-(2) with its actual velocities as a second output (robot R of Fig. 2).
+
+    :inputs: 2
+    :outputs: 2
+    :states: 5
+
+    .. list-table::
+        :header-rows: 1
+
+        *   - Port type
+            - Port number
+            - Types
+            - Description
+        *   - Input
+            - 0
+            - float
+            - :math:`u_{ref}`, linear velocity command, m/s (label ``v``)
+        *   - Input
+            - 1
+            - float
+            - :math:`\omega_{ref}`, angular velocity command, rad/s (label ``ω``)
+        *   - Output
+            - 0
+            - ndarray(3)
+            - :math:`q = (x, y, \psi)`, pose of the point of interest h, m and rad (label ``q``)
+        *   - Output
+            - 1
+            - ndarray(2)
+            - :math:`v = (u, \omega)`, actual velocities, m/s and rad/s (label ``velocity``)
+
+    :class:`DynamicUnicycle` with ``velocity_output=True``, as a block whose ports
+    never change (so that bdedit draws it): the robot R of the paper's Fig. 2,
+    whose velocities are fed back to the kinematic controller and to the
+    dynamic compensator.
+
+    .. math::
+
+        \dot x = u\cos\psi - a\omega\sin\psi, \quad
+        \dot y = u\sin\psi + a\omega\cos\psi, \quad
+        \dot\psi = \omega \qquad \text{Eq. (1)} \\
+        \dot u = \frac{\theta_3}{\theta_1}\omega^2 - \frac{\theta_4}{\theta_1}u
+                 + \frac{u_{ref}}{\theta_1}, \quad
+        \dot\omega = -\frac{\theta_5}{\theta_2}u\omega - \frac{\theta_6}{\theta_2}\omega
+                 + \frac{\omega_{ref}}{\theta_2} \qquad \text{Eq. (2)}
+
+    A limit left at None is no limit.
+
+    :seealso: :class:`DynamicUnicycle`, :func:`unidyn.model.unicycle_deriv`
+    """
+
+    nin = 2
+    nout = 2
+    inlabels = ("v", "ω")
+    outlabels = ("q", "velocity")
+
+    def __init__(self, robot: str | RobotParameters | Sequence[float] = "p3dx_laser",
+                 a: float = 0.0, x0: Sequence[float] = (0.0, 0.0, 0.0),
+                 speed_max: float | None = None, accel_max: float | None = None,
+                 steer_max: float | None = None, angular_accel_max: float | None = None,
+                 **blockargs):
+        r"""
+        :param robot: preset name (``unidyn.robots.names()``) or six numbers theta1..theta6, defaults to p3dx_laser
+        :type robot: str, RobotParameters or array_like(6)
+        :param a: distance from the axle centre to the point of interest h, m, >= 0, defaults to 0
+        :type a: float
+        :param x0: initial pose (x, y, psi) with the robot at rest, or state (x, y, psi, u, w), defaults to (0, 0, 0)
+        :type x0: array_like(3) or array_like(5)
+        :param speed_max: max \|u\|, m/s, > 0, or None for no limit, defaults to None
+        :type speed_max: float or None
+        :param accel_max: max \|u'\|, m/s², > 0, or None for no limit, defaults to None
+        :type accel_max: float or None
+        :param steer_max: max \|w\|, rad/s, > 0, or None for no limit, defaults to None
+        :type steer_max: float or None
+        :param angular_accel_max: max \|w'\|, rad/s², > 0, or None for no limit, defaults to None
+        :type angular_accel_max: float or None
+        :param blockargs: common block options (``name``, ``inputs``, ...)
+        :type blockargs: dict
+        """
+        check_fixed_blockargs(self, blockargs)
+        super().__init__(robot=robot, a=a, x0=x0,
+                         speed_max=optional_limit("speed_max", speed_max),
+                         accel_max=optional_limit("accel_max", accel_max),
+                         steer_max=optional_limit("steer_max", steer_max),
+                         angular_accel_max=optional_limit("angular_accel_max", angular_accel_max),
+                         velocity_output=True, **blockargs)

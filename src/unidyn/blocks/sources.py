@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
+
 import numpy as np
-from bdsim.components import SampledBlock, SourceBlock
+from bdsim.components import Clock, SampledBlock, SourceBlock
 
 from unidyn import trajectories as traj
-from unidyn._validate import ValidationError, nonnegative, vector
+from unidyn._validate import ValidationError, integer, nonnegative, positive, vector
 
-from ._common import check_blockargs, check_clock
+from ._common import check_blockargs, check_clock, check_fixed_blockargs
 
 class TrajectorySource(SourceBlock):
     r"""
@@ -51,7 +53,8 @@ class TrajectorySource(SourceBlock):
     nout = 3
     outlabels = ("h_d", "h_d_dot", "h_d_ddot")
 
-    def __init__(self, trajectory, acceleration=None, **blockargs):
+    def __init__(self, trajectory: traj.Trajectory | dict | Callable,
+                 acceleration: Callable | None = None, **blockargs):
         r"""
         :param trajectory: a Trajectory, a trajectory spec dict, or a callable t -> (h_d, h_d_dot)
         :type trajectory: Trajectory, dict or callable
@@ -115,7 +118,8 @@ class FigureEight(TrajectorySource):
     nout = 3
     outlabels = ("h_d", "h_d_dot", "h_d_ddot")
 
-    def __init__(self, ax=1.0, ay=1.0, wx=0.5, wy=0.25, center=(0.0, 0.0), **blockargs):
+    def __init__(self, ax: float = 1.0, ay: float = 1.0, wx: float = 0.5, wy: float = 0.25,
+                 center: Sequence[float] = (0.0, 0.0), **blockargs):
         r"""
         :param ax: x amplitude, m, > 0
         :type ax: float
@@ -172,7 +176,8 @@ class Circle(TrajectorySource):
     nout = 3
     outlabels = ("h_d", "h_d_dot", "h_d_ddot")
 
-    def __init__(self, radius=1.0, omega=0.2, center=(0.0, 0.0), phase=0.0, **blockargs):
+    def __init__(self, radius: float = 1.0, omega: float = 0.2,
+                 center: Sequence[float] = (0.0, 0.0), phase: float = 0.0, **blockargs):
         r"""
         :param radius: R, m, > 0
         :type radius: float
@@ -227,7 +232,8 @@ class Line(TrajectorySource):
     nout = 3
     outlabels = ("h_d", "h_d_dot", "h_d_ddot")
 
-    def __init__(self, start=(0.0, 0.0), velocity=(0.2, 0.0), **blockargs):
+    def __init__(self, start: Sequence[float] = (0.0, 0.0),
+                 velocity: Sequence[float] = (0.2, 0.0), **blockargs):
         r"""
         :param start: p_0, m
         :type start: array_like(2)
@@ -286,7 +292,9 @@ class MeasurementNoise(SampledBlock):
     inlabels = ("s",)
     outlabels = ("s_meas",)
 
-    def __init__(self, clock, std=0.01, seed=0, indices=(0, 1), **blockargs):
+    def __init__(self, clock: Clock, std: float = 0.01,
+                 seed: int | np.random.SeedSequence = 0, indices: Sequence[int] = (0, 1),
+                 **blockargs):
         r"""
         :param clock: the sampling clock (name it)
         :type clock: bdsim Clock
@@ -334,3 +342,97 @@ class MeasurementNoise(SampledBlock):
 
     def next(self, t, inports, x):
         return self.std * self._rng.standard_normal(len(self.indices))
+
+
+class SensorNoise(MeasurementNoise):
+    r"""
+    :blockname:`SENSORNOISE`
+
+    Seeded white noise held over each sample period, on a clock of the diagram found (or made) by name.
+
+    :inputs: 1
+    :outputs: 1
+    :states: len(indices) (discrete)
+
+    .. list-table::
+        :header-rows: 1
+
+        *   - Port type
+            - Port number
+            - Types
+            - Description
+        *   - Input
+            - 0
+            - ndarray(n)
+            - :math:`s`, the true signal (label ``s``)
+        *   - Output
+            - 0
+            - ndarray(n)
+            - :math:`s + \eta`, the measured signal (label ``s_meas``)
+
+    :class:`MeasurementNoise` whose clock is given by its period ``Ts`` and its
+    name, so that the block can be drawn in bdedit and loaded from a ``.bd`` file
+    (which cannot hold a bdsim clock): the first block naming a clock creates it in
+    its diagram, later blocks naming it share it (a clock of that name with another
+    period is an error). The noise of the paper's Section 5: a new draw
+    ``std * rng.standard_normal(len(indices))`` at every tick (the first tick is at
+    t = Ts; the first draw is held over [0, Ts)), added to the components
+    ``indices``, the others passed unchanged.
+
+    The generator is ``numpy.random.default_rng`` of ``seed``, or with ``stream = k``
+    of the k-th stream spawned from ``seed``
+    (``numpy.random.SeedSequence(seed, spawn_key=(k,))``): the streams of
+    :func:`unidyn.noise.noise_seeds`, 0 for the position and 1 for the velocity
+    noise of a run with that seed.
+
+    .. math:: s_{meas}(t) = s(t) + \eta_k, \quad t_k \le t < t_{k+1}
+    """
+
+    nin = 1
+    nout = 1
+    inlabels = ("s",)
+    outlabels = ("s_meas",)
+
+    def __init__(self, Ts: float = 0.1, clock_name: str = "sensor", std: float = 0.01,
+                 seed: int | np.random.SeedSequence = 0, stream: int | None = None,
+                 indices: Sequence[int] = (0, 1), **blockargs):
+        r"""
+        :param Ts: sample period of the clock, s, > 0; 0.1 (default)
+        :type Ts: float
+        :param clock_name: name of the clock, shared by the blocks that name it, defaults to sensor
+        :type clock_name: str
+        :param std: standard deviation, in the signal's unit, >= 0; 0.01 (default)
+        :type std: float
+        :param seed: seed of the generator (int >= 0, or a numpy SeedSequence), defaults to 0
+        :type seed: int
+        :param stream: None to seed the generator with seed, or k >= 0 for the k-th stream spawned from seed, defaults to None
+        :type stream: int or None
+        :param indices: components of the input that get noise, defaults to (0, 1)
+        :type indices: array_like
+        :param blockargs: common block options
+        :type blockargs: dict
+        """
+        check_fixed_blockargs(self, blockargs)
+        Ts = positive("Ts", Ts)
+        if not isinstance(clock_name, str) or not clock_name:
+            raise ValidationError(f"SensorNoise: clock_name must be a non-empty string, got {clock_name!r}")
+        if stream is not None:
+            stream = integer("stream", stream, 0)
+            if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+                raise ValidationError(f"SensorNoise: with a stream, seed must be an integer >= 0, got {seed!r}")
+            seed = np.random.SeedSequence(int(seed), spawn_key=(stream,))
+        self.Ts = Ts
+        self.clock_name = clock_name
+        self.stream = stream
+        bd = blockargs.get("bd")
+        if bd is None:
+            raise ValidationError("SensorNoise: needs the block diagram to find or make its clock "
+                                  "(create it as bd.SENSORNOISE(...), or pass bd=)")
+        clock = next((c for c in bd.clocklist if c.name == clock_name), None)
+        if clock is None:
+            clock = bd.clock(Ts, name=clock_name)
+        elif not np.isclose(clock.T, Ts, rtol=1e-12, atol=0.0) or clock.offset != 0:
+            raise ValidationError(
+                f"SensorNoise: the diagram's clock {clock_name!r} has period {clock.T:g} s "
+                f"(offset {clock.offset:g} s), not Ts = {Ts:g} s; name another clock")
+        super().__init__(clock, std=std, seed=seed, indices=indices, **blockargs)
