@@ -123,6 +123,38 @@ print(len(r.t), base, run, rss())
 """
 
 
+def rhs_rows():
+    """One right-hand side of the loop (unidyn.equations.loop_derivative) per run: compiled,
+    one run at a time (what the engine does), against numpy over 20,000 runs at once
+    (runs as the vectorised dimension), on one core."""
+    from unidyn import equations as eq
+    loop = ClosedLoop([Scenario.paper(4, T=1.0, noise=None)])
+    rng = np.random.default_rng(0)
+    B = 20000
+    X = (np.repeat(loop.initial_state(), B, axis=0) + rng.normal(scale=0.1, size=(B, 13)))
+    P = np.repeat(loop.P, B, axis=0)
+    noise = (0.0, 0.0, 0.0, 0.0)
+    n = 200
+    dX = np.empty(13)
+    _kernels.rhs(0.5, X[0], P[0], noise, dX)
+    import numba
+
+    @numba.njit
+    def compiled(X, P, dX):
+        for i in range(X.shape[0]):
+            _kernels.rhs(0.5, X[i], P[i], noise, dX)
+    compiled(X[:2], P[:2], dX)
+    t_c, _ = timed(lambda: compiled(X, P, dX), repeat=5)
+    Xt, Pt, dXt = X.T.copy(), P.T.copy(), np.empty((13, B))
+    ref = tuple(loop._reference_tuple(0.5)[j].repeat(B) for j in range(6))
+    t_v, _ = timed(lambda: eq.loop_derivative(0.5, Xt, ref, Pt, noise, dXt), repeat=5)
+    del n
+    return [("one right-hand side, compiled, one run at a time (per run)", t_c / B,
+             f"{t_c / B * 1e9:.0f} ns; an RK4 run-step is 4 of them"),
+            ("one right-hand side, numpy, 20,000 runs at once (per run)", t_v / B,
+             f"{t_v / B * 1e9:.0f} ns: runs as the vectorised dimension, with its temporaries")]
+
+
 def memory_table():
     """Peak resident memory of long single runs, each in a fresh interpreter."""
     cases = [(1e5, 1), (1e5, 10)]  # (T, log_every) at Ts = 0.1 s: a million samples each
@@ -171,9 +203,18 @@ def main(argv=None):
     n_pts = len(scs)
     batch_res = None
     if _kernels.AVAILABLE:
-        t_sweep, batch_res = timed(lambda: simulate_batch(scs, backend="numba"))
-        rows.append((f"Fig. 11 sweep ({n_pts} runs x 250 s), batch engine, numba", t_sweep,
-                     f"{DEFAULT_SUBSTEPS} RK4 substeps per 0.1 s, {os.cpu_count()} threads"))
+        times = []
+        for _ in range(5):
+            t, batch_res = timed(lambda: simulate_batch(scs, backend="numba", progress=False))
+            times.append(t)
+        t_sweep = float(np.median(times))
+        run_steps = sum(r.substeps * len(r.t) for r in batch_res)
+        ns = t_sweep / run_steps * 1e9 * min(os.cpu_count() or 1, n_pts)
+        rows.append((f"Fig. 11 sweep ({n_pts} runs x 250 s), batch engine, numba, median of 5",
+                     t_sweep, f"{run_steps / 1e6:.1f} M RK4 run-steps ({DEFAULT_SUBSTEPS} to "
+                     f"{max(r.substeps for r in batch_res)} per 0.1 s): {ns:.0f} ns per run-step "
+                     f"per core, {os.cpu_count()} threads"))
+        rows += rhs_rows()
     sample = np.unique(np.linspace(0, n_pts - 1, 4 if args.quick else 12).round().astype(int))
     t_sample, diag_res = timed(lambda: [unidyn.simulate(scs[i]) for i in sample])
     per_point = t_sample / len(sample)

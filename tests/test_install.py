@@ -129,6 +129,9 @@ def test_regular_install_finds_blocks_with_no_extra_step(tmp_path):
     assert r.returncode == 0, r.stderr
     assert (site / "unidyn-bdsim.pth").is_file()
     assert (site / "unidyn" / "blocks" / "robots.py").is_file()
+    # bdedit's palette icons are package data
+    icons = {p.name for p in (ROOT / "src" / "unidyn" / "blocks" / "Icons").glob("*.png")}
+    assert icons and icons == {p.name for p in (site / "unidyn" / "blocks" / "Icons").glob("*.png")}
     # a site dir processes .pth files as site-packages does at start-up; the
     # editable install's finder is removed so only the wheel's copy is visible
     code = f"""

@@ -41,7 +41,7 @@ ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 LANGS = ("python", "sh", "toml", "csv")
 #: substrings of commands that take more than a few seconds
-SLOW = ("--paper-fig11", "--engine bdsim", "paper_section5.py")
+SLOW = ("--paper-fig11", "--engine bdsim", "paper_section5.py", "bdrun")
 TIMEOUT = 600
 
 
@@ -222,6 +222,8 @@ def _translate(words):
     cmd, args = words[0], words[1:]
     if cmd == "unidyn":
         return "run", [sys.executable, "-m", "unidyn", *args], env
+    if cmd == "bdrun":  # bdsim's runner of .bd files, installed beside this interpreter
+        return "run", [str(Path(sys.executable).with_name("bdrun")), *args], env
     if cmd in ("python3", "python") and args[:2] == ["-m", "venv"]:
         return "venv", args, env
     if cmd in (".venv/bin/pip", "pip"):
