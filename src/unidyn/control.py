@@ -12,6 +12,7 @@ import numpy as np
 
 from . import equations as eq
 from .equations import SWITCH_TOL
+from .model import _pair
 
 __all__ = ["kinematic_control", "kinematic_control_rate", "compensation_regressor",
            "compensation", "adaptation_rate", "leakage_rate", "LEAKAGE_FORMS", "PAPER_GAMMA",
@@ -31,15 +32,6 @@ PAPER_SIGMA = (0.0005, 0.001, 0.001, 0.00006, 0.001, 0.001)
 def adaptation_on(t, adapt_from):
     """Whether the update law is switched on at time t (see :data:`SWITCH_TOL`)."""
     return t >= adapt_from - SWITCH_TOL
-
-
-def _pair(x, y):
-    """Two arrays of broadcastable shapes stacked into shape + (2,)."""
-    x, y = np.broadcast_arrays(x, y)
-    out = np.empty(x.shape + (2,))
-    out[..., 0] = x
-    out[..., 1] = y
-    return out
 
 
 def _xy(v):
