@@ -764,3 +764,14 @@ def test_controller_batch_calls_equal_single_calls():
         np.testing.assert_allclose(VR[i], control.compensation(Gi, th_hat[i]), rtol=1e-14)
         np.testing.assert_allclose(AR[i], control.adaptation_rate(Gi, v_d[i] - v[i], th_hat[i],
                                                                   GAMMA, SIGMA), rtol=1e-14)
+
+
+@pytest.mark.parametrize("seed,std,n,dim", [(0, 0.01, 2501, 2), (7, 0.0141, 999, 2), (3, 1.0, 17, 3)])
+def test_held_noise_is_the_tick_by_tick_draws_of_the_noise_block(seed, std, n, dim):
+    """noise.held_sequence draws all rows at once; the noise block draws one row per
+    clock tick from the same generator: the numbers must be the same, in order."""
+    from unidyn.noise import held_sequence, noise_seeds
+    pos_seed, _ = noise_seeds(seed)
+    rng = np.random.default_rng(pos_seed)
+    tick_by_tick = np.array([std * rng.standard_normal(dim) for _ in range(n)])
+    np.testing.assert_array_equal(held_sequence(pos_seed, std, n, dim), tick_by_tick)

@@ -3,9 +3,9 @@ equations (:mod:`unidyn.equations`), and the same function as plain Python where
 numba is absent (``pip install unidyn[fast]`` for the compiled one).
 
 Every public function of :mod:`unidyn.equations` is registered with numba's
-``register_jitable``: it stays the plain function for Python callers and becomes
-compilable inside compiled code, so the engines compile the equations the rest of
-the library runs, not a copy of them.
+``register_jitable`` (inlined into its callers): it stays the plain function for
+Python callers and becomes compilable inside compiled code, so the engines compile
+the equations the rest of the library runs, not a copy of them.
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ if AVAILABLE:
         _f = getattr(equations, _name)
         if (callable(_f) and getattr(_f, "__module__", None) == equations.__name__
                 and _f is not equations.select):
-            register_jitable(_f)
+            register_jitable(inline="always")(_f)
 
     @overload(equations.select)
     def _select(condition, a, b):
@@ -76,13 +76,19 @@ if AVAILABLE:
     _invalidate_stale_cache()
 
 
-def jit(f=None, *, parallel: bool = False):
-    """``numba.njit(cache=True, nogil=True)`` of f (``parallel=True``: numba's
-    threads over ``numba.prange``); f itself without numba."""
+def jit(f=None, *, parallel: bool = False, inline: bool = False):
+    """``numba.njit(cache=True, nogil=True)`` of f; f itself without numba.
+
+    ``parallel=True``: numba's threads over ``numba.prange``; ``inline=True``: f is
+    inlined into its compiled callers (as the equations are), which saves a call
+    with reference counting of its array arguments at every right-hand side.
+    Division by zero gives inf or NaN as in numpy (``error_model="numpy"``), which the
+    engines' checks for non-finite states then report."""
     def wrap(g):
         if not AVAILABLE:
             return g
-        return numba.njit(cache=True, nogil=True, parallel=parallel)(g)
+        return numba.njit(cache=True, nogil=True, parallel=parallel, error_model="numpy",
+                          inline="always" if inline else "never")(g)
     return wrap if f is None else wrap(f)
 
 

@@ -28,7 +28,7 @@ __all__ = ["AVAILABLE", "reference", "rhs", "run_batch", "start", "OK", "NONFINI
 NSTATE = len(eq.STATE)
 
 
-@jit
+@jit(inline=True)
 def reference(t, p):
     """(x_d, y_d, x_d', y_d', x_d'', y_d'') of the run with parameters p at time t."""
     kind = p[P.trajectory]
@@ -40,7 +40,7 @@ def reference(t, p):
     return eq.line(t, p[P.path1], p[P.path2], p[P.path3], p[P.path4])
 
 
-@jit
+@jit(inline=True)
 def rhs(t, X, p, noise, dX):
     """dX/dt of one run (X, dX: (13,), p: a row of the parameter table)."""
     eq.loop_derivative(t, X, reference(t, p), p, noise, dX)

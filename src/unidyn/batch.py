@@ -294,12 +294,19 @@ def _integrate_numba(run: _Run, bar):
     per_thread = -(-B // max(1, min(B, os.cpu_count() or 1)))
     S = max(1, SLICE_STEPS // (int(run.m.max()) * per_thread))
     k = 0
-    while k < n and (run.status == _kernels.OK).any():
-        k1 = min(n, k + S)
-        _kernels.run_batch(X, P, loop.pos_noise, loop.vel_noise, float(loop.Ts), k, k1, n,
-                           run.m, run.L, run.bounds, run.Xs, run.SIG, run.status, run.last)
-        bar.advance(k1 - k)
-        k = k1
+    import numba
+    # runs differ in cost (their steps per sample): hand them to the threads one at a
+    # time, not in two contiguous halves (the sweep's high gains would all fall to one)
+    previous = numba.set_parallel_chunksize(1)
+    try:
+        while k < n and (run.status == _kernels.OK).any():
+            k1 = min(n, k + S)
+            _kernels.run_batch(X, P, loop.pos_noise, loop.vel_noise, float(loop.Ts), k, k1, n,
+                               run.m, run.L, run.bounds, run.Xs, run.SIG, run.status, run.last)
+            bar.advance(k1 - k)
+            k = k1
+    finally:
+        numba.set_parallel_chunksize(previous)
 
 
 def _integrate(run: _Run, m: int, bar):
