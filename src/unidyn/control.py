@@ -12,7 +12,7 @@ import numpy as np
 
 from . import equations as eq
 from .equations import SWITCH_TOL
-from .model import _pair
+from .model import _join, _pair, _parts, _scalar
 
 __all__ = ["kinematic_control", "kinematic_control_rate", "compensation_regressor",
            "compensation", "adaptation_rate", "leakage_rate", "LEAKAGE_FORMS", "PAPER_GAMMA",
@@ -32,11 +32,6 @@ PAPER_SIGMA = (0.0005, 0.001, 0.001, 0.00006, 0.001, 0.001)
 def adaptation_on(t, adapt_from):
     """Whether the update law is switched on at time t (see :data:`SWITCH_TOL`)."""
     return t >= adapt_from - SWITCH_TOL
-
-
-def _xy(v):
-    v = np.asarray(v, dtype=float)
-    return v[..., 0], v[..., 1]
 
 
 def kinematic_control(h_d, h_d_dot, h, psi, a, k, l):
@@ -59,9 +54,8 @@ def kinematic_control(h_d, h_d_dot, h, psi, a, k, l):
     :param l: saturation constants [l_x, l_y], m/s
     :return: v_d = [u_d, w_d], shape ``(..., 2)``
     """
-    (kx, ky), (lx, ly) = _xy(k), _xy(l)
-    return _pair(*eq.kinematic_law(*_xy(h_d), *_xy(h_d_dot), *_xy(h), np.asarray(psi, float),
-                                   a, kx, ky, lx, ly))
+    return _pair(*eq.kinematic_law(*_parts(h_d), *_parts(h_d_dot), *_parts(h), _scalar(psi),
+                                   a, *_parts(k, 2), *_parts(l, 2)))
 
 
 def kinematic_control_rate(h_d, h_d_dot, h_d_ddot, h, psi, v, a, k, l):
@@ -78,9 +72,8 @@ def kinematic_control_rate(h_d, h_d_dot, h_d_ddot, h, psi, v, a, k, l):
     :param v: the robot's actual (or measured) velocities [u, w], shape ``(..., 2)``
     :return: [u_d', w_d'], shape ``(..., 2)``
     """
-    (kx, ky), (lx, ly) = _xy(k), _xy(l)
-    out = eq.kinematic_law_rate(*_xy(h_d), *_xy(h_d_dot), *_xy(h_d_ddot), *_xy(h),
-                                np.asarray(psi, float), *_xy(v), a, kx, ky, lx, ly)
+    out = eq.kinematic_law_rate(*_parts(h_d), *_parts(h_d_dot), *_parts(h_d_ddot), *_parts(h),
+                                _scalar(psi), *_parts(v), a, *_parts(k, 2), *_parts(l, 2))
     return _pair(out[2], out[3])
 
 
@@ -103,19 +96,16 @@ def compensation_regressor(v_d, v_d_dot, v, k, l):
     :param l: saturation constants [l_u, l_w]
     :return: G, shape ``(..., 2, 6)``
     """
-    (ku, kw), (lu, lw) = _xy(k), _xy(l)
-    entries = np.broadcast_arrays(*eq.compensation_regressor(*_xy(v_d), *_xy(v_d_dot), *_xy(v),
-                                                             ku, kw, lu, lw))
-    return np.stack(entries, axis=-1).reshape(entries[0].shape + (2, 6))
+    G = _join(*eq.compensation_regressor(*_parts(v_d), *_parts(v_d_dot), *_parts(v),
+                                         *_parts(k, 2), *_parts(l, 2)))
+    return G.reshape(G.shape[:-1] + (2, 6))
 
 
 def compensation(G, theta_hat):
     r"""The compensator's command, Eq. (12) in the linear form of Eq. (14):
     :math:`v_r = G\hat\theta`, shape ``(..., 2)``."""
     G = np.asarray(G, dtype=float)
-    th = np.asarray(theta_hat, dtype=float)
-    entries = [G[..., i, j] for i in range(2) for j in range(6)]
-    return _pair(*eq.compensation(entries, [th[..., j] for j in range(6)]))
+    return _pair(*eq.compensation(_parts(G.reshape(G.shape[:-2] + (12,))), _parts(theta_hat)))
 
 
 def leakage_rate(gamma, sigma, leakage="paper"):
@@ -150,16 +140,9 @@ def adaptation_rate(G, v_tilde, theta_hat, gamma, sigma, leakage="paper"):
     :param gamma: diagonal of the adaptation gain, shape ``(6,)``
     :param sigma: diagonal of the leakage gain Sigma, shape ``(6,)``
     """
-    gamma = np.asarray(gamma, dtype=float)
-    leak = leakage_rate(gamma, sigma, leakage)
+    leak = _parts(leakage_rate(gamma, sigma, leakage), 6)
     G = np.asarray(G, dtype=float)
-    v_tilde = np.asarray(v_tilde, dtype=float)
-    theta_hat = np.asarray(theta_hat, dtype=float)
-    shape = np.broadcast_shapes(G.shape[:-2], v_tilde.shape[:-1], theta_hat.shape[:-1],
-                                gamma.shape[:-1])
-    out = np.empty(shape + (6,))
-    for j in range(6):
-        out[..., j] = eq.update_rate(G[..., 0, j], G[..., 1, j], v_tilde[..., 0],
-                                     v_tilde[..., 1], gamma[..., j], leak[..., j],
-                                     theta_hat[..., j])
-    return out
+    g = _parts(G.reshape(G.shape[:-2] + (12,)))
+    ut, wt = _parts(v_tilde)
+    return _join(*(eq.update_rate(g[j], g[6 + j], ut, wt, gj, leak[j], th)
+                   for j, (gj, th) in enumerate(zip(_parts(gamma, 6), _parts(theta_hat)))))

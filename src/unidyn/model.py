@@ -85,19 +85,45 @@ PAPER_LIMITS = Limits(0.75, 1.745, 0.3, 1.745)
 NO_LIMITS = Limits()
 
 
-def _pair(x, y):
-    """Two arrays of broadcastable shapes stacked into shape + (2,)."""
-    x, y = np.broadcast_arrays(x, y)
-    out = np.empty(x.shape + (2,))
-    out[..., 0] = x
-    out[..., 1] = y
+def _parts(a, n=None):
+    """The components of ``a`` along its last axis: Python floats for a single vector
+    (arithmetic on them is several times faster than on numpy scalars, which matters
+    in the blocks, called once per solver stage), else arrays. A scalar stands for
+    ``n`` equal components where n is given."""
+    a = np.asarray(a, dtype=float)
+    if a.ndim == 0 and n is not None:
+        return [float(a)] * n
+    if a.ndim == 1:
+        return a.tolist()
+    return [a[..., i] for i in range(a.shape[-1])]
+
+
+def _scalar(x):
+    """A float for a scalar (including a 0-d array), else an array."""
+    if isinstance(x, float):
+        return x
+    x = np.asarray(x, dtype=float)
+    return float(x) if x.ndim == 0 else x
+
+
+def _join(*parts):
+    """Components stacked along a new last axis, broadcasting them."""
+    if all(isinstance(p, float) for p in parts):
+        return np.array(parts)
+    arrays = np.broadcast_arrays(*parts)
+    out = np.empty(arrays[0].shape + (len(parts),))
+    for i, p in enumerate(arrays):
+        out[..., i] = p
     return out
 
 
+def _pair(x, y):
+    """Two components stacked into shape + (2,)."""
+    return _join(x, y)
+
+
 def _th(theta):
-    theta = np.asarray(theta, dtype=float)
-    return (theta[..., 0], theta[..., 1], theta[..., 2],
-            theta[..., 3], theta[..., 4], theta[..., 5])
+    return tuple(_parts(theta))
 
 
 def point_velocity(psi, v, a):
@@ -110,8 +136,7 @@ def point_velocity(psi, v, a):
     :param a: offset of h ahead of the axle centre, m
     :return: [x', y'], shape ``(..., 2)``
     """
-    v = np.asarray(v, dtype=float)
-    return _pair(*eq.point_velocity(np.asarray(psi, dtype=float), v[..., 0], v[..., 1], a))
+    return _pair(*eq.point_velocity(_scalar(psi), *_parts(v), a))
 
 
 def kinematics(x, a):
@@ -138,10 +163,7 @@ def dynamics(v, v_ref, theta):
         \dot u = \frac{\theta_3}{\theta_1} w^2 - \frac{\theta_4}{\theta_1} u + \frac{u_{ref}}{\theta_1},\quad
         \dot w = -\frac{\theta_5}{\theta_2} u w - \frac{\theta_6}{\theta_2} w + \frac{w_{ref}}{\theta_2}
     """
-    v = np.asarray(v, dtype=float)
-    v_ref = np.asarray(v_ref, dtype=float)
-    return _pair(*eq.robot_acceleration(v[..., 0], v[..., 1], v_ref[..., 0], v_ref[..., 1],
-                                        *_th(theta)))
+    return _pair(*eq.robot_acceleration(*_parts(v), *_parts(v_ref), *_th(theta)))
 
 
 def inertia(theta):
@@ -192,11 +214,8 @@ def regressor(v, v_dot):
 
     :return: shape ``(..., 2, 6)``
     """
-    v = np.asarray(v, dtype=float)
-    v_dot = np.asarray(v_dot, dtype=float)
-    entries = np.broadcast_arrays(*eq.dynamics_regressor(v[..., 0], v[..., 1], v_dot[..., 0],
-                                                         v_dot[..., 1]))
-    return np.stack(entries, axis=-1).reshape(entries[0].shape + (2, 6))
+    Y = _join(*eq.dynamics_regressor(*_parts(v), *_parts(v_dot)))
+    return Y.reshape(Y.shape[:-1] + (2, 6))
 
 
 def storage(v, theta):
@@ -209,8 +228,8 @@ def storage(v, theta):
 def _limit_velocity_rate(v, vdot, limits: Limits):
     """Clip accelerations, and stop a velocity already at its speed limit from growing
     (:func:`unidyn.equations.limited_acceleration`)."""
-    return _pair(*eq.limited_acceleration(v[..., 0], v[..., 1], vdot[..., 0], vdot[..., 1],
-                                          *limits.speed, *limits.accel))
+    return _pair(*eq.limited_acceleration(*_parts(v), *_parts(vdot), *limits.speed.tolist(),
+                                          *limits.accel.tolist()))
 
 
 def unicycle_deriv(x, v_ref, theta, a, limits: Limits = NO_LIMITS, delta=None):
@@ -231,7 +250,7 @@ def unicycle_deriv(x, v_ref, theta, a, limits: Limits = NO_LIMITS, delta=None):
     v_ref = np.asarray(v_ref, dtype=float)
     v = x[..., 3:5]
     if limits.active:
-        v_ref = _pair(*(eq.saturate(v_ref[..., i], limits.speed[i]) for i in range(2)))
+        v_ref = _pair(*(eq.saturate(c, m) for c, m in zip(_parts(v_ref), limits.speed.tolist())))
     vdot = dynamics(v, v_ref, theta)
     out = np.empty(np.broadcast_shapes(x.shape[:-1], vdot.shape[:-1]) + (5,))
     out[..., 0:3] = kinematics(x, a)
@@ -256,6 +275,6 @@ def kinematic_unicycle_deriv(q, v_ref, a, limits: Limits = NO_LIMITS):
     q = np.asarray(q, dtype=float)
     v = np.asarray(v_ref, dtype=float)
     if limits.active:
-        v = _pair(*(eq.saturate(v[..., i], limits.speed[i]) for i in range(2)))
+        v = _pair(*(eq.saturate(c, m) for c, m in zip(_parts(v), limits.speed.tolist())))
     hdot = point_velocity(q[..., 2], v, a)
     return np.concatenate([hdot, v[..., 1:2]], axis=-1)
