@@ -13,7 +13,7 @@ Rows:
      and through bdsim (estimated from a sample of points: a full bdsim sweep takes hours)
   5. import plus first run of `unidyn run --paper 4` in a fresh interpreter (cold start)
 and the accuracy of the batch engine against the bdsim diagram on the sampled points;
-then peak memory (resident set, ru_maxrss, each in a fresh process) of long batch
+then peak memory (resident set, VmHWM, each in a fresh process) of long batch
 runs with and without thinning the log (``log_every``) and of writing their files.
 
     python benchmarks/engines.py --memory   # the memory table only
@@ -113,7 +113,13 @@ from unidyn import Scenario
 from unidyn.batch import simulate_batch
 T, L = float(sys.argv[1]), int(sys.argv[2])
 simulate_batch([Scenario.paper(4, T=1.0)], backend="auto", progress=False)  # load the kernel
-rss = lambda: resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+def rss():
+    # VmHWM: this process's peak resident set (ru_maxrss would include the parent's
+    # peak, which Linux carries into a child started by fork and exec)
+    for line in open("/proc/self/status"):
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) / 1024
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 base = rss()
 r, = simulate_batch([Scenario.paper(4, T=T, log_every=L)], progress=False)
 run = rss()
@@ -134,7 +140,6 @@ def rhs_rows():
     X = (np.repeat(loop.initial_state(), B, axis=0) + rng.normal(scale=0.1, size=(B, 13)))
     P = np.repeat(loop.P, B, axis=0)
     noise = (0.0, 0.0, 0.0, 0.0)
-    n = 200
     dX = np.empty(13)
     _kernels.rhs(0.5, X[0], P[0], noise, dX)
     import numba
@@ -148,7 +153,6 @@ def rhs_rows():
     Xt, Pt, dXt = X.T.copy(), P.T.copy(), np.empty((13, B))
     ref = tuple(loop._reference_tuple(0.5)[j].repeat(B) for j in range(6))
     t_v, _ = timed(lambda: eq.loop_derivative(0.5, Xt, ref, Pt, noise, dXt), repeat=5)
-    del n
     return [("one right-hand side, compiled, one run at a time (per run)", t_c / B,
              f"{t_c / B * 1e9:.0f} ns; an RK4 run-step is 4 of them"),
             ("one right-hand side, numpy, 20,000 runs at once (per run)", t_v / B,
@@ -197,7 +201,7 @@ def main(argv=None):
                      f"{t_diag / t_nb:.0f}x faster than the diagram"))
     t_np, _ = timed(lambda: simulate_batch([sc], backend="numpy"))
     rows.append(("paper sim. 4 (200 s), batch engine, numpy", t_np,
-                 f"{t_diag / t_np:.0f}x faster than the diagram"))
+                 f"{t_diag / t_np:.2g}x faster than the diagram"))
 
     scs = fig11_scenarios()
     n_pts = len(scs)
@@ -238,7 +242,7 @@ def main(argv=None):
     print("| what | wall time [s] | note |")
     print("|---|---:|---|")
     for what, t, note in rows:
-        print(f"| {what} | {t:.3f} | {note} |")
+        print(f"| {what} | {t:.3f} | {note} |" if t >= 1e-3 else f"| {what} | {t:.2g} | {note} |")
     if batch_res is not None:
         errs = [abs(batch_res[i].metrics["iae"] - r.metrics["iae"]) / r.metrics["iae"]
                 for i, r in zip(sample, diag_res)]

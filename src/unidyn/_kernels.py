@@ -40,7 +40,7 @@ def reference(t, p):
     return eq.line(t, p[P.path1], p[P.path2], p[P.path3], p[P.path4])
 
 
-@jit(inline=True)
+@jit
 def rhs(t, X, p, noise, dX):
     """dX/dt of one run (X, dX: (13,), p: a row of the parameter table)."""
     eq.loop_derivative(t, X, reference(t, p), p, noise, dX)
