@@ -183,6 +183,23 @@ def test_fig2_loop_agrees_with_batch_engine(n, changes, tol):
         np.testing.assert_allclose(np.c_[out["u"], out["w"]], b.velocity, atol=10 * tol)
 
 
+@pytest.mark.parametrize("n, changes", [(1, {}), (2, {}), (3, {}), (4, {"adapt_from": 5.0})])
+def test_fig2_loop_agrees_with_the_bdsim_diagram(n, changes):
+    """The same loop against the bdsim diagram of unidyn.simulate (the blocks, an
+    adaptive solver at rtol 1e-10), noise-free, 15 s: two independent wirings of
+    Eqs. (1)-(2), (10), (14) and (20), one in python-control, one in bdsim."""
+    sc = unidyn.Scenario.paper(n, noise=None, T=15.0, **changes)
+    resp = iosys.simulate_fig2(sc)
+    out = dict(zip(resp.output_labels, resp.outputs))
+    d = unidyn.simulate(sc, rtol=1e-10, atol=1e-12)
+    assert d.complete
+    np.testing.assert_allclose(np.c_[out["x"], out["y"], out["psi"]], d.pose, atol=1e-6)
+    if n == 4:
+        th = np.array([out[f"theta_hat{j}"] for j in range(1, 7)]).T
+        np.testing.assert_allclose(th, d.theta_hat, atol=1e-6)
+        assert np.abs(th[-1] - th[0]).max() > 1e-4  # it did adapt
+
+
 @pytest.mark.slow
 def test_fig2_loop_agrees_with_batch_engine_paper_case_4_full():
     """The paper's whole simulation 4 (200 s, update switched on at 100 s), noise-free."""
