@@ -165,6 +165,11 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
         bar = tqdm(total=sc.steps, unit="sample", desc="unidyn bdsim", leave=False,
                    disable=None if progress is None else False, file=sys.stderr, mininterval=0.5)
     fig.bd.deriv = _Guard(fig.bd, fig.blocks["robot"], sc, timeout, bar)
+    # bdsim hands its run state (whose tlist and plist log the watched signals) to
+    # BlockDiagram.start: keep it, so that a run that fails still gives back its log
+    started = []
+    bd_start = fig.bd.start
+    fig.bd.start = lambda simstate: (started.append(simstate), bd_start(simstate))[1]
     failure = None
     interrupted = False
     try:
@@ -180,13 +185,13 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
         if bar is not None:
             bar.close()
         interrupted = isinstance(err, KeyboardInterrupt)
-        simstate = getattr(fig.blocks["robot"], "_simstate", None)
+        simstate = started[-1] if started else None
         cause = err if interrupted else _root_cause(err)
         t_stop = getattr(simstate, "t", float("nan"))
         failure = (f"{sc.name or sc.case}: interrupted at t = {t_stop:.6g} s" if interrupted else
                    f"{sc.name or sc.case}: run stopped at t = {t_stop:.6g} s: "
                    f"{type(cause).__name__}: {cause}")
-        if simstate is None:  # a robot block that does not keep bdsim's state
+        if simstate is None:  # it failed before the run started
             if interrupted:
                 raise SimulationInterrupted(failure) from err
             if isinstance(cause, GuardStop):
@@ -223,9 +228,10 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
     theta_hat = signals.get("theta_hat")
     if theta_hat is None:
         theta_hat = np.tile(sc.theta_hat_initial, (len(t), 1))
-    result = Result(scenario=sc, t=t, pose=signals["pose"], velocity=velocity,
-                    reference=signals["reference"], v_d=signals["v_d"], v_ref=signals["v_ref"],
-                    theta_hat=theta_hat, engine="bdsim", complete=failure is None,
+    c = lambda a: np.asarray(a, dtype=sc.log_dtype)  # noqa: E731
+    result = Result(scenario=sc, t=t, pose=c(signals["pose"]), velocity=c(velocity),
+                    reference=c(signals["reference"]), v_d=c(signals["v_d"]),
+                    v_ref=c(signals["v_ref"]), theta_hat=c(theta_hat), engine="bdsim", complete=failure is None,
                     message=failure or "", backend=f"solve_ivp {method}")
     if interrupted:
         raise SimulationInterrupted(failure, result)

@@ -158,11 +158,6 @@ class DynamicUnicycle(ContinuousBlock):
         super().__init__(nstates=5, x0=x0, snames=["x", "y", "psi", "u", "w"], **blockargs)
         self.type = "dynamicunicycle"
 
-    def start(self, simstate=None):
-        # kept so that a run that fails can still hand back what it logged
-        super().start(simstate)
-        self._simstate = simstate
-
     def deriv(self, t, inports, x):
         v_ref = np.array([as_vector(inports[0], 1, self, "v", t)[0],
                           as_vector(inports[1], 1, self, "ω", t)[0]])
@@ -246,10 +241,6 @@ class KinematicUnicycle(ContinuousBlock):
         super().__init__(nstates=3, x0=x0, snames=["x", "y", "psi"],
                          **blockargs)
         self.type = "kinematicunicycle"
-
-    def start(self, simstate=None):
-        super().start(simstate)
-        self._simstate = simstate
 
     def _v(self, t, inports):
         v = np.array([as_vector(inports[0], 1, self, "v", t)[0],
