@@ -14,9 +14,12 @@ Rows:
   5. import plus first run of `unidyn run --paper 4` in a fresh interpreter (cold start)
 and the accuracy of the batch engine against the bdsim diagram on the sampled points;
 then peak memory (resident set, VmHWM, each in a fresh process) of long batch
-runs with and without thinning the log (``log_every``) and of writing their files.
+runs with and without thinning the log (``log_every``), in float64 and float32
+(``log_dtype``), and of writing their files; the bytes per logged sample are the
+result's own arrays.
 
-    python benchmarks/engines.py --memory   # the memory table only
+    python benchmarks/engines.py --memory            # the memory table only
+    python benchmarks/engines.py --memory --long     # also a 10^7-sample run (2-3 min)
 """
 
 import argparse
@@ -111,7 +114,7 @@ import os, resource, sys, tempfile
 os.environ["MPLBACKEND"] = "Agg"
 from unidyn import Scenario
 from unidyn.batch import simulate_batch
-T, L = float(sys.argv[1]), int(sys.argv[2])
+T, L, dtype = float(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
 simulate_batch([Scenario.paper(4, T=1.0)], backend="auto", progress=False)  # load the kernel
 def rss():
     # VmHWM: this process's peak resident set (ru_maxrss would include the parent's
@@ -121,11 +124,18 @@ def rss():
             return int(line.split()[1]) / 1024
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 base = rss()
-r, = simulate_batch([Scenario.paper(4, T=T, log_every=L)], progress=False)
+r, = simulate_batch([Scenario.paper(4, T=T, log_every=L, log_dtype=dtype)], progress=False)
 run = rss()
 with tempfile.TemporaryDirectory() as d:
     r.save(d)
-print(len(r.t), base, run, rss())
+# the result's own series: its arrays are views of one log, counted once
+owners = {}
+for a in (r.t, r.pose, r.velocity, r.reference, r.v_d, r.v_ref, r.theta_hat, r.error):
+    while a.base is not None:
+        a = a.base
+    owners[id(a)] = a.nbytes
+written = rss()
+print(len(r.t), base, run, written, sum(owners.values()))
 """
 
 
@@ -159,30 +169,36 @@ def rhs_rows():
              f"{t_v / B * 1e9:.0f} ns: runs as the vectorised dimension, with its temporaries")]
 
 
-def memory_table():
+def memory_table(long=False):
     """Peak resident memory of long single runs, each in a fresh interpreter."""
-    cases = [(1e5, 1), (1e5, 10)]  # (T, log_every) at Ts = 0.1 s: a million samples each
+    # (T, log_every, log_dtype) at Ts = 0.1 s: a million samples each
+    cases = [(1e5, 1, "float64"), (1e5, 1, "float32"), (1e5, 10, "float64"),
+             (1e5, 10, "float32")] + ([(1e6, 1, "float32")] if long else [])
     print("\n| run (Ts = 0.1 s) | samples | logged | peak RSS before [MB] | after the run [MB] "
-          "| after writing files [MB] | run [MB per million logged] |")
-    print("|---|---:|---:|---:|---:|---:|---:|")
-    for T, L in cases:
-        r = subprocess.run([sys.executable, "-c", MEMORY_PROBE, str(T), str(L)],
+          "| after writing files [MB] | run [bytes per sample] | logged series [bytes per "
+          "logged sample] |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|")
+    for T, L, dtype in cases:
+        what = f"T = {T:g} s, log_every = {L}, {dtype}"
+        r = subprocess.run([sys.executable, "-c", MEMORY_PROBE, str(T), str(L), dtype],
                            capture_output=True, text=True)
         if r.returncode != 0:
-            print(f"| T = {T:g} s, log_every = {L} | FAILED: {r.stderr.strip()[-200:]} |")
+            print(f"| {what} | FAILED: {r.stderr.strip()[-200:]} |")
             continue
-        n, base, run, written = map(float, r.stdout.split())
-        print(f"| T = {T:g} s, log_every = {L} | {T / 0.1:.0f} | {n:.0f} | {base:.0f} | {run:.0f} "
-              f"| {written:.0f} | {(run - base) / (n / 1e6):.0f} |")
+        n, base, run, written, series = map(float, r.stdout.split())
+        print(f"| {what} | {T / 0.1:.0f} | {n:.0f} | {base:.0f} | {run:.0f} | {written:.0f} "
+              f"| {(run - base) * 2**20 / (T / 0.1):.0f} | {series / n:.0f} |")
 
 
 def main(argv=None):
     p = argparse.ArgumentParser(description="unidyn engine benchmarks")
     p.add_argument("--quick", action="store_true", help="sample 4 bdsim sweep points, not 12")
     p.add_argument("--memory", action="store_true", help="only the memory table")
+    p.add_argument("--long", action="store_true",
+                   help="add a 10^7-sample float32 run to the memory table (2-3 min)")
     args = p.parse_args(argv)
     if args.memory:
-        memory_table()
+        memory_table(args.long)
         return
     rtol, atol = runner.DEFAULT_RTOL, runner.DEFAULT_ATOL
     rows = []
@@ -251,7 +267,7 @@ def main(argv=None):
         print(f"\nbatch engine vs bdsim diagram on the {len(sample)} sampled Fig. 11 points (with "
               f"noise): IAE relative difference median {np.median(errs):.1e}, max {max(errs):.1e}; "
               f"position difference max {max(pos):.1e} m")
-    memory_table()
+    memory_table(args.long)
 
 
 if __name__ == "__main__":

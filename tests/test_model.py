@@ -775,3 +775,6 @@ def test_held_noise_is_the_tick_by_tick_draws_of_the_noise_block(seed, std, n, d
     rng = np.random.default_rng(pos_seed)
     tick_by_tick = np.array([std * rng.standard_normal(dim) for _ in range(n)])
     np.testing.assert_array_equal(held_sequence(pos_seed, std, n, dim), tick_by_tick)
+    into = np.full((n, dim), np.nan)
+    assert held_sequence(pos_seed, std, n, dim, out=into) is into
+    np.testing.assert_array_equal(into, tick_by_tick)

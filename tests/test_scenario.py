@@ -419,6 +419,8 @@ BAD_VALUES = [
     ("log_every", 1.5, "log_every"),
     ("log_every", True, "log_every"),
     ("log_every", 3, "log_every"),  # does not divide T/Ts = 2000
+    ("log_dtype", "float16", "log_dtype"),
+    ("log_dtype", 32, "log_dtype"),
     ("x0", (1e300, 0.0, 0.0), "x0"),
     ("x0", (0.0, 0.0, 1e300), "x0"),
 ]
@@ -569,9 +571,15 @@ def test_T_a_whole_number_of_samples_up_to_rounding_is_accepted(T, Ts, n):
 
 def test_long_runs_must_thin_their_log_to_fit_in_memory():
     with pytest.raises(ValidationError) as info:
-        Scenario(T=1e6, Ts=0.1)  # 1e7 samples, all logged: about 4 GB
-    assert "log_every >= 4" in str(info.value)
-    assert Scenario(T=1e6, Ts=0.1, log_every=4).steps == 10_000_000
+        Scenario(T=1e6, Ts=0.1)  # 1e7 samples, all logged in float64: about 1.6 GB
+    assert "log_every >= 2" in str(info.value)
+    assert "log_dtype='float32'" in str(info.value)
+    assert Scenario(T=1e6, Ts=0.1, log_every=2).steps == 10_000_000
+    assert Scenario(T=1e6, Ts=0.1, log_dtype="float32").steps == 10_000_000
+    with pytest.raises(ValidationError) as info:  # 2 does not divide 9999999: the next divisor
+        Scenario(T=999999.9, Ts=0.1)
+    assert "log_every >= 3 (a divisor of 9999999)" in str(info.value)
+    assert Scenario(T=999999.9, Ts=0.1, log_every=3).steps == 9_999_999
 
 
 def test_divergence_bounds_follow_the_limits_or_the_reference():

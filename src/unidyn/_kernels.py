@@ -22,7 +22,7 @@ from . import equations as eq
 from ._jit import AVAILABLE, jit, prange
 from .equations import P, S
 
-__all__ = ["AVAILABLE", "reference", "rhs", "run_batch", "start", "OK", "NONFINITE",
+__all__ = ["AVAILABLE", "LOG_COLUMNS", "reference", "rhs", "run_batch", "start", "OK", "NONFINITE",
            "POSITION", "SPEED_U", "SPEED_W", "INTERRUPTED"]
 
 NSTATE = len(eq.STATE)
@@ -46,19 +46,27 @@ def rhs(t, X, p, noise, dX):
     eq.loop_derivative(t, X, reference(t, p), p, noise, dX)
 
 
+#: The columns of the log, in order: the states the result keeps (pose, robot
+#: velocity, theta_hat: the first 11 of :data:`unidyn.equations.STATE`), then h_d,
+#: v_d and v_ref (after the speed limits). Nothing else is logged.
+LOG_COLUMNS = eq.STATE[:11] + ("x_d", "y_d", "u_d", "w_d", "u_ref", "w_ref")
+NLOG = len(LOG_COLUMNS)
+
+
 @jit
 def log_signals(t, X, p, noise, out):
-    """The logged signals h_d, v_d, v_d', v_ref (before the speed limits) into out[0:8]."""
+    """One row of the log (:data:`LOG_COLUMNS`) at (t, X) into out, whatever out's
+    floating dtype."""
+    for i in range(11):
+        out[i] = X[i]
     ref = reference(t, p)
     ud, wd, udd, wdd, G, u_ref, w_ref, um, wm = eq.loop_signals(X, ref, p, noise)
-    out[0] = ref[0]
-    out[1] = ref[1]
-    out[2] = ud
-    out[3] = wd
-    out[4] = udd
-    out[5] = wdd
-    out[6] = u_ref
-    out[7] = w_ref
+    out[11] = ref[0]
+    out[12] = ref[1]
+    out[13] = ud
+    out[14] = wd
+    out[15] = eq.saturate(u_ref, p[P.speed_u])
+    out[16] = eq.saturate(w_ref, p[P.speed_w])
 
 
 #: Why a run stopped (``status``): still running / complete, a non-finite state,
@@ -93,9 +101,9 @@ def log_row(k, n, L, stopped):
 
 
 @jit
-def _run_one(X, p, pos_noise, vel_noise, Ts, k0, k1, n, m, L, bound, Xs, SIG):
-    """Advance X (in place) over sample intervals k0..k1-1 with m RK4 steps each;
-    returns (status, last sample reached)."""
+def _run_one(X, p, pos_noise, vel_noise, kn, Ts, k0, k1, n, m, L, bound, LOG):
+    """Advance X (in place) over sample intervals k0..k1-1 with m RK4 steps each (the
+    noise arrays hold intervals kn, kn + 1, ...); returns (status, last sample reached)."""
     d1 = np.empty(NSTATE)
     d2 = np.empty(NSTATE)
     d3 = np.empty(NSTATE)
@@ -103,7 +111,8 @@ def _run_one(X, p, pos_noise, vel_noise, Ts, k0, k1, n, m, L, bound, Xs, SIG):
     tmp = np.empty(NSTATE)
     h = Ts / m
     for k in range(k0, k1):
-        noise = (pos_noise[k, 0], pos_noise[k, 1], vel_noise[k, 0], vel_noise[k, 1])
+        r = k - kn
+        noise = (pos_noise[r, 0], pos_noise[r, 1], vel_noise[r, 0], vel_noise[r, 1])
         for j in range(m):
             t = k * Ts + j * h
             rhs(t, X, p, noise, d1)
@@ -124,34 +133,33 @@ def _run_one(X, p, pos_noise, vel_noise, Ts, k0, k1, n, m, L, bound, Xs, SIG):
         status = check_state(X, bound)
         row = log_row(k + 1, n, L, status != OK)
         if row >= 0:
-            Xs[row] = X
             # logged with interval k's measurement, as the diagram logs it before the tick
-            log_signals((k + 1) * Ts, X, p, noise, SIG[row])
+            log_signals((k + 1) * Ts, X, p, noise, LOG[row])
         if status != OK:
             return status, k + 1
     return OK, k1
 
 
 @jit
-def start(X, P_, pos_noise, vel_noise, bound, Xs, SIG, status):
-    """Log sample 0 of every run and check its state."""
+def start(X, P_, pos_noise, vel_noise, bound, LOG, status):
+    """Log sample 0 of every run and check its state (noise row 0: interval 0)."""
     for i in range(X.shape[0]):
-        Xs[i, 0] = X[i]
         noise = (pos_noise[i, 0, 0], pos_noise[i, 0, 1], vel_noise[i, 0, 0], vel_noise[i, 0, 1])
-        log_signals(0.0, X[i], P_[i], noise, SIG[i, 0])
+        log_signals(0.0, X[i], P_[i], noise, LOG[i, 0])
         status[i] = check_state(X[i], bound[i])
 
 
 @jit(parallel=True)
-def run_batch(X, P_, pos_noise, vel_noise, Ts, k0, k1, n, m, L, bound, Xs, SIG, status, last):
+def run_batch(X, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n, m, L, bound, LOG, status, last):
     """Advance every running run (status OK) over sample intervals k0..k1-1, run i
-    with m[i] RK4 steps per interval. X (B, 13) is updated in place; every L-th
-    sample (and the one a run stops at) is logged into Xs (B, rows, 13) and SIG
-    (B, rows, 8); status[i] says why run i stopped and last[i] is the last
+    with m[i] RK4 steps per interval, the noise arrays (B, rows, 2) holding intervals
+    kn .. kn + rows - 1 (k0 >= kn, k1 <= kn + rows). X (B, 13) is updated in place; every L-th
+    sample (and the one a run stops at) is logged into LOG (B, rows, NLOG; float64 or
+    float32); status[i] says why run i stopped and last[i] is the last
     sample it reached."""
     for i in prange(X.shape[0]):
         if status[i] == OK:
-            st, lst = _run_one(X[i], P_[i], pos_noise[i], vel_noise[i], Ts, k0, k1, n, m[i], L,
-                               bound[i], Xs[i], SIG[i])
+            st, lst = _run_one(X[i], P_[i], pos_noise[i], vel_noise[i], kn, Ts, k0, k1, n, m[i], L,
+                               bound[i], LOG[i])
             status[i] = st
             last[i] = lst

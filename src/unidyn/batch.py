@@ -153,7 +153,7 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
     """Simulate many scenarios at once; returns one :class:`~unidyn.Result` per scenario,
     in order.
 
-    Scenarios are grouped by (T, Ts, substeps, log_every) and each group is
+    Scenarios are grouped by (T, Ts, substeps, log_every, log_dtype) and each group is
     integrated as one vectorised system; every run's numbers are independent of
     which other runs share its call (bit for bit). Only continuous control is
     supported here (sampled control runs through :func:`unidyn.simulate`).
@@ -201,7 +201,7 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
     m_all = [stable_substeps(s, int(substeps)) for s in scs]  # refuses before any work
     groups = {}
     for i, s in enumerate(scs):
-        key = (s.T, s.Ts, s.log_every) if use_numba else (s.T, s.Ts, s.log_every, m_all[i])
+        key = (s.T, s.Ts, s.log_every, s.log_dtype) + (() if use_numba else (m_all[i],))
         groups.setdefault(key, []).append(i)
     bar = _Progress(progress, sum(scs[i].steps * m_all[i] for i in range(len(scs))),
                     sum(scs[g[0]].steps for g in groups.values()))
@@ -270,8 +270,8 @@ class _Run:
         n, B = loop.steps, loop.B
         self.L = L = int(loop.scenarios[0].log_every)
         rows = n // L + 2  # every L-th sample, plus the one a run stops at
-        self.Xs = np.full((B, rows, 13), np.nan)
-        self.SIG = np.full((B, rows, 8), np.nan)
+        from ._kernels import NLOG
+        self.LOG = np.full((B, rows, NLOG), np.nan, dtype=loop.scenarios[0].log_dtype)
         self.status = np.zeros(B, dtype=np.int64)
         self.last = np.zeros(B, dtype=np.int64)
         self.bounds = np.array([sc.divergence_bounds() for sc in loop.scenarios])
@@ -289,7 +289,7 @@ def _integrate_numba(run: _Run, bar):
     n, B = loop.steps, loop.B
     P = loop.P
     X = loop.initial_state()
-    _kernels.start(X, P, loop.pos_noise, loop.vel_noise, run.bounds, run.Xs, run.SIG, run.status)
+    _kernels.start(X, P, loop.pos_noise, loop.vel_noise, run.bounds, run.LOG, run.status)
     import os
     per_thread = -(-B // max(1, min(B, os.cpu_count() or 1)))
     S = max(1, SLICE_STEPS // (int(run.m.max()) * per_thread))
@@ -300,9 +300,12 @@ def _integrate_numba(run: _Run, bar):
     previous = numba.set_parallel_chunksize(1)
     try:
         while k < n and (run.status == _kernels.OK).any():
-            k1 = min(n, k + S)
-            _kernels.run_batch(X, P, loop.pos_noise, loop.vel_noise, float(loop.Ts), k, k1, n,
-                               run.m, run.L, run.bounds, run.Xs, run.SIG, run.status, run.last)
+            if k == loop.noise_end:
+                loop.noise_window(k, loop.pos_noise.shape[1])
+            k1 = min(n, k + S, loop.noise_end)
+            _kernels.run_batch(X, P, loop.pos_noise, loop.vel_noise, loop.noise_k0,
+                               float(loop.Ts), k, k1, n, run.m, run.L, run.bounds, run.LOG,
+                               run.status, run.last)
             bar.advance(k1 - k)
             k = k1
     finally:
@@ -325,12 +328,12 @@ def _integrate(run: _Run, m: int, bar):
                  np.abs(X[:, 3]) > b[:, 1], np.abs(X[:, 4]) > b[:, 2]],
                 [NONFINITE, POSITION, SPEED_U, SPEED_W], OK)
 
-    def record(rows, X, t, noise_k, which):
+    def record(rows, X, t, noise_k, which):  # the columns of _kernels.LOG_COLUMNS
         s = loop.signals(t, X, noise_k)
-        sig = np.concatenate([s["h_d"], s["v_d"], s["v_d_dot"], s["v_ref"]], axis=1)
+        row = np.concatenate([X[:, :11], s["h_d"], s["v_d"], saturate(s["v_ref"], loop.vmax)],
+                             axis=1)
         for i in np.flatnonzero(which):
-            run.Xs[i, rows[i]] = X[i]
-            run.SIG[i, rows[i]] = sig[i]
+            run.LOG[i, rows[i]] = row[i]
 
     run.status[:] = check(X)
     record(np.zeros(loop.B, dtype=int), X, 0.0, 0, np.ones(loop.B, bool))
@@ -345,6 +348,8 @@ def _steps(run, loop, X, m, h, check, record, bar):
         running = run.status == OK
         if not running.any():
             break
+        if k == loop.noise_end:
+            loop.noise_window(k, loop.pos_noise.shape[1])
         t0 = k * Ts
         for j in range(m):
             t = t0 + j * h
@@ -392,9 +397,10 @@ def _results(run: _Run) -> list:
         if status != 0 and last % L != 0:
             nrow += 1
             t = np.r_[t, last * loop.Ts]
-        X_i, S = run.Xs[i, :nrow], run.SIG[i, :nrow]
+        # the result's arrays are views of the log (no copy)
+        log = run.LOG[i, :nrow]
         if status == 1:  # drop the non-finite sample
-            X_i, S, t = X_i[:-1], S[:-1], t[:-1]
+            log, t = log[:-1], t[:-1]
         complete = status == 0 and last == n and not run.interrupted
         label = sc.name or sc.case
         t_stop = last * loop.Ts
@@ -403,14 +409,15 @@ def _results(run: _Run) -> list:
         elif status == 0:
             message = f"interrupted at t = {t_stop:.6g} s (scenario {label})"
         else:
-            v = {2: np.hypot(*run.Xs[i, nrow - 1, 0:2]) if nrow else np.nan,
-                 3: abs(run.Xs[i, nrow - 1, 3]), 4: abs(run.Xs[i, nrow - 1, 4])}.get(status, 0.0)
+            last_row = run.LOG[i, nrow - 1].astype(float)
+            v = {2: np.hypot(*last_row[0:2]) if nrow else np.nan,
+                 3: abs(last_row[3]), 4: abs(last_row[4])}.get(status, 0.0)
             cause = _CAUSE[status].format(v=v, b=run.bounds[i, status - 2] if status > 1 else 0.0)
             message = f"{cause} at t = {t_stop:.6g} s (scenario {label})"
-        v_ref = saturate(S[:, 6:8], loop.vmax[i])
-        vel = X_i[:, 3:5] if sc.case != "kinematic" else v_ref
-        out.append(Result(scenario=sc, t=t, pose=X_i[:, 0:3], velocity=vel,
-                          reference=S[:, 0:2], v_d=S[:, 2:4], v_ref=v_ref,
-                          theta_hat=X_i[:, 5:11], engine="batch", complete=complete,
+        v_ref = log[:, 15:17]
+        vel = log[:, 3:5] if sc.case != "kinematic" else v_ref
+        out.append(Result(scenario=sc, t=t, pose=log[:, 0:3], velocity=vel,
+                          reference=log[:, 11:13], v_d=log[:, 13:15], v_ref=v_ref,
+                          theta_hat=log[:, 5:11], engine="batch", complete=complete,
                           message=message, backend=run.backend, substeps=int(run.m[i])))
     return out

@@ -23,12 +23,15 @@ import numpy as np
 
 from . import control, equations
 from .equations import LOOP_PARAMETERS, TRAJECTORY_KINDS, P
-from .noise import held_sequence, noise_seeds
+from .noise import HeldNoise, noise_seeds
 from .scenario import Scenario
 
 __all__ = ["ClosedLoop", "NSTATE"]
 
 NSTATE = len(equations.STATE)
+#: Noise values (rows x runs) drawn per window: 2 x 16 MB of held noise in memory
+#: however long the run (drawing it whole took 32 bytes per sample and run).
+NOISE_WINDOW_VALUES = 1_000_000
 
 
 class ClosedLoop:
@@ -67,17 +70,39 @@ class ClosedLoop:
                 self._traj[key] = (len(self._traj), s.trajectory)
             self.traj_index[i] = self._traj[key][0]
         self._trajs = [tr for _, tr in sorted(self._traj.values(), key=lambda p: p[0])]
-        # noise, held per interval (steps + 1 rows: the last covers t = T)
-        n = self.steps + 1
-        self.pos_noise = np.zeros((B, n, 2))
-        self.vel_noise = np.zeros((B, n, 2))
-        for i, s in enumerate(scs):
-            if s.noise is None:
-                continue
-            pos_seed, vel_seed = noise_seeds(s.noise.seed)
-            self.pos_noise[i] = held_sequence(pos_seed, s.noise.position_std, n)
-            if s.case != "kinematic":  # a kinematic robot has no velocities to measure
-                self.vel_noise[i] = held_sequence(vel_seed, s.noise.velocity_std, n)
+        # noise, held per interval: a window of rows at a time (noise_window)
+        self._noise_sources = []
+        for s in scs:
+            pos = vel = None
+            if s.noise is not None:
+                pos_seed, vel_seed = noise_seeds(s.noise.seed)
+                pos = HeldNoise(pos_seed, s.noise.position_std)
+                if s.case != "kinematic":  # a kinematic robot has no velocities to measure
+                    vel = HeldNoise(vel_seed, s.noise.velocity_std)
+            self._noise_sources.append((pos, vel))
+        self.noise_k0 = self.noise_end = 0
+        self.pos_noise = self.vel_noise = np.zeros((B, 0, 2))
+        self.noise_window(0, NOISE_WINDOW_VALUES // B)
+
+    def noise_window(self, k0: int, rows: int):
+        """Draw the held noise of sample intervals k0 .. k0 + rows - 1 (at most up to
+        the last interval) into ``pos_noise`` and ``vel_noise``, (B, rows, 2), whose
+        row 0 is interval ``noise_k0`` = k0. Windows follow each other (k0 is the end
+        of the previous one): each run's generators go on where they stopped, so the
+        values are those of one draw of the whole run (:func:`unidyn.noise.held_sequence`)."""
+        if k0 != self.noise_end:
+            raise ValueError(f"noise windows follow each other: the next starts at interval "
+                             f"{self.noise_end}, not {k0}")
+        rows = max(1, min(int(rows), self.steps + 1 - k0))
+        if self.pos_noise.shape[1] != rows:
+            self.pos_noise = np.zeros((self.B, rows, 2))
+            self.vel_noise = np.zeros((self.B, rows, 2))
+        for i, (pos, vel) in enumerate(self._noise_sources):
+            if pos is not None:
+                pos.draw(self.pos_noise[i])
+            if vel is not None:
+                vel.draw(self.vel_noise[i])
+        self.noise_k0, self.noise_end = k0, k0 + rows
 
     # ------------------------------------------------------------------ #
     def initial_state(self) -> np.ndarray:
@@ -141,8 +166,13 @@ class ClosedLoop:
                 h_d_ddot[:, 1])
 
     def _noise(self, k):
-        return (self.pos_noise[:, k, 0], self.pos_noise[:, k, 1],
-                self.vel_noise[:, k, 0], self.vel_noise[:, k, 1])
+        """The held noise of interval k (inside the current window; see noise_window)."""
+        if not self.noise_k0 <= k < self.noise_end:
+            raise IndexError(f"interval {k} is outside the noise window "
+                             f"[{self.noise_k0}, {self.noise_end})")
+        j = k - self.noise_k0
+        return (self.pos_noise[:, j, 0], self.pos_noise[:, j, 1],
+                self.vel_noise[:, j, 0], self.vel_noise[:, j, 1])
 
     def signals(self, t, X, k):
         """Everything the loop computes at (t, X) in interval k: a dict of (B, ...) arrays

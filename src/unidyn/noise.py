@@ -15,7 +15,7 @@ import numpy as np
 
 from ._validate import integer, nonnegative
 
-__all__ = ["NoiseSpec", "noise_seeds", "held_sequence", "PAPER_NOISE"]
+__all__ = ["NoiseSpec", "noise_seeds", "held_sequence", "HeldNoise", "PAPER_NOISE"]
 
 
 @dataclass(frozen=True)
@@ -52,13 +52,36 @@ def noise_seeds(seed: int):
     return pos, vel
 
 
-def held_sequence(seed, std: float, n: int, dim: int = 2) -> np.ndarray:
+def held_sequence(seed, std: float, n: int, dim: int = 2, out=None) -> np.ndarray:
     """``n`` held values, one row per sample interval: the k-th row is the k-th draw
     ``std * rng.standard_normal(dim)`` of ``numpy.random.default_rng(seed)``, drawn one
     row at a time exactly as :class:`unidyn.blocks.MeasurementNoise` draws them tick by tick.
 
     numpy's ``Generator`` keeps no state between calls beyond its bit generator, so one
     draw of shape (n, dim) is the same numbers as n draws of dim, in order
-    (``tests/test_model.py`` checks it), and 100x faster."""
-    rng = np.random.default_rng(seed)
-    return std * rng.standard_normal((n, dim))
+    (``tests/test_model.py`` checks it), and 100x faster. ``out``: an array to draw
+    into, in place of a new one."""
+    if out is None:
+        return std * np.random.default_rng(seed).standard_normal((n, dim))
+    return HeldNoise(seed, std).draw(out)
+
+
+class HeldNoise:
+    """The values of :func:`held_sequence` drawn a window at a time: successive calls
+    of :meth:`draw` continue the same sequence, so a long run needs only the window
+    in memory.
+
+    :param seed: the seed (or seed sequence) of the generator
+    :param std: the noise's standard deviation
+    """
+
+    def __init__(self, seed, std: float):
+        self.rng = np.random.default_rng(seed)
+        self.std = float(std)
+
+    def draw(self, out: np.ndarray) -> np.ndarray:
+        """Fill out (float64, C-contiguous, (rows, dim)) with the next rows of the
+        sequence, in place (no temporary), and return it."""
+        self.rng.standard_normal(out=out)
+        out *= self.std
+        return out

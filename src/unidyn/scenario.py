@@ -34,12 +34,14 @@ VD_DOT_METHODS = ("analytic", "filter", "difference")
 # v_d' methods each control mode can use (the sampled controller has no rate output)
 _VD_DOT_FOR = {"continuous": ("analytic", "filter"), "sampled": ("difference",)}
 #: The most samples (T/Ts) one run may integrate, and the most it may log
-#: (T/Ts/log_every). Measured by benchmarks/engines.py: a run takes about 160 MB
-#: to start, 55 bytes per sample (the held noise) and 205 bytes per logged sample,
-#: and writing its files about 200 bytes more per logged sample; so 1e7 samples
-#: with log_every >= 4 stay within 2 GB.
+#: (T/Ts/log_every), by log_dtype. Measured by benchmarks/engines.py: a run takes
+#: about 160 MB to start, 32 MB for its held noise (drawn a window at a time), and
+#: 152 bytes per logged sample in float64, 80 in float32 (the time stamps stay
+#: float64); writing its files streams them. So a run stays within about 1 GB.
 MAX_SAMPLES = 10_000_000
-MAX_LOGGED = 3_000_000
+MAX_LOGGED = {"float64": 5_000_000, "float32": 10_000_000}
+#: The floating types a result's series can be logged in (``log_dtype``).
+LOG_DTYPES = ("float64", "float32")
 #: A state this many times beyond its physical scale (the speed limits, or the
 #: reference's size and speed where there are none) counts as diverged: both
 #: engines stop there (see :meth:`Scenario.divergence_bounds`).
@@ -86,6 +88,11 @@ class Scenario:
         divides T/Ts (default 1: every sample). The integration and the noise are
         unchanged; only the stored series (and the metrics computed from them,
         on the logged grid) are thinned.
+    :param log_dtype: ``"float64"`` (default) or ``"float32"``: the floating type of
+        the result's series. The integration is float64 either way; float32 halves the
+        memory of a long run (about 70 instead of 140 bytes per logged sample) and
+        rounds the logged values to 7 significant digits (about 1e-7 m on a 1 m path),
+        which is what the metrics are then computed from.
     """
 
     case: str = "adaptive"
@@ -115,6 +122,7 @@ class Scenario:
     tau: float = 0.05
     name: str = ""
     log_every: int = 1
+    log_dtype: str = "float64"
 
     def __post_init__(self):
         s = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
@@ -180,12 +188,17 @@ class Scenario:
             raise ValidationError(f"log_every must be an integer >= 1 that divides T/Ts = "
                                   f"{self.steps}, got {le!r}")
         s("log_every", int(le))
-        if self.steps // self.log_every > MAX_LOGGED:
-            need = -(-self.steps // MAX_LOGGED)
+        s("log_dtype", choice("log_dtype", self.log_dtype, LOG_DTYPES))
+        cap = MAX_LOGGED[self.log_dtype]
+        if self.steps // self.log_every > cap:
+            need = -(-self.steps // cap)
+            need = next(d for d in range(need, self.steps + 1) if self.steps % d == 0)
+            other = ("" if self.log_dtype == "float32" else
+                     f", or log_dtype='float32' (up to {MAX_LOGGED['float32']:.0e})")
             raise ValidationError(
-                f"T/Ts/log_every must be at most {MAX_LOGGED:.0e} logged samples (about 2 GB); "
-                f"T = {self.T:g} s, Ts = {self.Ts:g} s give {self.steps} samples: set log_every "
-                f">= {need} (a divisor of {self.steps})")
+                f"T/Ts/log_every must be at most {cap:.0e} logged samples in {self.log_dtype} "
+                f"(about 1 GB); T = {self.T:g} s, Ts = {self.Ts:g} s give {self.steps} samples: "
+                f"set log_every >= {need} (a divisor of {self.steps}){other}")
         if not isinstance(self.name, str):
             raise ValidationError(f"name must be a string, got {self.name!r}")
 

@@ -133,9 +133,9 @@ toml_values = st.recursive(
 
 #: values of the wrong type for each kind of field
 numeric_fields = ("a", "kx", "ky", "lx", "ly", "ku", "kw", "lu", "lw", "adapt_from", "T",
-                  "Ts", "tau")
+                  "Ts", "tau", "log_every")
 vector_fields = {"x0": 3, "gamma": 6, "sigma": 6}
-name_fields = ("case", "leakage", "control", "vd_dot", "name")
+name_fields = ("case", "leakage", "control", "vd_dot", "name", "log_dtype")
 not_numeric = st.one_of(st.text(max_size=8), st.booleans(), st.lists(numbers, max_size=4),
                         st.dictionaries(st.text(max_size=4), numbers, max_size=2),
                         st.dates(min_value=dt.date(1, 1, 1)))

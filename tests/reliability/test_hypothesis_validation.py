@@ -32,6 +32,7 @@ from hypothesis import strategies as st
 
 from unidyn import RobotParameters, ValidationError, robots
 from unidyn.control import LEAKAGE_FORMS
+from unidyn.scenario import LOG_DTYPES
 from unidyn.scenario import CASES, CONTROL_MODES, VD_DOT_METHODS, Scenario
 
 pytestmark = pytest.mark.reliability
@@ -271,6 +272,7 @@ INVALID = {
     "case": bad_choice(CASES),
     "control": bad_choice(CONTROL_MODES),
     "leakage": bad_choice(LEAKAGE_FORMS),
+    "log_dtype": bad_choice(LOG_DTYPES),
     "vd_dot": st.one_of(bad_choice(VD_DOT_METHODS, none_ok=True), st.just("difference")),
     "vd_dot_continuous": bad_choice(("input", "filter")),
     "vd_dot_sampled": bad_choice(("input", "difference")),
@@ -324,7 +326,7 @@ SCENARIO_FIELDS = {"case": "case", "robot": "robot", "a": "positive", "x0": "vec
                    "gamma": "positive_vector6", "sigma": "nonnegative_vector6",
                    "adapt_from": "nonnegative", "leakage": "leakage", "noise": "noise",
                    "limits": "limits_table", "control": "control", "vd_dot": "vd_dot",
-                   "name": "name", "log_every": "positive_int",
+                   "name": "name", "log_every": "positive_int", "log_dtype": "log_dtype",
                    **{k: "positive" for k in ("kx", "ky", "lx", "ly", "ku", "kw", "lu", "lw",
                                               "T", "Ts", "tau")}}
 
@@ -535,7 +537,7 @@ def test_complex_arrays_raise_validation_error(target):
 
 
 _CHOICE_TARGETS = [t.id for t in ALL_TARGETS
-                   if t.kind in ("case", "control", "leakage", "vd_dot", "vd_dot_continuous",
+                   if t.kind in ("case", "control", "leakage", "log_dtype", "vd_dot", "vd_dot_continuous",
                                  "vd_dot_sampled", "flag")
                    or t.id in ("Scenario.from_dict.noise", "Scenario.from_dict.theta_hat0")]
 
