@@ -169,6 +169,119 @@ def rhs_rows():
              f"{t_v / B * 1e9:.0f} ns: runs as the vectorised dimension, with its temporaries")]
 
 
+TRANSCENDENTAL = ("sin", "cos", "tanh", "cosh")
+
+
+def operation_counts():
+    """The operations of one right-hand side of the loop (the reference of the figure
+    eight plus unidyn.equations.loop_derivative), counted by running the equations on
+    an ndarray subclass that records every ufunc (and np.where) it goes through.
+    Transcendental calls on the same argument are counted once (the compiler can share
+    them: cos(psi) appears in Eqs. 1 and 10)."""
+    import collections
+
+    from unidyn import equations as eq
+    counts, seen = collections.Counter(), set()
+
+    class Counting(np.ndarray):
+        def __array_ufunc__(self, ufunc, method, *inputs, **kw):
+            args = [np.asarray(a) for a in inputs]
+            name = ufunc.__name__
+            key = (name, tuple(np.asarray(a, dtype=float).tobytes() for a in args))
+            if name not in TRANSCENDENTAL or key not in seen:
+                counts[name] += 1
+                seen.add(key)
+            return np.asarray(getattr(ufunc, method)(*args, **kw)).view(Counting)
+
+        def __array_function__(self, func, types, args, kwargs):
+            counts[func.__name__] += 1
+            out = func(*[np.asarray(a) if isinstance(a, Counting) else a for a in args],
+                       **kwargs)
+            return np.asarray(out).view(Counting) if isinstance(out, np.ndarray) else out
+
+    loop = ClosedLoop([Scenario.paper(4, T=1.0)])
+    rng = np.random.default_rng(1)
+    X = (loop.initial_state().T + rng.normal(scale=0.1, size=(13, 1))).view(Counting)
+    P = loop.P.T.copy().view(Counting)
+    ref = eq.figure_eight(np.array([0.5]).view(Counting),
+                          *[P[eq.P.path1 + j] for j in range(6)])
+    noise = tuple(np.full(1, 0.01).view(Counting) for _ in range(4))
+    eq.loop_derivative(np.array([150.0]).view(Counting), X, ref, P, noise, np.empty((13, 1)))
+    return counts
+
+
+def machine_rates():
+    """ns per operation on one core, compiled by numba: multiply-add over an L1-resident
+    array (vectorised by the compiler), divide, and each transcendental function (scalar
+    calls into the maths library unless numba finds Intel's SVML)."""
+    import math
+
+    import numba
+
+    @numba.njit
+    def mul_add(x, a, b, R):
+        for _ in range(R):
+            for i in range(x.size):
+                x[i] = x[i] * a + b
+
+    @numba.njit
+    def divide(x, a, b, R):
+        for _ in range(R):
+            for i in range(x.size):
+                x[i] = b / (x[i] + a)
+
+    def calls(f):
+        @numba.njit
+        def g(x, y, R):
+            for _ in range(R):
+                for i in range(x.size):
+                    y[i] += f(x[i])
+        return g
+
+    def best(f, *a):
+        f(*a)
+        return min(timed(lambda: f(*a))[0] for _ in range(5))
+
+    R = 20000
+    rates = {"mul_add": best(mul_add, np.full(512, 0.3), 0.999, 1e-4, R) / (2 * 512 * R),
+             "divide": best(divide, np.full(512, 0.3), 1.0, 0.5, R) / (512 * R)}
+    x, y = np.random.default_rng(0).uniform(-1, 1, 4096), np.zeros(4096)
+    for name in TRANSCENDENTAL:
+        rates[name] = best(calls(getattr(math, name)), x, y, 500) / (4096 * 500) - 0.0
+    rates["svml"] = bool(getattr(numba.config, "USING_SVML", False))
+    return {k: v * 1e9 if not isinstance(v, bool) else v for k, v in rates.items()}
+
+
+def arithmetic_limit(ns_measured=None):
+    """The least time one RK4 run-step can take on one core of this machine: 4
+    right-hand sides (operation_counts) plus the 13-state RK4 combination (12
+    multiply-adds a state), each arithmetic operation at the vectorised multiply-add
+    rate, each divide and transcendental call at its measured cost; printed beside the
+    engine's measured ns per run-step."""
+    counts, rates = operation_counts(), machine_rates()
+    n_trans = {k: counts.get(k, 0) for k in TRANSCENDENTAL}
+    n_div = counts.get("divide", 0)
+    n_arith = sum(v for k, v in counts.items() if k not in TRANSCENDENTAL and k != "divide")
+    rhs = (n_arith * rates["mul_add"] + n_div * rates["divide"]
+           + sum(n * rates[k] for k, n in n_trans.items()))
+    t_trans = sum(n * rates[k] for k, n in n_trans.items())
+    combination = 13 * 12 * rates["mul_add"]
+    step = 4 * rhs + combination
+    print(f"\narithmetic limit of one RK4 run-step on one core: a right-hand side is {n_arith} "
+          f"arithmetic/compare/select operations, {n_div} divides and "
+          + ", ".join(f"{n} {k}" for k, n in n_trans.items())
+          + f"; this machine does a vectorised multiply-add in {rates['mul_add']:.3f} ns an "
+          f"operation, a divide in {rates['divide']:.2f} ns, "
+          + ", ".join(f"{k} in {rates[k]:.1f} ns" for k in TRANSCENDENTAL)
+          + (" (numba uses SVML: vectorised calls)" if rates["svml"] else
+             " (no SVML: scalar maths-library calls)") + ". So a "
+          f"right-hand side takes at least {rhs:.0f} ns ({t_trans:.0f} of them the "
+          f"transcendental calls), and an RK4 run-step {step:.0f} ns"
+          + (f"; the engine's {ns_measured:.0f} ns is {ns_measured / step:.1f}x that"
+             if ns_measured else "") + ".")
+    return step
+
+
 def memory_table(long=False):
     """Peak resident memory of long single runs, each in a fresh interpreter."""
     # (T, log_every, log_dtype) at Ts = 0.1 s: a million samples each
@@ -194,11 +307,15 @@ def main(argv=None):
     p = argparse.ArgumentParser(description="unidyn engine benchmarks")
     p.add_argument("--quick", action="store_true", help="sample 4 bdsim sweep points, not 12")
     p.add_argument("--memory", action="store_true", help="only the memory table")
+    p.add_argument("--limit", action="store_true", help="only the arithmetic limit")
     p.add_argument("--long", action="store_true",
                    help="add a 10^7-sample float32 run to the memory table (2-3 min)")
     args = p.parse_args(argv)
     if args.memory:
         memory_table(args.long)
+        return
+    if args.limit:
+        arithmetic_limit()
         return
     rtol, atol = runner.DEFAULT_RTOL, runner.DEFAULT_ATOL
     rows = []
@@ -221,7 +338,7 @@ def main(argv=None):
 
     scs = fig11_scenarios()
     n_pts = len(scs)
-    batch_res = None
+    batch_res, ns_run_step = None, None
     if _kernels.AVAILABLE:
         times = []
         for _ in range(5):
@@ -235,6 +352,7 @@ def main(argv=None):
                      f"{max(r.substeps for r in batch_res)} per 0.1 s): {ns:.0f} ns per run-step "
                      f"per core, {os.cpu_count()} threads"))
         rows += rhs_rows()
+        ns_run_step = ns
     sample = np.unique(np.linspace(0, n_pts - 1, 4 if args.quick else 12).round().astype(int))
     t_sample, diag_res = timed(lambda: [unidyn.simulate(scs[i]) for i in sample])
     per_point = t_sample / len(sample)
@@ -267,6 +385,8 @@ def main(argv=None):
         print(f"\nbatch engine vs bdsim diagram on the {len(sample)} sampled Fig. 11 points (with "
               f"noise): IAE relative difference median {np.median(errs):.1e}, max {max(errs):.1e}; "
               f"position difference max {max(pos):.1e} m")
+    if _kernels.AVAILABLE:
+        arithmetic_limit(ns_run_step)
     memory_table(args.long)
 
 

@@ -259,9 +259,10 @@ def test_a_different_sweep_in_the_same_folder_is_refused(tmp_path):
 def test_sweep_id_is_the_definition_not_the_engine_or_columns():
     a, b = small_sweep(), small_sweep()
     assert sw.sweep_id(a) == sw.sweep_id(b) and sw.sweep_id(a).startswith("sha256:")
-    changed = [a.with_base(T=2.0), small_sweep(substeps=5), a.with_base(robot="p3dx")]
+    changed = [a.with_base(T=2.0), small_sweep(substeps=5), a.with_base(robot="p3dx"),
+               a.with_base(log_dtype="float32")]
     ids = {sw.sweep_id(s) for s in changed} | {sw.sweep_id(a)}
-    assert len(ids) == 4  # same columns, different sweeps
+    assert len(ids) == 5  # same columns, different sweeps
     assert all(s.columns == a.columns for s in changed)
 
 

@@ -351,7 +351,10 @@ def sweep_id(sweep: Sweep) -> str:
     and the first point's complete scenario, so changed defaults count), the same
     whatever the engine: ``"sha256:..."``."""
     import hashlib
-    text = json.dumps({"sweep": sweep.to_dict(), "first": sweep.points()[0].scenario.to_dict()},
+    first = sweep.points()[0].scenario.to_dict()
+    if first.get("log_dtype") == "float64":  # the default: folders made before the field
+        del first["log_dtype"]                # existed keep their id
+    text = json.dumps({"sweep": sweep.to_dict(), "first": first},
                       sort_keys=True, separators=(",", ":"), default=str)
     return "sha256:" + hashlib.sha256(text.encode()).hexdigest()
 
