@@ -315,6 +315,8 @@ def main(argv=None):
         memory_table(args.long)
         return
     if args.limit:
+        if not _kernels.AVAILABLE:
+            sys.exit("--limit measures compiled code: it needs numba (pip install unidyn[fast])")
         arithmetic_limit()
         return
     rtol, atol = runner.DEFAULT_RTOL, runner.DEFAULT_ATOL

@@ -174,6 +174,10 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
     :param progress: ``None`` (default: a tqdm progress bar on stderr for long calls,
         only when stderr is a terminal), ``False`` (none), ``True`` (always a bar), or a
         callable ``f(done_samples, total_samples)``
+    The results of one call share the engine's log: each result's series are views of
+    one array holding every run of its group (no copy), so keeping one result keeps
+    that array; ``np.array(r.pose)`` and the like copy what is to outlive the rest.
+
     :raises SimulationInterrupted: on Ctrl-C (a KeyboardInterrupt); its ``results``
         hold one entry per scenario: the computed part, marked incomplete (``None``
         for a run not yet started); ``result`` is the first of them

@@ -187,7 +187,8 @@ class ClosedLoop:
 
     def rhs(self, t, X, k):
         """dX/dt, (B, 13), at time t in noise interval k
-        (:func:`unidyn.equations.loop_derivative` on all runs at once)."""
+        (:func:`unidyn.equations.loop_derivative` on all runs at once). k must lie in
+        the current noise window (:meth:`noise_window`; the first is drawn on creation)."""
         dX = np.empty((NSTATE, self.B))
         equations.loop_derivative(t, X.T, self._reference_tuple(t), self.P.T, self._noise(k), dX)
         return dX.T

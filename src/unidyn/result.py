@@ -29,6 +29,15 @@ def _trapz(f, t) -> float:
     return total
 
 
+def _floats(a) -> list:
+    """Python floats of an array's values; a float32 value as its shortest decimal
+    (0.1, not the 0.10000000149011612 of widening it to float64)."""
+    a = np.asarray(a)
+    if a.dtype == np.float32:
+        return [float(str(v)) for v in a]
+    return [float(v) for v in a]
+
+
 def distance(a, b):
     """Row-wise Euclidean distance between (N, 2) arrays, in their floating type."""
     return np.hypot(a[:, 0] - b[:, 0], a[:, 1] - b[:, 1])
@@ -51,7 +60,7 @@ def metrics(t, error, velocity) -> dict:
         "ise": _trapz(lambda i0, i1: e64(i0, i1) ** 2, t),
         "itae": _trapz(lambda i0, i1: t[i0:i1] * e64(i0, i1), t),
         "energy": _trapz(lambda i0, i1: np.sum(v[i0:i1].astype(float) ** 2, axis=-1), t),
-        "error_final": float(e[-1]) if len(e) else float("nan"),
+        "error_final": _floats(e[-1:])[0] if len(e) else float("nan"),
     }
 
 
@@ -161,7 +170,7 @@ class Result:
             "t_end": float(self.t[-1]) if len(self.t) else 0.0,
             "metrics": _finite_or_null(self.metrics, "metrics", notes),
             "partial_metrics": _finite_or_null(self.partial_metrics, "partial_metrics", notes),
-            "theta_hat_final": (_finite_or_null(self.theta_hat[-1].tolist(), "theta_hat_final", notes)
+            "theta_hat_final": (_finite_or_null(_floats(self.theta_hat[-1]), "theta_hat_final", notes)
                                 if len(self.t) else None),
         }
         if notes:
@@ -186,11 +195,11 @@ class Result:
         for i in range(6):
             cols[f"theta_hat{i + 1}"] = self.theta_hat[:, i]
         header = ",".join(cols) + "\n"
-        # float32 series: the 9 digits that give each value back exactly
+        # float32 series: the 9 digits that give each value back exactly (t is float64)
         fmt = "%.10g" if self.pose.dtype == np.float64 else "%.9g"
         columns = list(cols.values())
 
-        line = ",".join([fmt] * len(columns)) + "\n"
+        line = ",".join(["%.10g"] + [fmt] * (len(columns) - 1)) + "\n"
 
         def rows():  # formatted a block at a time: no copy of the whole series in memory
             # (not np.savetxt: its wrapper keeps each block's text alive until the

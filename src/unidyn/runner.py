@@ -186,8 +186,11 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
             bar.close()
         interrupted = isinstance(err, KeyboardInterrupt)
         simstate = started[-1] if started else None
+        if getattr(simstate, "tlist", None) is None:  # failed while bdsim started the blocks
+            simstate = None
         cause = err if interrupted else _root_cause(err)
-        t_stop = getattr(simstate, "t", float("nan"))
+        t_stop = getattr(simstate, "t", None)
+        t_stop = float("nan") if t_stop is None else t_stop
         failure = (f"{sc.name or sc.case}: interrupted at t = {t_stop:.6g} s" if interrupted else
                    f"{sc.name or sc.case}: run stopped at t = {t_stop:.6g} s: "
                    f"{type(cause).__name__}: {cause}")

@@ -90,7 +90,7 @@ class Scenario:
         on the logged grid) are thinned.
     :param log_dtype: ``"float64"`` (default) or ``"float32"``: the floating type of
         the result's series. The integration is float64 either way; float32 halves the
-        memory of a long run (about 70 instead of 140 bytes per logged sample) and
+        memory of a long run (80 instead of 152 bytes per logged sample) and
         rounds the logged values to 7 significant digits (about 1e-7 m on a 1 m path),
         which is what the metrics are then computed from.
     """

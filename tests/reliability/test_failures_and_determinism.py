@@ -32,6 +32,25 @@ def test_a_nan_in_the_diagram_stops_the_run_and_keeps_the_part_computed():
     np.testing.assert_allclose(part.pose, clean.pose, atol=1e-9)
 
 
+@pytest.mark.parametrize("error", [RuntimeError("a block's start failed"), KeyboardInterrupt()])
+def test_a_failure_while_bdsim_starts_the_blocks_is_passed_on(error, monkeypatch):
+    """Before the run has a log (bdsim has not set its time and log yet) the error
+    itself reaches the user: Ctrl-C as SimulationInterrupted, anything else as is."""
+    import bdsim.blockdiagram as bdm
+
+    def start(self, simstate):
+        raise error
+    monkeypatch.setattr(bdm.BlockDiagram, "start", start)
+    from unidyn.runner import SimulationInterrupted
+    expected = SimulationInterrupted if isinstance(error, KeyboardInterrupt) else RuntimeError
+    with pytest.raises(expected) as info:
+        unidyn.simulate(Scenario.paper(2, T=1.0), progress=False)
+    if expected is RuntimeError:
+        assert "a block's start failed" in str(info.value)
+    else:
+        assert "interrupted" in str(info.value)
+
+
 def test_a_nan_in_the_batch_engine_marks_only_that_run_incomplete():
     bad = Scenario.paper(3, T=6.0, trajectory=_nan_after(2.0), name="bad")
     good = Scenario.paper(3, T=6.0, name="good")
