@@ -213,7 +213,7 @@ def operation_counts():
 def machine_rates():
     """ns per operation on one core, compiled by numba: multiply-add over an L1-resident
     array (vectorised by the compiler), divide, and each transcendental function (scalar
-    calls into the maths library unless numba finds Intel's SVML)."""
+    calls into the maths library unless numba finds Intel's SVML), and whether it does."""
     import math
 
     import numba
@@ -247,9 +247,8 @@ def machine_rates():
              "divide": best(divide, np.full(512, 0.3), 1.0, 0.5, R) / (512 * R)}
     x, y = np.random.default_rng(0).uniform(-1, 1, 4096), np.zeros(4096)
     for name in TRANSCENDENTAL:
-        rates[name] = best(calls(getattr(math, name)), x, y, 500) / (4096 * 500) - 0.0
-    rates["svml"] = bool(getattr(numba.config, "USING_SVML", False))
-    return {k: v * 1e9 if not isinstance(v, bool) else v for k, v in rates.items()}
+        rates[name] = best(calls(getattr(math, name)), x, y, 500) / (4096 * 500)
+    return {k: v * 1e9 for k, v in rates.items()}, bool(getattr(numba.config, "USING_SVML", False))
 
 
 def arithmetic_limit(ns_measured=None):
@@ -258,13 +257,12 @@ def arithmetic_limit(ns_measured=None):
     multiply-adds a state), each arithmetic operation at the vectorised multiply-add
     rate, each divide and transcendental call at its measured cost; printed beside the
     engine's measured ns per run-step."""
-    counts, rates = operation_counts(), machine_rates()
+    counts, (rates, svml) = operation_counts(), machine_rates()
     n_trans = {k: counts.get(k, 0) for k in TRANSCENDENTAL}
     n_div = counts.get("divide", 0)
     n_arith = sum(v for k, v in counts.items() if k not in TRANSCENDENTAL and k != "divide")
-    rhs = (n_arith * rates["mul_add"] + n_div * rates["divide"]
-           + sum(n * rates[k] for k, n in n_trans.items()))
     t_trans = sum(n * rates[k] for k, n in n_trans.items())
+    rhs = n_arith * rates["mul_add"] + n_div * rates["divide"] + t_trans
     combination = 13 * 12 * rates["mul_add"]
     step = 4 * rhs + combination
     print(f"\narithmetic limit of one RK4 run-step on one core: a right-hand side is {n_arith} "
@@ -273,7 +271,7 @@ def arithmetic_limit(ns_measured=None):
           + f"; this machine does a vectorised multiply-add in {rates['mul_add']:.3f} ns an "
           f"operation, a divide in {rates['divide']:.2f} ns, "
           + ", ".join(f"{k} in {rates[k]:.1f} ns" for k in TRANSCENDENTAL)
-          + (" (numba uses SVML: vectorised calls)" if rates["svml"] else
+          + (" (numba uses SVML: vectorised calls)" if svml else
              " (no SVML: scalar maths-library calls)") + ". So a "
           f"right-hand side takes at least {rhs:.0f} ns ({t_trans:.0f} of them the "
           f"transcendental calls), and an RK4 run-step {step:.0f} ns"

@@ -53,6 +53,18 @@ LOG_COLUMNS = eq.STATE[:11] + ("x_d", "y_d", "u_d", "w_d", "u_ref", "w_ref")
 NLOG = len(LOG_COLUMNS)
 
 
+
+def _columns(first, last):
+    return slice(LOG_COLUMNS.index(first), LOG_COLUMNS.index(last) + 1)
+
+
+#: Where each series of a :class:`~unidyn.Result` lies in a row of the log.
+LOG_SERIES = {"pose": _columns("x", "psi"), "velocity": _columns("u", "w"),
+              "theta_hat": _columns("theta_hat1", "theta_hat6"),
+              "reference": _columns("x_d", "y_d"), "v_d": _columns("u_d", "w_d"),
+              "v_ref": _columns("u_ref", "w_ref")}
+
+
 @jit
 def log_signals(t, X, p, noise, out):
     """One row of the log (:data:`LOG_COLUMNS`) at (t, X) into out, whatever out's

@@ -274,7 +274,7 @@ class _Run:
         n, B = loop.steps, loop.B
         self.L = L = int(loop.scenarios[0].log_every)
         rows = n // L + 2  # every L-th sample, plus the one a run stops at
-        from ._kernels import NLOG
+        from ._kernels import NLOG  # (here: importing _kernels loads numba)
         self.LOG = np.full((B, rows, NLOG), np.nan, dtype=loop.scenarios[0].log_dtype)
         self.status = np.zeros(B, dtype=np.int64)
         self.last = np.zeros(B, dtype=np.int64)
@@ -304,8 +304,7 @@ def _integrate_numba(run: _Run, bar):
     previous = numba.set_parallel_chunksize(1)
     try:
         while k < n and (run.status == _kernels.OK).any():
-            if k == loop.noise_end:
-                loop.noise_window(k, loop.pos_noise.shape[1])
+            loop.next_noise_window(k)
             k1 = min(n, k + S, loop.noise_end)
             _kernels.run_batch(X, P, loop.pos_noise, loop.vel_noise, loop.noise_k0,
                                float(loop.Ts), k, k1, n, run.m, run.L, run.bounds, run.LOG,
@@ -352,8 +351,7 @@ def _steps(run, loop, X, m, h, check, record, bar):
         running = run.status == OK
         if not running.any():
             break
-        if k == loop.noise_end:
-            loop.noise_window(k, loop.pos_noise.shape[1])
+        loop.next_noise_window(k)
         t0 = k * Ts
         for j in range(m):
             t = t0 + j * h
@@ -391,6 +389,7 @@ _CAUSE = {
 def _results(run: _Run) -> list:
     """One Result per run of ``run``. A run that stopped keeps the samples up to
     its stop (a non-finite last sample is dropped) and is marked incomplete."""
+    from . import _kernels
     loop, L = run.loop, run.L
     n = loop.steps
     out = []
@@ -413,15 +412,13 @@ def _results(run: _Run) -> list:
         elif status == 0:
             message = f"interrupted at t = {t_stop:.6g} s (scenario {label})"
         else:
-            last_row = run.LOG[i, nrow - 1].astype(float)
-            v = {2: np.hypot(*last_row[0:2]) if nrow else np.nan,
-                 3: abs(last_row[3]), 4: abs(last_row[4])}.get(status, 0.0)
+            x, y, _, u, w = run.LOG[i, nrow - 1, :5].astype(float)
+            v = {2: np.hypot(x, y) if nrow else np.nan, 3: abs(u), 4: abs(w)}.get(status, 0.0)
             cause = _CAUSE[status].format(v=v, b=run.bounds[i, status - 2] if status > 1 else 0.0)
             message = f"{cause} at t = {t_stop:.6g} s (scenario {label})"
-        v_ref = log[:, 15:17]
-        vel = log[:, 3:5] if sc.case != "kinematic" else v_ref
-        out.append(Result(scenario=sc, t=t, pose=log[:, 0:3], velocity=vel,
-                          reference=log[:, 11:13], v_d=log[:, 13:15], v_ref=v_ref,
-                          theta_hat=log[:, 5:11], engine="batch", complete=complete,
+        series = {k: log[:, c] for k, c in _kernels.LOG_SERIES.items()}
+        if sc.case == "kinematic":  # no robot velocity state: the clipped commands
+            series["velocity"] = series["v_ref"]
+        out.append(Result(scenario=sc, t=t, **series, engine="batch", complete=complete,
                           message=message, backend=run.backend, substeps=int(run.m[i])))
     return out

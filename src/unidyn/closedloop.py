@@ -104,6 +104,12 @@ class ClosedLoop:
                 vel.draw(self.vel_noise[i])
         self.noise_k0, self.noise_end = k0, k0 + rows
 
+    def next_noise_window(self, k: int):
+        """At interval k = the end of the current window, draw the next one (of the same
+        size); otherwise nothing: the window already holds k."""
+        if k == self.noise_end:
+            self.noise_window(k, self.pos_noise.shape[1])
+
     # ------------------------------------------------------------------ #
     def initial_state(self) -> np.ndarray:
         X = np.zeros((self.B, NSTATE))

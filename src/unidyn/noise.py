@@ -61,9 +61,7 @@ def held_sequence(seed, std: float, n: int, dim: int = 2, out=None) -> np.ndarra
     draw of shape (n, dim) is the same numbers as n draws of dim, in order
     (``tests/test_model.py`` checks it), and 100x faster. ``out``: an array to draw
     into, in place of a new one."""
-    if out is None:
-        return std * np.random.default_rng(seed).standard_normal((n, dim))
-    return HeldNoise(seed, std).draw(out)
+    return HeldNoise(seed, std).draw(np.empty((n, dim)) if out is None else out)
 
 
 class HeldNoise:

@@ -169,7 +169,11 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
     # BlockDiagram.start: keep it, so that a run that fails still gives back its log
     started = []
     bd_start = fig.bd.start
-    fig.bd.start = lambda simstate: (started.append(simstate), bd_start(simstate))[1]
+
+    def start(simstate):
+        started.append(simstate)
+        return bd_start(simstate)
+    fig.bd.start = start
     failure = None
     interrupted = False
     try:
@@ -234,8 +238,9 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
     c = lambda a: np.asarray(a, dtype=sc.log_dtype)  # noqa: E731
     result = Result(scenario=sc, t=t, pose=c(signals["pose"]), velocity=c(velocity),
                     reference=c(signals["reference"]), v_d=c(signals["v_d"]),
-                    v_ref=c(signals["v_ref"]), theta_hat=c(theta_hat), engine="bdsim", complete=failure is None,
-                    message=failure or "", backend=f"solve_ivp {method}")
+                    v_ref=c(signals["v_ref"]), theta_hat=c(theta_hat), engine="bdsim",
+                    complete=failure is None, message=failure or "",
+                    backend=f"solve_ivp {method}")
     if interrupted:
         raise SimulationInterrupted(failure, result)
     if failure is not None:

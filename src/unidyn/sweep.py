@@ -346,14 +346,21 @@ _SWEEP_RESULTS = ("metrics.csv", RECORD_NAME)
 _SWEEP_OWNED = ("metrics.csv", RECORD_NAME, "metrics.png", "claims.md", "fig11.png", ID_NAME)
 
 
+#: Scenario fields added after sweep ids were first written, with the value every
+#: earlier sweep had: left out of the id at that value, so that folders written
+#: before the field existed keep their id.
+FIELDS_ADDED_SINCE_IDS = {"log_dtype": "float64"}
+
+
 def sweep_id(sweep: Sweep) -> str:
     """A hash of a sweep's full definition (its base, grid, variants, name and substeps,
     and the first point's complete scenario, so changed defaults count), the same
     whatever the engine: ``"sha256:..."``."""
     import hashlib
     first = sweep.points()[0].scenario.to_dict()
-    if first.get("log_dtype") == "float64":  # the default: folders made before the field
-        del first["log_dtype"]                # existed keep their id
+    for field, value in FIELDS_ADDED_SINCE_IDS.items():
+        if first.get(field) == value:
+            del first[field]
     text = json.dumps({"sweep": sweep.to_dict(), "first": first},
                       sort_keys=True, separators=(",", ":"), default=str)
     return "sha256:" + hashlib.sha256(text.encode()).hexdigest()
