@@ -724,5 +724,18 @@ def main(argv=None) -> int:
         return 2
 
 
+def entry(argv=None) -> int:
+    """The ``unidyn`` console script and ``python -m unidyn``: :func:`main`, then
+    Ctrl-C is ignored while Python shuts down. The command's work is done and its exit
+    status stands; without this, a Ctrl-C in the second or so that the interpreter takes
+    to tear down numba, matplotlib and friends prints a traceback from whatever
+    finaliser it lands in."""
+    import signal
+    try:
+        return main(argv)
+    finally:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    sys.exit(entry())

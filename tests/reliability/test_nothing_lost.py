@@ -147,6 +147,25 @@ def test_an_interrupted_overwrite_keeps_the_old_run_or_writes_the_new(tmp_path):
     print(outcomes)
 
 
+def test_ctrl_c_after_the_command_finished_keeps_its_status_and_prints_no_traceback(tmp_path):
+    """Ctrl-C in the second that Python takes to shut down after a finished command
+    (numba's, matplotlib's and bdsim's finalisers run then): the results are whole,
+    the exit status is the command's own, and no finaliser prints a traceback. The
+    signal is sent by the process itself, after ``entry`` returned, so the moment is
+    not left to chance; the modules loaded are those of a real run."""
+    child = ("import os, signal, sys\n"
+             "from unidyn.cli import entry\n"
+             "code = entry(['run', '--set', 'T=1', '--out', 'R'])\n"
+             "os.kill(os.getpid(), signal.SIGINT)\n"
+             "sys.exit(code)\n")
+    env = dict(os.environ, MPLBACKEND="Agg")
+    p = subprocess.run([sys.executable, "-c", child], cwd=tmp_path, env=env, text=True,
+                       capture_output=True, timeout=180, preexec_fn=_no_sigint_ignore)
+    assert p.returncode == 0, (p.returncode, p.stderr)
+    assert "Traceback" not in p.stderr and "KeyboardInterrupt" not in p.stderr, p.stderr
+    assert complete_run(tmp_path / "R", 1.0)
+
+
 def test_an_interrupted_first_run_leaves_nothing_or_everything(tmp_path):
     rng = random.Random(7)
     for i, sig in enumerate((signal.SIGINT, signal.SIGKILL, signal.SIGINT)):
