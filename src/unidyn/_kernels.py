@@ -1,15 +1,18 @@
-"""Compiled batch engine: the Fig. 2 loop of :func:`unidyn.equations.loop_derivative`
-integrated with RK4, one run per thread (numba).
+"""Compiled batch engine: the Fig. 2 loop of :func:`unidyn.equations.loop_rates`
+integrated with RK4, runs side by side in SIMD lanes (numba).
 
 The right-hand side is the very function the numpy engine
 (:class:`unidyn.closedloop.ClosedLoop`) evaluates on arrays of runs, here compiled
-for one run at a time; the per-run parameters are the rows of the named table
-:data:`unidyn.equations.LOOP_PARAMETERS` (:meth:`ClosedLoop.parameter_table`). The
-reference is evaluated here from its kind (:data:`unidyn.equations.TRAJECTORY_KINDS`)
-with the trajectory functions of :mod:`unidyn.equations`. Used by
-:func:`unidyn.simulate_batch` when numba is installed (``pip install unidyn[fast]``);
-without numba the same code runs as plain Python, which ``tests/evals/test_engines.py``
-checks against the numpy engine.
+for the values of one run held in registers; the per-run parameters are the rows of
+the named table :data:`unidyn.equations.LOOP_PARAMETERS`
+(:meth:`ClosedLoop.parameter_table`). Runs that take the same RK4 steps and follow
+the same reference form a group of up to :data:`LANES`; a thread integrates a
+group's runs in one loop over its lanes, which the compiler vectorises (each
+instruction serves several runs), with the reference evaluated once per stage for
+the whole group. Lanes are independent: a run's numbers are the same bit for bit
+whichever runs share its group. Used by :func:`unidyn.simulate_batch` when numba is
+installed (``pip install unidyn[fast]``); without numba the same code runs as plain
+Python, which ``tests/evals/test_engines.py`` checks against the numpy engine.
 """
 
 from __future__ import annotations
@@ -19,10 +22,10 @@ import math
 import numpy as np
 
 from . import equations as eq
-from ._jit import AVAILABLE, jit, prange
+from ._jit import AVAILABLE, jit, jitable, prange
 from .equations import P, S
 
-__all__ = ["AVAILABLE", "LOG_COLUMNS", "reference", "rhs", "run_batch", "start", "OK", "NONFINITE",
+__all__ = ["AVAILABLE", "LOG_COLUMNS", "reference", "rhs", "run_groups", "start", "LANES", "OK", "NONFINITE",
            "POSITION", "SPEED_U", "SPEED_W", "INTERRUPTED"]
 
 NSTATE = len(eq.STATE)
@@ -81,6 +84,101 @@ def log_signals(t, X, p, noise, out):
     out[16] = eq.saturate(w_ref, p[P.speed_w])
 
 
+# ------------------------------------------------------------------ runs in lanes
+#: Runs integrated side by side by one thread: the compiled loop over them is
+#: vectorised (SIMD), so up to LANES runs share each instruction. A group's values
+#: are stored lane-minor, value i of lane b at [i * LANES + b]: the offsets are
+#: constants, which lets the compiler prove that lanes do not overlap.
+LANES = 8
+NPARAM = len(eq.LOOP_PARAMETERS)
+
+
+#: The tuples below are written out (numba keeps a tuple of floats in registers and
+#: has no tuple comprehension); tests/evals/test_engines.py checks them against the
+#: lengths of :data:`unidyn.equations.STATE` and :data:`~unidyn.equations.LOOP_PARAMETERS`.
+@jitable
+def _lane_state(A, b):
+    """Lane b of a group's state (lane-minor), as a tuple."""
+    L = LANES
+    return (A[0 * L + b], A[1 * L + b], A[2 * L + b], A[3 * L + b], A[4 * L + b],
+            A[5 * L + b], A[6 * L + b], A[7 * L + b], A[8 * L + b], A[9 * L + b],
+            A[10 * L + b], A[11 * L + b], A[12 * L + b])
+
+
+@jitable
+def _lane_params(A, b):
+    """Lane b of a group's parameters (lane-minor), as a tuple."""
+    L = LANES
+    return (A[0 * L + b], A[1 * L + b], A[2 * L + b], A[3 * L + b], A[4 * L + b],
+            A[5 * L + b], A[6 * L + b], A[7 * L + b], A[8 * L + b], A[9 * L + b],
+            A[10 * L + b], A[11 * L + b], A[12 * L + b], A[13 * L + b], A[14 * L + b],
+            A[15 * L + b], A[16 * L + b], A[17 * L + b], A[18 * L + b], A[19 * L + b],
+            A[20 * L + b], A[21 * L + b], A[22 * L + b], A[23 * L + b], A[24 * L + b],
+            A[25 * L + b], A[26 * L + b], A[27 * L + b], A[28 * L + b], A[29 * L + b],
+            A[30 * L + b], A[31 * L + b], A[32 * L + b], A[33 * L + b], A[34 * L + b],
+            A[35 * L + b], A[36 * L + b], A[37 * L + b], A[38 * L + b], A[39 * L + b],
+            A[40 * L + b], A[41 * L + b], A[42 * L + b])
+
+
+@jitable
+def _axpy(X, a, D):
+    """X + a D, value by value (the stages of RK4)."""
+    return (X[0] + a * D[0], X[1] + a * D[1], X[2] + a * D[2], X[3] + a * D[3],
+            X[4] + a * D[4], X[5] + a * D[5], X[6] + a * D[6], X[7] + a * D[7],
+            X[8] + a * D[8], X[9] + a * D[9], X[10] + a * D[10], X[11] + a * D[11],
+            X[12] + a * D[12])
+
+
+@jitable
+def _rk4(X, h, d1, d2, d3, d4):
+    """RK4's step, X + h / 6 (d1 + 2 d2 + 2 d3 + d4), value by value."""
+    c = h / 6.0
+    return (X[0] + c * (d1[0] + 2.0 * d2[0] + 2.0 * d3[0] + d4[0]),
+            X[1] + c * (d1[1] + 2.0 * d2[1] + 2.0 * d3[1] + d4[1]),
+            X[2] + c * (d1[2] + 2.0 * d2[2] + 2.0 * d3[2] + d4[2]),
+            X[3] + c * (d1[3] + 2.0 * d2[3] + 2.0 * d3[3] + d4[3]),
+            X[4] + c * (d1[4] + 2.0 * d2[4] + 2.0 * d3[4] + d4[4]),
+            X[5] + c * (d1[5] + 2.0 * d2[5] + 2.0 * d3[5] + d4[5]),
+            X[6] + c * (d1[6] + 2.0 * d2[6] + 2.0 * d3[6] + d4[6]),
+            X[7] + c * (d1[7] + 2.0 * d2[7] + 2.0 * d3[7] + d4[7]),
+            X[8] + c * (d1[8] + 2.0 * d2[8] + 2.0 * d3[8] + d4[8]),
+            X[9] + c * (d1[9] + 2.0 * d2[9] + 2.0 * d3[9] + d4[9]),
+            X[10] + c * (d1[10] + 2.0 * d2[10] + 2.0 * d3[10] + d4[10]),
+            X[11] + c * (d1[11] + 2.0 * d2[11] + 2.0 * d3[11] + d4[11]),
+            X[12] + c * (d1[12] + 2.0 * d2[12] + 2.0 * d3[12] + d4[12]))
+
+
+@jit(inline=True)
+def _store(A, b, X, speed_u, speed_w):
+    """Lane b of a group's state from the tuple X, the speeds clipped to their limits
+    (a step that crosses one ends on it)."""
+    for i in range(NSTATE):
+        A[i * LANES + b] = X[i]
+    A[S.u * LANES + b] = eq.saturate(X[S.u], speed_u)
+    A[S.w * LANES + b] = eq.saturate(X[S.w], speed_w)
+
+
+@jit
+def _steps_lanes(XL, PL, NL, p0, t0, h, m, nl):
+    """m RK4 steps of length h from t0 for lanes 0..nl-1 of one group (state XL,
+    parameters PL, this interval's noise NL; all lane-minor). The reference is the
+    same for every lane (p0: the group's first run), so it is evaluated once a stage."""
+    for j in range(m):
+        t = t0 + j * h
+        r1 = reference(t, p0)
+        r2 = reference(t + 0.5 * h, p0)
+        r4 = reference(t + h, p0)
+        for b in range(nl):
+            X = _lane_state(XL, b)
+            p = _lane_params(PL, b)
+            noise = (NL[b], NL[LANES + b], NL[2 * LANES + b], NL[3 * LANES + b])
+            d1 = eq.loop_rates(t, X, r1, p, noise)
+            d2 = eq.loop_rates(t + 0.5 * h, _axpy(X, 0.5 * h, d1), r2, p, noise)
+            d3 = eq.loop_rates(t + 0.5 * h, _axpy(X, 0.5 * h, d2), r2, p, noise)
+            d4 = eq.loop_rates(t + h, _axpy(X, h, d3), r4, p, noise)
+            _store(XL, b, _rk4(X, h, d1, d2, d3, d4), p[P.speed_u], p[P.speed_w])
+
+
 #: Why a run stopped (``status``): still running / complete, a non-finite state,
 #: |(x, y)|, |u| or |w| beyond its divergence bound, interrupted.
 OK, NONFINITE, POSITION, SPEED_U, SPEED_W, INTERRUPTED = 0, 1, 2, 3, 4, 5
@@ -113,46 +211,6 @@ def log_row(k, n, L, stopped):
 
 
 @jit
-def _run_one(X, p, pos_noise, vel_noise, kn, Ts, k0, k1, n, m, L, bound, LOG):
-    """Advance X (in place) over sample intervals k0..k1-1 with m RK4 steps each (the
-    noise arrays hold intervals kn, kn + 1, ...); returns (status, last sample reached)."""
-    d1 = np.empty(NSTATE)
-    d2 = np.empty(NSTATE)
-    d3 = np.empty(NSTATE)
-    d4 = np.empty(NSTATE)
-    tmp = np.empty(NSTATE)
-    h = Ts / m
-    for k in range(k0, k1):
-        r = k - kn
-        noise = (pos_noise[r, 0], pos_noise[r, 1], vel_noise[r, 0], vel_noise[r, 1])
-        for j in range(m):
-            t = k * Ts + j * h
-            rhs(t, X, p, noise, d1)
-            for i in range(NSTATE):
-                tmp[i] = X[i] + 0.5 * h * d1[i]
-            rhs(t + 0.5 * h, tmp, p, noise, d2)
-            for i in range(NSTATE):
-                tmp[i] = X[i] + 0.5 * h * d2[i]
-            rhs(t + 0.5 * h, tmp, p, noise, d3)
-            for i in range(NSTATE):
-                tmp[i] = X[i] + h * d3[i]
-            rhs(t + h, tmp, p, noise, d4)
-            for i in range(NSTATE):
-                X[i] += h / 6.0 * (d1[i] + 2.0 * d2[i] + 2.0 * d3[i] + d4[i])
-            # the speed limits are hard: a step that crosses one ends on it
-            X[S.u] = eq.saturate(X[S.u], p[P.speed_u])
-            X[S.w] = eq.saturate(X[S.w], p[P.speed_w])
-        status = check_state(X, bound)
-        row = log_row(k + 1, n, L, status != OK)
-        if row >= 0:
-            # logged with interval k's measurement, as the diagram logs it before the tick
-            log_signals((k + 1) * Ts, X, p, noise, LOG[row])
-        if status != OK:
-            return status, k + 1
-    return OK, k1
-
-
-@jit
 def start(X, P_, pos_noise, vel_noise, bound, LOG, status):
     """Log sample 0 of every run and check its state (noise row 0: interval 0)."""
     for i in range(X.shape[0]):
@@ -161,17 +219,57 @@ def start(X, P_, pos_noise, vel_noise, bound, LOG, status):
         status[i] = check_state(X[i], bound[i])
 
 
-@jit(parallel=True)
-def run_batch(X, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n, m, L, bound, LOG, status, last):
-    """Advance every running run (status OK) over sample intervals k0..k1-1, run i
-    with m[i] RK4 steps per interval, the noise arrays (B, rows, 2) holding intervals
-    kn .. kn + rows - 1 (k0 >= kn, k1 <= kn + rows). X (B, 13) is updated in place; every L-th
-    sample (and the one a run stops at) is logged into LOG (B, rows, NLOG; float64 or
-    float32); status[i] says why run i stopped and last[i] is the last
-    sample it reached."""
-    for i in prange(X.shape[0]):
-        if status[i] == OK:
-            st, lst = _run_one(X[i], P_[i], pos_noise[i], vel_noise[i], kn, Ts, k0, k1, n, m[i], L,
-                               bound[i], LOG[i])
+@jit
+def _run_group(XL, PL, runs, nl, m, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n, L, bound,
+               LOG, status, last):
+    """Advance the nl runs of one group (run runs[b] in lane b; state XL and
+    parameters PL lane-minor) over sample intervals k0..k1-1 with m RK4 steps each.
+    A run that stops is no longer logged (its lane goes on being computed, unused)."""
+    NL = np.empty(4 * LANES)
+    x = np.empty(NSTATE)
+    h = Ts / m
+    p0 = P_[runs[0]]
+    for k in range(k0, k1):
+        running = False
+        r = k - kn
+        for b in range(nl):
+            i = runs[b]
+            running = running or status[i] == OK
+            NL[b] = pos_noise[i, r, 0]
+            NL[LANES + b] = pos_noise[i, r, 1]
+            NL[2 * LANES + b] = vel_noise[i, r, 0]
+            NL[3 * LANES + b] = vel_noise[i, r, 1]
+        if not running:
+            return
+        _steps_lanes(XL, PL, NL, p0, k * Ts, h, m, nl)
+        for b in range(nl):
+            i = runs[b]
+            if status[i] != OK:
+                continue
+            for q in range(NSTATE):
+                x[q] = XL[q * LANES + b]
+            st = check_state(x, bound[i])
+            row = log_row(k + 1, n, L, st != OK)
+            if row >= 0:
+                # logged with interval k's measurement, as the diagram logs it before the tick
+                noise = (NL[b], NL[LANES + b], NL[2 * LANES + b], NL[3 * LANES + b])
+                log_signals((k + 1) * Ts, x, P_[i], noise, LOG[i, row])
             status[i] = st
-            last[i] = lst
+            last[i] = k + 1
+
+
+@jit(parallel=True)
+def run_groups(XG, PG, runs, nlanes, mG, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n, L, bound,
+               LOG, status, last):
+    """Advance every group of runs over sample intervals k0..k1-1, one group per
+    thread at a time. Group g holds nlanes[g] runs (indices runs[g, :nlanes[g]] into
+    the per-run arrays) that share their RK4 steps per interval, mG[g], and their
+    reference; XG (G, 13 * LANES) and PG (G, len(LOOP_PARAMETERS) * LANES) are their
+    states (updated in place) and parameters, lane-minor. Per run: P_ (B, ...) its
+    parameters; pos_noise, vel_noise (B, rows, 2) the noise of intervals kn, kn + 1, ...
+    (k0 >= kn, k1 <= kn + rows); every L-th sample (and the one a run stops at) is
+    logged into LOG (B, rows, NLOG; float64 or float32); status[i] says why run i
+    stopped (OK while it runs) and last[i] is the last sample it reached."""
+    for g in prange(XG.shape[0]):
+        _run_group(XG[g], PG[g], runs[g], nlanes[g], mG[g], P_, pos_noise, vel_noise, kn, Ts,
+                   k0, k1, n, L, bound, LOG, status, last)

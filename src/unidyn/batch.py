@@ -23,7 +23,7 @@ import numpy as np
 
 from ._validate import ValidationError, integer
 from .closedloop import ClosedLoop
-from .equations import TRAJECTORY_KINDS, saturate
+from .equations import TRAJECTORY_KINDS, P, saturate
 from .result import Result
 from .scenario import Scenario
 
@@ -126,7 +126,8 @@ MAX_SUBSTEPS = 10_000
 def stable_substeps(sc: Scenario, substeps: int) -> int:
     """``substeps``, raised where needed so that the RK4 step Ts/substeps stays
     below STEP_RATE_LIMIT / :func:`fastest_rate` (a fast robot such as the
-    Khepera III needs a shorter step than the Pioneer, and so does a high gain).
+    Khepera III needs a shorter step than the Pioneer, and so does a high gain); a
+    raised count is rounded up to one of few values (:func:`_round_up`).
 
     :raises ValidationError: if that needs more than :data:`MAX_SUBSTEPS` steps per
         sample; the message names the time constant responsible
@@ -138,7 +139,18 @@ def stable_substeps(sc: Scenario, substeps: int) -> int:
             f"{sc.name or sc.case}: the batch engine would need more than {MAX_SUBSTEPS} RK4 "
             f"steps per {sc.Ts:g} s sample for the fastest rate of this loop ({what}); use a "
             f"shorter Ts, or unidyn.simulate (the bdsim diagram, adaptive step)")
-    return max(int(substeps), int(np.ceil(need - 1e-9)))
+    m = int(np.ceil(need - 1e-9))
+    return int(substeps) if m <= substeps else min(_round_up(m), MAX_SUBSTEPS)
+
+
+def _round_up(m: int) -> int:
+    """m rounded up to the next number of the form 2^e (4, 5, 6 or 7) / 4 (at most
+    25 % more steps). Raised step counts then fall on few values, so runs whose
+    rates differ a little (a sweep over gains) share their steps and can be
+    integrated side by side (:data:`unidyn._kernels.LANES`); each run's count still
+    depends on that run alone."""
+    e = max(0, m.bit_length() - 3)
+    return -(-m // (1 << e)) << e
 
 
 #: RK4 steps the compiled engine takes per run between returns to Python: the
@@ -286,29 +298,53 @@ class _Run:
         return _results(self)
 
 
+def _lane_groups(loop: ClosedLoop, m):
+    """The runs of ``loop`` in groups of at most LANES that share their steps per
+    interval and their reference (the compiled engine integrates a group in SIMD
+    lanes), the costliest first: (runs (G, LANES), lanes used (G,), steps (G,))."""
+    from ._kernels import LANES
+    ref = loop.P[:, P.trajectory:]
+    keys = {}
+    for i in range(loop.B):
+        keys.setdefault((int(m[i]),) + tuple(ref[i]), []).append(i)
+    groups = [(key[0], idx[j:j + LANES]) for key, idx in keys.items()
+              for j in range(0, len(idx), LANES)]
+    groups.sort(key=lambda g: -g[0] * len(g[1]))
+    runs = np.zeros((len(groups), LANES), dtype=np.int64)
+    for g, (_, idx) in enumerate(groups):
+        runs[g, :len(idx)] = idx
+        runs[g, len(idx):] = idx[0]  # unused lanes: never computed
+    return (runs, np.array([len(idx) for _, idx in groups], dtype=np.int64),
+            np.array([mg for mg, _ in groups], dtype=np.int64))
+
+
 def _integrate_numba(run: _Run, bar):
     from . import _kernels
+    from ._kernels import LANES
     loop = run.loop
     run.backend = "numba (compiled)"
-    n, B = loop.steps, loop.B
-    P = loop.P
+    n = loop.steps
     X = loop.initial_state()
-    _kernels.start(X, P, loop.pos_noise, loop.vel_noise, run.bounds, run.LOG, run.status)
+    _kernels.start(X, loop.P, loop.pos_noise, loop.vel_noise, run.bounds, run.LOG, run.status)
+    runs, nlanes, mG = _lane_groups(loop, run.m)
+    # lane-minor: value i of lane b at [i * LANES + b]
+    XG = np.ascontiguousarray(X[runs].transpose(0, 2, 1)).reshape(len(runs), -1)
+    PG = np.ascontiguousarray(loop.P[runs].transpose(0, 2, 1)).reshape(len(runs), -1)
     import os
-    per_thread = -(-B // max(1, min(B, os.cpu_count() or 1)))
-    S = max(1, SLICE_STEPS // (int(run.m.max()) * per_thread))
+    per_thread = -(-len(runs) // max(1, min(len(runs), os.cpu_count() or 1)))
+    S = max(1, SLICE_STEPS // (int(mG.max()) * per_thread))
     k = 0
     import numba
-    # runs differ in cost (their steps per sample): hand them to the threads one at a
-    # time, not in two contiguous halves (the sweep's high gains would all fall to one)
+    # groups differ in cost (their steps per sample): hand them to the threads one at
+    # a time, not in two contiguous halves
     previous = numba.set_parallel_chunksize(1)
     try:
         while k < n and (run.status == _kernels.OK).any():
             loop.next_noise_window(k)
             k1 = min(n, k + S, loop.noise_end)
-            _kernels.run_batch(X, P, loop.pos_noise, loop.vel_noise, loop.noise_k0,
-                               float(loop.Ts), k, k1, n, run.m, run.L, run.bounds, run.LOG,
-                               run.status, run.last)
+            _kernels.run_groups(XG, PG, runs, nlanes, mG, loop.P, loop.pos_noise, loop.vel_noise,
+                                loop.noise_k0, float(loop.Ts), k, k1, n, run.L, run.bounds,
+                                run.LOG, run.status, run.last)
             bar.advance(k1 - k)
             k = k1
     finally:

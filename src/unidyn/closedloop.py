@@ -3,8 +3,8 @@ r"""The closed loop of Fig. 2 as one pure right-hand side, batched over scenario
 This is the same loop the bdsim diagram of :func:`unidyn.diagrams.build_fig2`
 wires block by block, here as one function of time and state,
 :func:`unidyn.equations.loop_derivative`, evaluated on all runs at once (the
-compiled engine, :mod:`unidyn._kernels`, evaluates the same function one run at
-a time). It is the reference the diagram is tested against, and the right-hand
+compiled engine, :mod:`unidyn._kernels`, evaluates the same equations,
+:func:`unidyn.equations.loop_rates`, on runs side by side in SIMD lanes). It is the reference the diagram is tested against, and the right-hand
 side of the batch engine. Continuous control only
 (``Scenario.control == "continuous"``). The runs' parameters are one named
 table (:meth:`ClosedLoop.parameter_table`).

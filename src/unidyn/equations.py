@@ -34,7 +34,7 @@ import numpy as np
 __all__ = ["select", "point_velocity", "robot_acceleration", "dynamics_regressor", "saturate", "limited_acceleration",
            "kinematic_law", "kinematic_law_rate", "compensation_regressor", "compensation",
            "update_rate", "figure_eight", "circle", "line", "loop_signals",
-           "loop_derivative", "STATE", "S", "LOOP_PARAMETERS", "P", "TRAJECTORY_KINDS",
+           "loop_rates", "loop_derivative", "update_rates", "STATE", "S", "LOOP_PARAMETERS", "P", "TRAJECTORY_KINDS",
            "SWITCH_TOL"]
 
 #: Adaptation is on for t >= adapt_from - SWITCH_TOL (s): the switch then falls on
@@ -268,21 +268,23 @@ def loop_signals(X, ref, p, noise):
     udd = select(filtered, (ud - X[S.z_u]) / p[P.tau], rate_u)
     wdd = select(filtered, (wd - X[S.z_w]) / p[P.tau], rate_w)
     G = compensation_regressor(ud, wd, udd, wdd, um, wm, p[P.ku], p[P.kw], p[P.lu], p[P.lw])
-    ur, wr = compensation(G, X[S.theta_hat1:S.theta_hat6 + 1])
+    ur, wr = compensation(G, (X[S.theta_hat1], X[S.theta_hat2], X[S.theta_hat3],
+                              X[S.theta_hat4], X[S.theta_hat5], X[S.theta_hat6]))
     compensated = p[P.compensated] != 0.0
     return (ud, wd, udd, wdd, G, select(compensated, ur, ud), select(compensated, wr, wd),
             um, wm)
 
 
-def loop_derivative(t, X, ref, p, noise, dX):
-    r"""dX/dt of the Fig. 2 loop, written into dX (indexed by :data:`S`).
+def loop_rates(t, X, ref, p, noise):
+    r"""dX/dt of the Fig. 2 loop, as a tuple of the 13 rates in the order of :data:`S`.
 
     The commands are clipped to the speed limits; the robot follows Eqs. (1)-(2)
     with the acceleration limits (:func:`limited_acceleration`), or Eq. (1) with
     v = the clipped command for a kinematic robot; the estimate follows
     Eqs. (18)/(20) from ``adapt_from`` on (:func:`update_rate`, with the velocity
     error v_d - v_meas); the derivative filter integrates v_d'. Arguments as
-    :func:`loop_signals`.
+    :func:`loop_signals` (X and p may be tuples: the compiled engine passes one run's
+    values in registers).
     """
     ud, wd, udd, wdd, G, u_ref, w_ref, um, wm = loop_signals(X, ref, p, noise)
     uc = saturate(u_ref, p[P.speed_u])
@@ -296,17 +298,32 @@ def loop_derivative(t, X, ref, p, noise, dX):
     dynamic = p[P.dynamic] != 0.0
     u_move = select(dynamic, u, uc)
     w_move = select(dynamic, w, wc)
-    dX[S.x], dX[S.y] = point_velocity(X[S.psi], u_move, w_move, p[P.a])
-    dX[S.psi] = w_move
-    dX[S.u] = select(dynamic, du, 0.0)
-    dX[S.w] = select(dynamic, dw, 0.0)
+    dx, dy = point_velocity(X[S.psi], u_move, w_move, p[P.a])
     on = t >= p[P.adapt_from] - SWITCH_TOL
     u_tilde = ud - um
     w_tilde = wd - wm
-    for j in range(6):
-        r = update_rate(G[j], G[6 + j], u_tilde, w_tilde, p[P.gamma1 + j], p[P.leak1 + j],
-                        X[S.theta_hat1 + j])
-        dX[S.theta_hat1 + j] = select(on, r, 0.0)
+    r = update_rates(G, u_tilde, w_tilde, p, X)
     filtered = p[P.filtered] != 0.0
-    dX[S.z_u] = select(filtered, udd, 0.0)
-    dX[S.z_w] = select(filtered, wdd, 0.0)
+    return (dx, dy, w_move, select(dynamic, du, 0.0), select(dynamic, dw, 0.0),
+            select(on, r[0], 0.0), select(on, r[1], 0.0), select(on, r[2], 0.0),
+            select(on, r[3], 0.0), select(on, r[4], 0.0), select(on, r[5], 0.0),
+            select(filtered, udd, 0.0), select(filtered, wdd, 0.0))
+
+
+def update_rates(G, u_tilde, w_tilde, p, X):
+    """:func:`update_rate` for the six estimates of the loop state X (parameters p
+    indexed by :data:`P`), as a tuple."""
+    return (
+        update_rate(G[0], G[6], u_tilde, w_tilde, p[P.gamma1], p[P.leak1], X[S.theta_hat1]),
+        update_rate(G[1], G[7], u_tilde, w_tilde, p[P.gamma2], p[P.leak2], X[S.theta_hat2]),
+        update_rate(G[2], G[8], u_tilde, w_tilde, p[P.gamma3], p[P.leak3], X[S.theta_hat3]),
+        update_rate(G[3], G[9], u_tilde, w_tilde, p[P.gamma4], p[P.leak4], X[S.theta_hat4]),
+        update_rate(G[4], G[10], u_tilde, w_tilde, p[P.gamma5], p[P.leak5], X[S.theta_hat5]),
+        update_rate(G[5], G[11], u_tilde, w_tilde, p[P.gamma6], p[P.leak6], X[S.theta_hat6]))
+
+
+def loop_derivative(t, X, ref, p, noise, dX):
+    """:func:`loop_rates` written into dX (indexed by :data:`S`)."""
+    d = loop_rates(t, X, ref, p, noise)
+    for i in range(len(STATE)):
+        dX[i] = d[i]

@@ -53,6 +53,23 @@ def test_compiled_kernel_rhs_equals_the_numpy_closed_loop(rhs):
     assert worst < 1e-12
 
 
+def test_the_written_out_lane_tuples_cover_the_state_and_the_parameter_table():
+    """The compiled engine's tuples, written out by hand, against the lengths the
+    equations define and the lane-minor layout (value i of lane b at i * LANES + b)."""
+    L, ns, npar = _kernels.LANES, len(unidyn.equations.STATE), len(unidyn.equations.LOOP_PARAMETERS)
+    rng = np.random.default_rng(1)
+    A = rng.normal(size=npar * L)
+    for b in range(L):
+        assert _kernels._lane_state(A, b) == tuple(A[b::L][:ns])
+        assert _kernels._lane_params(A, b) == tuple(A[b::L][:npar])
+    X, D1, D2, D3, D4 = (tuple(rng.normal(size=ns)) for _ in range(5))
+    np.testing.assert_array_equal(_kernels._axpy(X, 0.3, D1), np.add(X, 0.3 * np.array(D1)))
+    np.testing.assert_allclose(
+        _kernels._rk4(X, 0.3, D1, D2, D3, D4),
+        np.array(X) + 0.05 * (np.array(D1) + 2 * np.array(D2) + 2 * np.array(D3) + np.array(D4)),
+        rtol=1e-15, atol=1e-15)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("noise", [None, unidyn.NoiseSpec(seed=3)])
 def test_numba_and_numpy_backends_agree(noise):
