@@ -45,8 +45,11 @@ def reference(t, p):
 
 @jit
 def rhs(t, X, p, noise, dX):
-    """dX/dt of one run (X, dX: (13,), p: a row of the parameter table)."""
-    eq.loop_derivative(t, X, reference(t, p), p, noise, dX)
+    """dX/dt of one run (X, dX: (13,), p: a row of the parameter table), as the
+    engine integrates it."""
+    d = eq.loop_rates(t, X, reference(t, p), p, noise)
+    for i in range(NSTATE):
+        dX[i] = d[i]
 
 
 #: The columns of the log, in order: the states the result keeps (pose, robot
@@ -148,35 +151,49 @@ def _rk4(X, h, d1, d2, d3, d4):
             X[12] + c * (d1[12] + 2.0 * d2[12] + 2.0 * d3[12] + d4[12]))
 
 
-@jit(inline=True)
-def _store(A, b, X, speed_u, speed_w):
-    """Lane b of a group's state from the tuple X, the speeds clipped to their limits
-    (a step that crosses one ends on it)."""
-    for i in range(NSTATE):
-        A[i * LANES + b] = X[i]
-    A[S.u * LANES + b] = eq.saturate(X[S.u], speed_u)
-    A[S.w * LANES + b] = eq.saturate(X[S.w], speed_w)
+@jit
+def _stage(t, ref, XL, a, DL, first, PL, NL, nl, OUT):
+    """One RK4 stage for lanes 0..nl-1 of a group: OUT = the loop's rates at
+    XL + a DL (at XL itself when ``first``), time t, reference ref (all lane-minor).
+    Compiled once and called for the four stages: the equations are inlined into
+    this one loop, which the compiler vectorises over the lanes."""
+    for b in range(nl):
+        X = _lane_state(XL, b)
+        if not first:
+            X = _axpy(X, a, _lane_state(DL, b))
+        noise = (NL[b], NL[LANES + b], NL[2 * LANES + b], NL[3 * LANES + b])
+        d = eq.loop_rates(t, X, ref, _lane_params(PL, b), noise)
+        for i in range(NSTATE):
+            OUT[i * LANES + b] = d[i]
 
 
 @jit
-def _steps_lanes(XL, PL, NL, p0, t0, h, m, nl):
+def _step(XL, h, D1, D2, D3, D4, PL, nl):
+    """RK4's step from the four stages, X + h / 6 (d1 + 2 d2 + 2 d3 + d4), for lanes
+    0..nl-1; the speeds end on their limits where the step crosses one."""
+    for b in range(nl):
+        X = _rk4(_lane_state(XL, b), h, _lane_state(D1, b), _lane_state(D2, b),
+                 _lane_state(D3, b), _lane_state(D4, b))
+        for i in range(NSTATE):
+            XL[i * LANES + b] = X[i]
+        XL[S.u * LANES + b] = eq.saturate(X[S.u], PL[P.speed_u * LANES + b])
+        XL[S.w * LANES + b] = eq.saturate(X[S.w], PL[P.speed_w * LANES + b])
+
+
+@jit
+def _steps_lanes(XL, PL, NL, p0, t0, h, m, nl, D):
     """m RK4 steps of length h from t0 for lanes 0..nl-1 of one group (state XL,
-    parameters PL, this interval's noise NL; all lane-minor). The reference is the
-    same for every lane (p0: the group's first run), so it is evaluated once a stage."""
+    parameters PL, this interval's noise NL; all lane-minor; D (4, 13 * LANES) holds
+    the stages). The reference is the same for every lane (p0: the group's first
+    run), so it is evaluated once a stage."""
     for j in range(m):
         t = t0 + j * h
-        r1 = reference(t, p0)
         r2 = reference(t + 0.5 * h, p0)
-        r4 = reference(t + h, p0)
-        for b in range(nl):
-            X = _lane_state(XL, b)
-            p = _lane_params(PL, b)
-            noise = (NL[b], NL[LANES + b], NL[2 * LANES + b], NL[3 * LANES + b])
-            d1 = eq.loop_rates(t, X, r1, p, noise)
-            d2 = eq.loop_rates(t + 0.5 * h, _axpy(X, 0.5 * h, d1), r2, p, noise)
-            d3 = eq.loop_rates(t + 0.5 * h, _axpy(X, 0.5 * h, d2), r2, p, noise)
-            d4 = eq.loop_rates(t + h, _axpy(X, h, d3), r4, p, noise)
-            _store(XL, b, _rk4(X, h, d1, d2, d3, d4), p[P.speed_u], p[P.speed_w])
+        _stage(t, reference(t, p0), XL, 0.0, D[0], True, PL, NL, nl, D[0])
+        _stage(t + 0.5 * h, r2, XL, 0.5 * h, D[0], False, PL, NL, nl, D[1])
+        _stage(t + 0.5 * h, r2, XL, 0.5 * h, D[1], False, PL, NL, nl, D[2])
+        _stage(t + h, reference(t + h, p0), XL, h, D[2], False, PL, NL, nl, D[3])
+        _step(XL, h, D[0], D[1], D[2], D[3], PL, nl)
 
 
 #: Why a run stopped (``status``): still running / complete, a non-finite state,
@@ -226,6 +243,7 @@ def _run_group(XL, PL, runs, nl, m, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n,
     parameters PL lane-minor) over sample intervals k0..k1-1 with m RK4 steps each.
     A run that stops is no longer logged (its lane goes on being computed, unused)."""
     NL = np.empty(4 * LANES)
+    D = np.zeros((4, NSTATE * LANES))
     x = np.empty(NSTATE)
     h = Ts / m
     p0 = P_[runs[0]]
@@ -241,7 +259,7 @@ def _run_group(XL, PL, runs, nl, m, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n,
             NL[3 * LANES + b] = vel_noise[i, r, 1]
         if not running:
             return
-        _steps_lanes(XL, PL, NL, p0, k * Ts, h, m, nl)
+        _steps_lanes(XL, PL, NL, p0, k * Ts, h, m, nl, D)
         for b in range(nl):
             i = runs[b]
             if status[i] != OK:

@@ -19,7 +19,7 @@ tuples of components, so no function allocates an array of its own;
 them into the array shapes of their public interfaces.
 
 What this module may use, so that numba compiles it: arithmetic, comparisons,
-``np.sin/cos/tanh/cosh/minimum/maximum``, :func:`select` (not ``np.where``, which
+``np.sin/cos/tanh/minimum/maximum``, :func:`select` (not ``np.where``, which
 allocates an array per call in compiled code), indexing, loops of fixed length,
 and calls to functions of this module; no Python branch on a value (it may be an
 array).
@@ -133,17 +133,16 @@ def kinematic_law_rate(xd, yd, vxd, vyd, axd, ayd, x, y, psi, u, w, a, kx, ky, l
     with :math:`\dot h` from Eq. (1) at the velocities (u, w) and
     :math:`\dot\psi = \omega`.
     """
-    zx = kx * (xd - x) / lx
-    zy = ky * (yd - y) / ly
-    nux = vxd + lx * np.tanh(zx)
-    nuy = vyd + ly * np.tanh(zy)
+    tx = np.tanh(kx * (xd - x) / lx)
+    ty = np.tanh(ky * (yd - y) / ly)
+    nux = vxd + lx * tx
+    nuy = vyd + ly * ty
     c = np.cos(psi)
     s = np.sin(psi)
     hdx, hdy = point_velocity(psi, u, w, a)
-    chx = np.cosh(zx)
-    chy = np.cosh(zy)
-    ndx = axd + kx / (chx * chx) * (vxd - hdx)
-    ndy = ayd + ky / (chy * chy) * (vyd - hdy)
+    # sech^2 = 1 - tanh^2 (exact to an absolute 1e-16: no cosh, which overflows)
+    ndx = axd + kx * (1.0 - tx * tx) * (vxd - hdx)
+    ndy = ayd + ky * (1.0 - ty * ty) * (vyd - hdy)
     # d/dt A^-1(psi) = w [[-sin, cos], [-cos/a, -sin/a]]
     return (c * nux + s * nuy, (-s * nux + c * nuy) / a,
             w * (-s * nux + c * nuy) + c * ndx + s * ndy,
