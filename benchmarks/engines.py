@@ -169,7 +169,7 @@ def rhs_rows():
              f"{t_v / B * 1e9:.0f} ns: runs as the vectorised dimension, with its temporaries")]
 
 
-TRANSCENDENTAL = ("sin", "cos", "tanh", "cosh")
+TRANSCENDENTAL = ("sin", "cos", "tanh")
 
 
 def operation_counts():
