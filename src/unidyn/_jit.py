@@ -92,11 +92,5 @@ def jit(f=None, *, parallel: bool = False, inline: bool = False):
     return wrap if f is None else wrap(f)
 
 
-def jitable(f):
-    """f, made callable from compiled code and inlined there (as the equations are);
-    for helpers that cannot be cached on their own (generated ones)."""
-    return register_jitable(inline="always")(f) if AVAILABLE else f
-
-
 #: numba.prange where numba is installed, else range.
 prange = numba.prange if AVAILABLE else range

@@ -22,7 +22,7 @@ import math
 import numpy as np
 
 from . import equations as eq
-from ._jit import AVAILABLE, jit, jitable, prange
+from ._jit import AVAILABLE, jit, prange
 from .equations import P, S
 
 __all__ = ["AVAILABLE", "LOG_COLUMNS", "reference", "rhs", "run_groups", "start", "LANES", "OK", "NONFINITE",
@@ -57,7 +57,6 @@ def rhs(t, X, p, noise, dX):
 #: v_d and v_ref (after the speed limits). Nothing else is logged.
 LOG_COLUMNS = eq.STATE[:11] + ("x_d", "y_d", "u_d", "w_d", "u_ref", "w_ref")
 NLOG = len(LOG_COLUMNS)
-
 
 
 def _columns(first, last):
@@ -99,7 +98,7 @@ NPARAM = len(eq.LOOP_PARAMETERS)
 #: The tuples below are written out (numba keeps a tuple of floats in registers and
 #: has no tuple comprehension); tests/evals/test_engines.py checks them against the
 #: lengths of :data:`unidyn.equations.STATE` and :data:`~unidyn.equations.LOOP_PARAMETERS`.
-@jitable
+@jit(inline=True)
 def _lane_state(A, b):
     """Lane b of a group's state (lane-minor), as a tuple."""
     L = LANES
@@ -108,7 +107,7 @@ def _lane_state(A, b):
             A[10 * L + b], A[11 * L + b], A[12 * L + b])
 
 
-@jitable
+@jit(inline=True)
 def _lane_params(A, b):
     """Lane b of a group's parameters (lane-minor), as a tuple."""
     L = LANES
@@ -123,7 +122,7 @@ def _lane_params(A, b):
             A[40 * L + b], A[41 * L + b], A[42 * L + b])
 
 
-@jitable
+@jit(inline=True)
 def _axpy(X, a, D):
     """X + a D, value by value (the stages of RK4)."""
     return (X[0] + a * D[0], X[1] + a * D[1], X[2] + a * D[2], X[3] + a * D[3],
@@ -132,7 +131,7 @@ def _axpy(X, a, D):
             X[12] + a * D[12])
 
 
-@jitable
+@jit(inline=True)
 def _rk4(X, h, d1, d2, d3, d4):
     """RK4's step, X + h / 6 (d1 + 2 d2 + 2 d3 + d4), value by value."""
     c = h / 6.0
@@ -151,6 +150,12 @@ def _rk4(X, h, d1, d2, d3, d4):
             X[12] + c * (d1[12] + 2.0 * d2[12] + 2.0 * d3[12] + d4[12]))
 
 
+@jit(inline=True)
+def _lane_noise(NL, b):
+    """Lane b of a group's noise for the interval (position x, y, velocity u, w)."""
+    return NL[b], NL[LANES + b], NL[2 * LANES + b], NL[3 * LANES + b]
+
+
 @jit
 def _stage(t, ref, XL, a, DL, first, PL, NL, nl, OUT):
     """One RK4 stage for lanes 0..nl-1 of a group: OUT = the loop's rates at
@@ -161,8 +166,7 @@ def _stage(t, ref, XL, a, DL, first, PL, NL, nl, OUT):
         X = _lane_state(XL, b)
         if not first:
             X = _axpy(X, a, _lane_state(DL, b))
-        noise = (NL[b], NL[LANES + b], NL[2 * LANES + b], NL[3 * LANES + b])
-        d = eq.loop_rates(t, X, ref, _lane_params(PL, b), noise)
+        d = eq.loop_rates(t, X, ref, _lane_params(PL, b), _lane_noise(NL, b))
         for i in range(NSTATE):
             OUT[i * LANES + b] = d[i]
 
@@ -270,8 +274,7 @@ def _run_group(XL, PL, runs, nl, m, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n,
             row = log_row(k + 1, n, L, st != OK)
             if row >= 0:
                 # logged with interval k's measurement, as the diagram logs it before the tick
-                noise = (NL[b], NL[LANES + b], NL[2 * LANES + b], NL[3 * LANES + b])
-                log_signals((k + 1) * Ts, x, P_[i], noise, LOG[i, row])
+                log_signals((k + 1) * Ts, x, P_[i], _lane_noise(NL, b), LOG[i, row])
             status[i] = st
             last[i] = k + 1
 

@@ -153,8 +153,9 @@ def _round_up(m: int) -> int:
     return -(-m // (1 << e)) << e
 
 
-#: RK4 steps the compiled engine takes per run between returns to Python: the
-#: interpreter can then handle Ctrl-C and update the progress bar (about 0.1 s).
+#: RK4 steps the compiled engine takes per thread between returns to Python (a group
+#: of runs in SIMD lanes counts as one): the interpreter can then handle Ctrl-C and
+#: update the progress bar (about 0.1 s).
 SLICE_STEPS = 200_000
 #: Show a progress bar (on a terminal) when a call takes at least this many RK4 steps.
 PROGRESS_STEPS = 5_000_000
@@ -320,7 +321,6 @@ def _lane_groups(loop: ClosedLoop, m):
 
 def _integrate_numba(run: _Run, bar):
     from . import _kernels
-    from ._kernels import LANES
     loop = run.loop
     run.backend = "numba (compiled)"
     n = loop.steps
