@@ -212,11 +212,14 @@ def operation_counts():
 
 def machine_rates():
     """ns per operation on one core, compiled by numba: multiply-add over an L1-resident
-    array (vectorised by the compiler), divide, and each transcendental function (scalar
-    calls into the maths library unless numba finds Intel's SVML), and whether it does."""
+    array (vectorised by the compiler), divide, and each transcendental function as the
+    engine evaluates it (unidyn._vecmath, vectorised by the compiler), and as the
+    maths library's scalar calls (``libm_sin``, ...: what numba makes of np.sin)."""
     import math
 
     import numba
+
+    from unidyn import _vecmath
 
     @numba.njit
     def mul_add(x, a, b, R):
@@ -247,8 +250,9 @@ def machine_rates():
              "divide": best(divide, np.full(512, 0.3), 1.0, 0.5, R) / (512 * R)}
     x, y = np.random.default_rng(0).uniform(-1, 1, 4096), np.zeros(4096)
     for name in TRANSCENDENTAL:
-        rates[name] = best(calls(getattr(math, name)), x, y, 500) / (4096 * 500)
-    return {k: v * 1e9 for k, v in rates.items()}, bool(getattr(numba.config, "USING_SVML", False))
+        rates[name] = best(calls(getattr(_vecmath, name)), x, y, 500) / (4096 * 500)
+        rates["libm_" + name] = best(calls(getattr(math, name)), x, y, 500) / (4096 * 500)
+    return {k: v * 1e9 for k, v in rates.items()}
 
 
 def arithmetic_limit(ns_measured=None):
@@ -257,7 +261,7 @@ def arithmetic_limit(ns_measured=None):
     multiply-adds a state), each arithmetic operation at the vectorised multiply-add
     rate, each divide and transcendental call at its measured cost; printed beside the
     engine's measured ns per run-step."""
-    counts, (rates, svml) = operation_counts(), machine_rates()
+    counts, rates = operation_counts(), machine_rates()
     n_trans = {k: counts.get(k, 0) for k in TRANSCENDENTAL}
     n_div = counts.get("divide", 0)
     n_arith = sum(v for k, v in counts.items() if k not in TRANSCENDENTAL and k != "divide")
@@ -271,8 +275,8 @@ def arithmetic_limit(ns_measured=None):
           + f"; this machine does a vectorised multiply-add in {rates['mul_add']:.3f} ns an "
           f"operation, a divide in {rates['divide']:.2f} ns, "
           + ", ".join(f"{k} in {rates[k]:.1f} ns" for k in TRANSCENDENTAL)
-          + (" (numba uses SVML: vectorised calls)" if svml else
-             " (no SVML: scalar maths-library calls)") + ". So a "
+          + " (unidyn._vecmath, vectorised; the maths library's scalar calls take "
+          + ", ".join(f"{rates['libm_' + k]:.1f}" for k in TRANSCENDENTAL) + " ns). So a "
           f"right-hand side takes at least {rhs:.0f} ns ({t_trans:.0f} of them the "
           f"transcendental calls), and an RK4 run-step {step:.0f} ns"
           + (f"; the engine's {ns_measured:.0f} ns is {ns_measured / step:.1f}x that"

@@ -28,11 +28,27 @@ if AVAILABLE:
     from numba.core import types
     from numba.extending import overload
 
+    from . import _vecmath
+
+    _OVERLOADED = (equations.select, equations.sin, equations.cos, equations.tanh)
     for _name in equations.__all__:
         _f = getattr(equations, _name)
         if (callable(_f) and getattr(_f, "__module__", None) == equations.__name__
-                and _f is not equations.select):
+                and _f not in _OVERLOADED):
             register_jitable(inline="always")(_f)
+
+    def _elementary(function, vectorisable, ufunc):
+        """Compile function (equations.sin, ...) of a float64 as the vectorisable
+        intrinsic, of anything else (an array, a float32) as numpy's ufunc."""
+        @overload(function, inline="always")
+        def _compiled(x):
+            if x == types.float64:
+                return lambda x: vectorisable(x)
+            return lambda x: ufunc(x)
+
+    _elementary(equations.sin, _vecmath.sin, np.sin)
+    _elementary(equations.cos, _vecmath.cos, np.cos)
+    _elementary(equations.tanh, _vecmath.tanh, np.tanh)
 
     @overload(equations.select)
     def _select(condition, a, b):
@@ -55,8 +71,8 @@ def _invalidate_stale_cache():
     are removed and compiled anew. (An installed release changes every file, and
     with them numba's own stamps.)"""
     root = Path(__file__).resolve().parent
-    stamp = hashlib.sha256(Path(equations.__file__).read_bytes()
-                           + Path(__file__).read_bytes()).hexdigest()
+    stamp = hashlib.sha256(b"".join(Path(f).read_bytes() for f in (
+        equations.__file__, __file__, Path(__file__).with_name("_vecmath.py")))).hexdigest()
     marker = root / "__pycache__" / "equations.numba-stamp"
     try:
         if marker.read_text() == stamp:

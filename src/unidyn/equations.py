@@ -19,10 +19,11 @@ tuples of components, so no function allocates an array of its own;
 them into the array shapes of their public interfaces.
 
 What this module may use, so that numba compiles it: arithmetic, comparisons,
-``np.sin/cos/tanh/minimum/maximum``, :func:`select` (not ``np.where``, which
-allocates an array per call in compiled code), indexing, loops of fixed length,
-and calls to functions of this module; no Python branch on a value (it may be an
-array).
+``np.minimum/maximum``, :func:`sin`, :func:`cos`, :func:`tanh` (numpy's; in compiled
+code the vectorisable ones of :mod:`unidyn._vecmath`, within 3 units in the last
+place of numpy's), :func:`select` (not ``np.where``, which allocates an array per
+call in compiled code), indexing, loops of fixed length, and calls to functions of
+this module; no Python branch on a value (it may be an array).
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ from collections import namedtuple
 
 import numpy as np
 
-__all__ = ["select", "point_velocity", "robot_acceleration", "dynamics_regressor", "saturate", "limited_acceleration",
+__all__ = ["select", "sin", "cos", "tanh", "point_velocity", "robot_acceleration", "dynamics_regressor", "saturate", "limited_acceleration",
            "kinematic_law", "kinematic_law_rate", "compensation_regressor", "compensation",
            "update_rate", "figure_eight", "circle", "line", "loop_signals",
            "loop_rates", "loop_derivative", "update_rates", "STATE", "S", "LOOP_PARAMETERS", "P", "TRAJECTORY_KINDS",
@@ -49,12 +50,28 @@ def select(condition, a, b):
     return np.where(condition, a, b)
 
 
+def sin(x):
+    """``np.sin``; in compiled code, :func:`unidyn._vecmath.sin`, which the compiler
+    vectorises (no call into the maths library)."""
+    return np.sin(x)
+
+
+def cos(x):
+    """``np.cos``; in compiled code, :func:`unidyn._vecmath.cos`."""
+    return np.cos(x)
+
+
+def tanh(x):
+    """``np.tanh``; in compiled code, :func:`unidyn._vecmath.tanh`."""
+    return np.tanh(x)
+
+
 # --------------------------------------------------------------------------- robot
 def point_velocity(psi, u, w, a):
     r"""Eq. (1), first two rows: the velocity of the point of interest h,
     :math:`\dot x = u\cos\psi - a w\sin\psi,\ \dot y = u\sin\psi + a w\cos\psi`."""
-    c = np.cos(psi)
-    s = np.sin(psi)
+    c = cos(psi)
+    s = sin(psi)
     return u * c - a * w * s, u * s + a * w * c
 
 
@@ -114,10 +131,10 @@ def kinematic_law(xd, yd, vxd, vyd, x, y, psi, a, kx, ky, lx, ly):
         \begin{bmatrix} \dot x_d + l_x \tanh(k_x \tilde x / l_x) \\
                         \dot y_d + l_y \tanh(k_y \tilde y / l_y) \end{bmatrix}
     """
-    nux = vxd + lx * np.tanh(kx * (xd - x) / lx)
-    nuy = vyd + ly * np.tanh(ky * (yd - y) / ly)
-    c = np.cos(psi)
-    s = np.sin(psi)
+    nux = vxd + lx * tanh(kx * (xd - x) / lx)
+    nuy = vyd + ly * tanh(ky * (yd - y) / ly)
+    c = cos(psi)
+    s = sin(psi)
     return c * nux + s * nuy, (-s * nux + c * nuy) / a
 
 
@@ -133,12 +150,12 @@ def kinematic_law_rate(xd, yd, vxd, vyd, axd, ayd, x, y, psi, u, w, a, kx, ky, l
     with :math:`\dot h` from Eq. (1) at the velocities (u, w) and
     :math:`\dot\psi = \omega`.
     """
-    tx = np.tanh(kx * (xd - x) / lx)
-    ty = np.tanh(ky * (yd - y) / ly)
+    tx = tanh(kx * (xd - x) / lx)
+    ty = tanh(ky * (yd - y) / ly)
     nux = vxd + lx * tx
     nuy = vyd + ly * ty
-    c = np.cos(psi)
-    s = np.sin(psi)
+    c = cos(psi)
+    s = sin(psi)
     hdx, hdy = point_velocity(psi, u, w, a)
     # sech^2 = 1 - tanh^2 (exact to an absolute 1e-16: no cosh, which overflows)
     ndx = axd + kx * (1.0 - tx * tx) * (vxd - hdx)
@@ -159,8 +176,8 @@ def compensation_regressor(ud, wd, udd, wdd, u, w, ku, kw, lu, lw):
         \quad \sigma_1 = \dot u_d + l_u\tanh\!\left(\frac{k_u}{l_u}\tilde u\right),\
         \sigma_2 = \dot\omega_d + l_\omega\tanh\!\left(\frac{k_\omega}{l_\omega}\tilde\omega\right)
     """
-    s1 = udd + lu * np.tanh(ku * (ud - u) / lu)
-    s2 = wdd + lw * np.tanh(kw * (wd - w) / lw)
+    s1 = udd + lu * tanh(ku * (ud - u) / lu)
+    s2 = wdd + lw * tanh(kw * (wd - w) / lw)
     return (s1, 0.0, -wd * w, ud, 0.0, 0.0,
             0.0, s2, ud * w - u * wd, 0.0, u * wd, wd)
 
@@ -190,10 +207,10 @@ def update_rate(g0, g1, u_tilde, w_tilde, gamma, leak, theta_hat):
 def figure_eight(t, ax, ay, wx, wy, cx, cy):
     r"""The paper's figure eight (Section 5), :math:`x_d = c_x + A_x\sin\omega_x t,\
     y_d = c_y + A_y(\cos\omega_y t - 1)`: (x_d, y_d, x_d', y_d', x_d'', y_d'')."""
-    sx = np.sin(wx * t)
-    cxw = np.cos(wx * t)
-    sy = np.sin(wy * t)
-    cyw = np.cos(wy * t)
+    sx = sin(wx * t)
+    cxw = cos(wx * t)
+    sy = sin(wy * t)
+    cyw = cos(wy * t)
     return (cx + ax * sx, cy + ay * (cyw - 1.0), ax * wx * cxw, -ay * wy * sy,
             -ax * wx * wx * sx, -ay * wy * wy * cyw)
 
@@ -202,8 +219,8 @@ def circle(t, radius, omega, cx, cy, phase):
     r"""A circle, :math:`h_d = c + R[\cos(\omega t + \phi), \sin(\omega t + \phi)]`:
     (x_d, y_d, x_d', y_d', x_d'', y_d'')."""
     arg = omega * t + phase
-    c = np.cos(arg)
-    s = np.sin(arg)
+    c = cos(arg)
+    s = sin(arg)
     return (cx + radius * c, cy + radius * s, -radius * omega * s, radius * omega * c,
             -radius * omega * omega * c, -radius * omega * omega * s)
 
