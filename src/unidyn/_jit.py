@@ -31,11 +31,14 @@ if AVAILABLE:
     from . import _vecmath
 
     _OVERLOADED = (equations.select, equations.sin, equations.cos, equations.tanh)
+    # called, not inlined: a whole loop evaluation that a caller makes several times
+    # (inlined, each copy costs numba's compiler seconds)
+    _CALLED = (equations.loop_acceleration, equations.loop_step_rate)
     for _name in equations.__all__:
         _f = getattr(equations, _name)
         if (callable(_f) and getattr(_f, "__module__", None) == equations.__name__
                 and _f not in _OVERLOADED):
-            register_jitable(inline="always")(_f)
+            register_jitable(inline="never" if _f in _CALLED else "always")(_f)
 
     def _elementary(function, vectorisable, ufunc):
         """Compile function (equations.sin, ...) of a float64 as the vectorisable

@@ -26,7 +26,7 @@ from ._jit import AVAILABLE, jit, prange
 from .equations import P, S
 
 __all__ = ["AVAILABLE", "LOG_COLUMNS", "reference", "rhs", "run_groups", "start", "LANES", "OK", "NONFINITE",
-           "POSITION", "SPEED_U", "SPEED_W", "INTERRUPTED"]
+           "POSITION", "SPEED_U", "SPEED_W", "INTERRUPTED", "STEP"]
 
 NSTATE = len(eq.STATE)
 
@@ -201,8 +201,9 @@ def _steps_lanes(XL, PL, NL, p0, t0, h, m, nl, D):
 
 
 #: Why a run stopped (``status``): still running / complete, a non-finite state,
-#: |(x, y)|, |u| or |w| beyond its divergence bound, interrupted.
-OK, NONFINITE, POSITION, SPEED_U, SPEED_W, INTERRUPTED = 0, 1, 2, 3, 4, 5
+#: |(x, y)|, |u| or |w| beyond its divergence bound, interrupted, the loop faster
+#: than the finest step allowed resolves.
+OK, NONFINITE, POSITION, SPEED_U, SPEED_W, INTERRUPTED, STEP = 0, 1, 2, 3, 4, 5, 6
 
 
 @jit
@@ -241,29 +242,97 @@ def start(X, P_, pos_noise, vel_noise, bound, LOG, status):
 
 
 @jit
+def _interval_steps(t, k, XL, PL, NL, p0, runs, nl, m, Ts, rate_max, refined, max_steps,
+                    status, seen, last, m_max, work, MK):
+    """The RK4 steps each running lane of a group takes over interval k, into MK: m,
+    or, where the loop's rate at the interval's start
+    (:func:`unidyn.equations.loop_step_rate`) is beyond rate_max of its run,
+    ceil(Ts rate / refined); a lane that would need more than max_steps stops with
+    status STEP. seen and m_max keep each run's fastest rate and most steps, work
+    counts its steps. Returns whether any lane takes finer steps. Runs with
+    rate_max = inf are not checked."""
+    finer = False
+    ref = reference(t, p0)
+    for b in range(nl):
+        i = runs[b]
+        MK[b] = m
+        if status[i] != OK:
+            continue
+        if rate_max[i] != np.inf:
+            rate = eq.loop_step_rate(t, _lane_state(XL, b), ref, _lane_params(PL, b),
+                                     _lane_noise(NL, b))
+            if rate > seen[i]:
+                seen[i] = rate
+            if rate > rate_max[i]:
+                need = Ts * rate / refined
+                if not need <= max_steps:
+                    status[i] = STEP
+                    last[i] = k
+                    continue
+                MK[b] = math.ceil(need)
+                m_max[i] = max(m_max[i], MK[b])
+                work[i] += MK[b]
+                finer = True
+        work[i] += m
+    return finer
+
+
+@jit
+def _lane_alone(XS0, XL, PL, NL, b, p0, t, h, m, XS, PS, NS, D):
+    """Lane b's interval again from its start XS0, alone (in lane 0 of the scratch
+    group XS, PS, NS) with m steps of h, into lane b of XL: the numbers the run has
+    when it is alone in its group."""
+    for q in range(NSTATE):
+        XS[q * LANES] = XS0[q * LANES + b]
+    for q in range(NPARAM):
+        PS[q * LANES] = PL[q * LANES + b]
+    for q in range(4):
+        NS[q * LANES] = NL[q * LANES + b]
+    _steps_lanes(XS, PS, NS, p0, t, h, m, 1, D)
+    for q in range(NSTATE):
+        XL[q * LANES + b] = XS[q * LANES]
+
+
+@jit
 def _run_group(XL, PL, runs, nl, m, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n, L, bound,
-               LOG, status, last):
+               rate_max, refined, max_steps, LOG, status, last, seen, m_max, work):
     """Advance the nl runs of one group (run runs[b] in lane b; state XL and
-    parameters PL lane-minor) over sample intervals k0..k1-1 with m RK4 steps each.
+    parameters PL lane-minor) over sample intervals k0..k1-1 with m RK4 steps each;
+    a lane whose loop is faster at an interval's start than m steps resolve takes
+    that interval alone with finer steps (:func:`_interval_steps`).
     A run that stops is no longer logged (its lane goes on being computed, unused)."""
     NL = np.empty(4 * LANES)
     D = np.zeros((4, NSTATE * LANES))
     x = np.empty(NSTATE)
+    XS0 = np.empty(NSTATE * LANES)
+    XS = np.zeros(NSTATE * LANES)
+    PS = np.zeros(NPARAM * LANES)
+    NS = np.zeros(4 * LANES)
+    MK = np.empty(LANES, dtype=np.int64)
     h = Ts / m
     p0 = P_[runs[0]]
     for k in range(k0, k1):
-        running = False
         r = k - kn
         for b in range(nl):
             i = runs[b]
-            running = running or status[i] == OK
             NL[b] = pos_noise[i, r, 0]
             NL[LANES + b] = pos_noise[i, r, 1]
             NL[2 * LANES + b] = vel_noise[i, r, 0]
             NL[3 * LANES + b] = vel_noise[i, r, 1]
+        finer = _interval_steps(k * Ts, k, XL, PL, NL, p0, runs, nl, m, Ts, rate_max, refined,
+                                max_steps, status, seen, last, m_max, work, MK)
+        running = False
+        for b in range(nl):
+            running = running or status[runs[b]] == OK
         if not running:
             return
+        if finer:
+            XS0[:] = XL
         _steps_lanes(XL, PL, NL, p0, k * Ts, h, m, nl, D)
+        if finer:
+            for b in range(nl):
+                if MK[b] > m and status[runs[b]] == OK:
+                    _lane_alone(XS0, XL, PL, NL, b, p0, k * Ts, Ts / MK[b], MK[b], XS, PS, NS, D)
         for b in range(nl):
             i = runs[b]
             if status[i] != OK:
@@ -281,7 +350,7 @@ def _run_group(XL, PL, runs, nl, m, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n,
 
 @jit(parallel=True)
 def run_groups(XG, PG, runs, nlanes, mG, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n, L, bound,
-               LOG, status, last):
+               rate_max, refined, max_steps, LOG, status, last, seen, m_max, work):
     """Advance every group of runs over sample intervals k0..k1-1, one group per
     thread at a time. Group g holds nlanes[g] runs (indices runs[g, :nlanes[g]] into
     the per-run arrays) that share their RK4 steps per interval, mG[g], and their
@@ -290,7 +359,13 @@ def run_groups(XG, PG, runs, nlanes, mG, P_, pos_noise, vel_noise, kn, Ts, k0, k
     parameters; pos_noise, vel_noise (B, rows, 2) the noise of intervals kn, kn + 1, ...
     (k0 >= kn, k1 <= kn + rows); every L-th sample (and the one a run stops at) is
     logged into LOG (B, rows, NLOG; float64 or float32); status[i] says why run i
-    stopped (OK while it runs) and last[i] is the last sample it reached."""
+    stopped (OK while it runs) and last[i] is the last sample it reached. Where the
+    loop's rate at an interval's start exceeds rate_max[i] (inf: not checked), run i
+    takes that interval with ceil(Ts rate / refined) steps, at most max_steps (else it
+    stops with status STEP); seen[i] and m_max[i] keep its fastest rate and most
+    steps, work[i] counts the RK4 steps computed for it (with the coarse steps of an
+    interval taken again finer)."""
     for g in prange(XG.shape[0]):
         _run_group(XG[g], PG[g], runs[g], nlanes[g], mG[g], P_, pos_noise, vel_noise, kn, Ts,
-                   k0, k1, n, L, bound, LOG, status, last)
+                   k0, k1, n, L, bound, rate_max, refined, max_steps, LOG, status, last, seen,
+                   m_max, work)

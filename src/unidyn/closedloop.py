@@ -191,6 +191,12 @@ class ClosedLoop:
         return dict(h_d=stack(ref[0], ref[1]), v_d=stack(ud, wd), v_d_dot=stack(udd, wdd),
                     G=G, v_ref=stack(u_ref, w_ref), v_meas=stack(um, wm))
 
+    def step_rate(self, t, X, k):
+        """The loop's state-dependent fastest rate (1/s) of every run at (t, X) in
+        interval k (:func:`unidyn.equations.loop_step_rate`)."""
+        return np.broadcast_to(equations.loop_step_rate(
+            t, X.T, self._reference_tuple(t), self.P.T, self._noise(k)), (self.B,))
+
     def rhs(self, t, X, k):
         """dX/dt, (B, 13), at time t in noise interval k
         (:func:`unidyn.equations.loop_derivative` on all runs at once). k must lie in

@@ -19,7 +19,7 @@ tuples of components, so no function allocates an array of its own;
 them into the array shapes of their public interfaces.
 
 What this module may use, so that numba compiles it: arithmetic, comparisons,
-``np.minimum/maximum``, :func:`sin`, :func:`cos`, :func:`tanh` (numpy's; in compiled
+``np.minimum/maximum/sqrt``, :func:`sin`, :func:`cos`, :func:`tanh` (numpy's; in compiled
 code the vectorisable ones of :mod:`unidyn._vecmath`, within 3 units in the last
 place of numpy's), :func:`select` (not ``np.where``, which allocates an array per
 call in compiled code), indexing, loops of fixed length, and calls to functions of
@@ -32,11 +32,13 @@ from collections import namedtuple
 
 import numpy as np
 
-__all__ = ["select", "sin", "cos", "tanh", "point_velocity", "robot_acceleration", "dynamics_regressor", "saturate", "limited_acceleration",
-           "kinematic_law", "kinematic_law_rate", "compensation_regressor", "compensation",
-           "update_rate", "figure_eight", "circle", "line", "loop_signals",
-           "loop_rates", "loop_derivative", "update_rates", "STATE", "S", "LOOP_PARAMETERS", "P", "TRAJECTORY_KINDS",
-           "SWITCH_TOL"]
+__all__ = ["select", "sin", "cos", "tanh", "point_velocity", "robot_acceleration",
+           "dynamics_regressor", "saturate", "limited_acceleration", "kinematic_law",
+           "kinematic_law_rate", "compensation_regressor", "compensation", "update_rate",
+           "figure_eight", "circle", "line", "loop_signals", "loop_rates", "loop_derivative",
+           "update_rates", "loop_acceleration", "velocity_loop_rate", "adaptation_rate",
+           "loop_step_rate", "STATE", "S",
+           "LOOP_PARAMETERS", "P", "TRAJECTORY_KINDS", "SWITCH_TOL"]
 
 #: Adaptation is on for t >= adapt_from - SWITCH_TOL (s): the switch then falls on
 #: the same side of a solver stage that lands on adapt_from up to rounding, in
@@ -336,6 +338,82 @@ def update_rates(G, u_tilde, w_tilde, p, X):
         update_rate(G[3], G[9], u_tilde, w_tilde, p[P.gamma4], p[P.leak4], X[S.theta_hat4]),
         update_rate(G[4], G[10], u_tilde, w_tilde, p[P.gamma5], p[P.leak5], X[S.theta_hat5]),
         update_rate(G[5], G[11], u_tilde, w_tilde, p[P.gamma6], p[P.leak6], X[S.theta_hat6]))
+
+
+def loop_acceleration(X, du, dw, ref, p, noise):
+    """(u', w') of Eq. (2) under the loop's command clipped to the speed limits, with
+    the acceleration limits, at the state X with (u, w) moved by (du, dw). (Not the
+    stop at a speed limit: that is a jump, where a difference quotient means
+    nothing.)"""
+    Xm = (X[0], X[1], X[2], X[3] + du, X[4] + dw, X[5], X[6], X[7], X[8], X[9], X[10],
+          X[11], X[12])
+    s = loop_signals(Xm, ref, p, noise)
+    au, aw = robot_acceleration(Xm[S.u], Xm[S.w], saturate(s[5], p[P.speed_u]),
+                                saturate(s[6], p[P.speed_w]), p[P.theta1], p[P.theta2],
+                                p[P.theta3], p[P.theta4], p[P.theta5], p[P.theta6])
+    return saturate(au, p[P.accel_u]), saturate(aw, p[P.accel_w])
+
+
+def velocity_loop_rate(X, ref, p, noise):
+    r"""The fastest rate (1/s) of the robot's velocity loop as the controller closes it
+    at state X: the spectral radius of :math:`\partial(\dot u, \dot\omega)/\partial(u,
+    \omega)` of Eq. (2) under the loop's command (v_d, or :math:`G\hat\theta` of
+    Eq. 14 with v_d' from Eq. 10's exact rate or the filter), with the speed and
+    acceleration limits (:func:`loop_acceleration`), by forward differences.
+    Arguments as :func:`loop_signals`.
+
+    With compensation and no limit active it is about :math:`(\hat\theta_1/\theta_1)
+    k_u` and :math:`(\hat\theta_2/\theta_2) k_\omega` plus Eq. (10)'s gains through
+    v_d': it grows with the estimate, which the update law (Eqs. 18/20) can drift far
+    from theta under noise, so it depends on the state, not on the scenario alone.
+    Where a limit clips the command or the acceleration, the loop is open and the rate
+    is that of the robot alone."""
+    eu = 1e-6 * (1.0 + abs(X[S.u]))
+    ew = 1e-6 * (1.0 + abs(X[S.w]))
+    a0, b0 = loop_acceleration(X, 0.0, 0.0, ref, p, noise)
+    a1, b1 = loop_acceleration(X, eu, 0.0, ref, p, noise)
+    a2, b2 = loop_acceleration(X, 0.0, ew, ref, p, noise)
+    j11, j21 = (a1 - a0) / eu, (b1 - b0) / eu
+    j12, j22 = (a2 - a0) / ew, (b2 - b0) / ew
+    half = 0.5 * (j11 + j22)
+    det = j11 * j22 - j12 * j21
+    disc = half * half - det
+    # real eigenvalues half +- sqrt(disc), or a complex pair of modulus sqrt(det)
+    return select(disc >= 0.0, abs(half) + np.sqrt(np.maximum(disc, 0.0)),
+                  np.sqrt(np.maximum(det, 0.0)))
+
+
+def adaptation_rate(G, p):
+    r"""The rate (1/s) of the update law, Eqs. (18)/(20), in closed loop with the
+    robot, at regressor G (the 12 entries of Eq. 14, row by row).
+
+    Linearised, :math:`\dot{\hat\theta} = -\Gamma G^T v + \dots` and, by Eq. (2)
+    with :math:`v_{ref} = G\hat\theta` (Eq. 14), :math:`H\dot v = G\hat\theta - F v`,
+    so the pair :math:`(\hat\theta, v)` has the Jacobian
+    :math:`\begin{bmatrix} -\Gamma\Sigma & -\Gamma G^T \\ H^{-1}G & -H^{-1}F
+    \end{bmatrix}`; for each velocity channel its eigenvalues solve
+    :math:`\lambda^2 + f\lambda + q = 0`, of magnitude at most :math:`\max(f, \sqrt q)`
+    with f the velocity loop's rate (:func:`velocity_loop_rate`) and
+    :math:`q = \sum_j \gamma_j (G_{0j}^2/\theta_1 + G_{1j}^2/\theta_2)`. Returns
+    :math:`\sqrt q`."""
+    q = ((p[P.gamma1] * (G[0] * G[0]) + p[P.gamma2] * (G[1] * G[1]) + p[P.gamma3] * (G[2] * G[2])
+          + p[P.gamma4] * (G[3] * G[3]) + p[P.gamma5] * (G[4] * G[4])
+          + p[P.gamma6] * (G[5] * G[5])) / p[P.theta1]
+         + (p[P.gamma1] * (G[6] * G[6]) + p[P.gamma2] * (G[7] * G[7]) + p[P.gamma3] * (G[8] * G[8])
+            + p[P.gamma4] * (G[9] * G[9]) + p[P.gamma5] * (G[10] * G[10])
+            + p[P.gamma6] * (G[11] * G[11])) / p[P.theta2])
+    return np.sqrt(q)
+
+
+def loop_step_rate(t, X, ref, p, noise):
+    """The fastest rate (1/s) of the loop that depends on its state: the velocity loop
+    as the compensator closes it (:func:`velocity_loop_rate`) and, once adaptation is
+    on, the update law with the robot (:func:`adaptation_rate`). Arguments as
+    :func:`loop_rates`. The batch engine checks it at every sample of a compensated
+    run against the RK4 step."""
+    G = loop_signals(X, ref, p, noise)[4]
+    on = t >= p[P.adapt_from] - SWITCH_TOL
+    return np.maximum(velocity_loop_rate(X, ref, p, noise), select(on, adaptation_rate(G, p), 0.0))
 
 
 def loop_derivative(t, X, ref, p, noise, dX):

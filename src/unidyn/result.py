@@ -116,6 +116,12 @@ class Result:
         solver method used) for the diagram, ``"numba (compiled)"`` or ``"numpy"``
         for the batch engine
     :ivar log_every: samples are logged every ``log_every`` steps of ``Ts``
+    :ivar substeps: the batch engine's RK4 steps per sample interval (``None`` for the
+        diagram)
+    :ivar substeps_max: the most RK4 steps one interval took: more than ``substeps``
+        where the loop was faster than that step resolves (a compensated run whose
+        estimate has drifted; see :func:`unidyn.simulate_batch`)
+    :ivar rk4_steps: the RK4 steps the batch engine took over the whole run
     """
 
     scenario: object
@@ -130,6 +136,8 @@ class Result:
     complete: bool = True
     message: str = ""
     substeps: int | None = None
+    substeps_max: int | None = None
+    rk4_steps: int | None = None
     backend: str = ""
     error: np.ndarray = field(init=False)
     metrics: dict = field(init=False)
@@ -162,6 +170,7 @@ class Result:
             "engine": self.engine,
             "backend": self.backend,
             "substeps": self.substeps,
+            "substeps_max": self.substeps_max,
             "complete": self.complete,
             "message": self.message,
             "scenario": sc.to_dict(),
