@@ -193,6 +193,7 @@ def _steps_lanes(XL, PL, NL, p0, t0, h, m, nl, D):
     for j in range(m):
         t = t0 + j * h
         r2 = reference(t + 0.5 * h, p0)
+        # first: a literal, so that numba compiles the stage without the branch
         _stage(t, reference(t, p0), XL, 0.0, D[0], True, PL, NL, nl, D[0])
         _stage(t + 0.5 * h, r2, XL, 0.5 * h, D[0], False, PL, NL, nl, D[1])
         _stage(t + 0.5 * h, r2, XL, 0.5 * h, D[1], False, PL, NL, nl, D[2])
@@ -278,17 +279,18 @@ def _interval_steps(t, k, XL, PL, NL, p0, runs, nl, m, Ts, rate_max, refined, ma
 
 
 @jit
-def _lane_alone(XS0, XL, PL, NL, b, p0, t, h, m, XS, PS, NS, D):
+def _lane_alone(XS0, XL, PL, NL, b, p0, t, h, m, XS, PS, NS, D, one):
     """Lane b's interval again from its start XS0, alone (in lane 0 of the scratch
     group XS, PS, NS) with m steps of h, into lane b of XL: the numbers the run has
-    when it is alone in its group."""
+    when it is alone in its group. (one: the lane count 1 as a value known only when
+    running; a literal 1 would make numba compile the steps again for it.)"""
     for q in range(NSTATE):
         XS[q * LANES] = XS0[q * LANES + b]
     for q in range(NPARAM):
         PS[q * LANES] = PL[q * LANES + b]
     for q in range(4):
         NS[q * LANES] = NL[q * LANES + b]
-    _steps_lanes(XS, PS, NS, p0, t, h, m, 1, D)
+    _steps_lanes(XS, PS, NS, p0, t, h, m, one, D)
     for q in range(NSTATE):
         XL[q * LANES + b] = XS[q * LANES]
 
@@ -332,7 +334,8 @@ def _run_group(XL, PL, runs, nl, m, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n,
         if finer:
             for b in range(nl):
                 if MK[b] > m and status[runs[b]] == OK:
-                    _lane_alone(XS0, XL, PL, NL, b, p0, k * Ts, Ts / MK[b], MK[b], XS, PS, NS, D)
+                    _lane_alone(XS0, XL, PL, NL, b, p0, k * Ts, Ts / MK[b], MK[b], XS, PS, NS, D,
+                                min(nl, 1))
         for b in range(nl):
             i = runs[b]
             if status[i] != OK:

@@ -342,25 +342,26 @@ def update_rates(G, u_tilde, w_tilde, p, X):
 
 def loop_acceleration(X, du, dw, ref, p, noise):
     """(u', w') of Eq. (2) under the loop's command clipped to the speed limits, with
-    the acceleration limits, at the state X with (u, w) moved by (du, dw). (Not the
-    stop at a speed limit: that is a jump, where a difference quotient means
-    nothing.)"""
+    the acceleration limits, at the state X with (u, w) moved by (du, dw); and the
+    regressor G of Eq. (14) there. (Not the stop at a speed limit: that is a jump,
+    where a difference quotient means nothing.)"""
     Xm = (X[0], X[1], X[2], X[3] + du, X[4] + dw, X[5], X[6], X[7], X[8], X[9], X[10],
           X[11], X[12])
     s = loop_signals(Xm, ref, p, noise)
     au, aw = robot_acceleration(Xm[S.u], Xm[S.w], saturate(s[5], p[P.speed_u]),
                                 saturate(s[6], p[P.speed_w]), p[P.theta1], p[P.theta2],
                                 p[P.theta3], p[P.theta4], p[P.theta5], p[P.theta6])
-    return saturate(au, p[P.accel_u]), saturate(aw, p[P.accel_w])
+    return saturate(au, p[P.accel_u]), saturate(aw, p[P.accel_w]), s[4]
 
 
 def velocity_loop_rate(X, ref, p, noise):
     r"""The fastest rate (1/s) of the robot's velocity loop as the controller closes it
-    at state X: the spectral radius of :math:`\partial(\dot u, \dot\omega)/\partial(u,
-    \omega)` of Eq. (2) under the loop's command (v_d, or :math:`G\hat\theta` of
-    Eq. 14 with v_d' from Eq. 10's exact rate or the filter), with the speed and
-    acceleration limits (:func:`loop_acceleration`), by forward differences.
-    Arguments as :func:`loop_signals`.
+    at state X, and the regressor G of Eq. (14) there: the spectral radius of
+    :math:`\partial(\dot u, \dot\omega)/\partial(u, \omega)` of Eq. (2) under the
+    loop's command (v_d, or :math:`G\hat\theta` of Eq. 14 with v_d' from Eq. 10's
+    exact rate or the filter), with the speed and acceleration limits
+    (:func:`loop_acceleration`), by forward differences. Arguments as
+    :func:`loop_signals`.
 
     With compensation and no limit active it is about :math:`(\hat\theta_1/\theta_1)
     k_u` and :math:`(\hat\theta_2/\theta_2) k_\omega` plus Eq. (10)'s gains through
@@ -370,17 +371,17 @@ def velocity_loop_rate(X, ref, p, noise):
     is that of the robot alone."""
     eu = 1e-6 * (1.0 + abs(X[S.u]))
     ew = 1e-6 * (1.0 + abs(X[S.w]))
-    a0, b0 = loop_acceleration(X, 0.0, 0.0, ref, p, noise)
-    a1, b1 = loop_acceleration(X, eu, 0.0, ref, p, noise)
-    a2, b2 = loop_acceleration(X, 0.0, ew, ref, p, noise)
+    a0, b0, G = loop_acceleration(X, 0.0, 0.0, ref, p, noise)
+    a1, b1, _ = loop_acceleration(X, eu, 0.0, ref, p, noise)
+    a2, b2, _ = loop_acceleration(X, 0.0, ew, ref, p, noise)
     j11, j21 = (a1 - a0) / eu, (b1 - b0) / eu
     j12, j22 = (a2 - a0) / ew, (b2 - b0) / ew
     half = 0.5 * (j11 + j22)
     det = j11 * j22 - j12 * j21
     disc = half * half - det
     # real eigenvalues half +- sqrt(disc), or a complex pair of modulus sqrt(det)
-    return select(disc >= 0.0, abs(half) + np.sqrt(np.maximum(disc, 0.0)),
-                  np.sqrt(np.maximum(det, 0.0)))
+    return (select(disc >= 0.0, abs(half) + np.sqrt(np.maximum(disc, 0.0)),
+                   np.sqrt(np.maximum(det, 0.0))), G)
 
 
 def adaptation_rate(G, p):
@@ -411,9 +412,9 @@ def loop_step_rate(t, X, ref, p, noise):
     on, the update law with the robot (:func:`adaptation_rate`). Arguments as
     :func:`loop_rates`. The batch engine checks it at every sample of a compensated
     run against the RK4 step."""
-    G = loop_signals(X, ref, p, noise)[4]
+    rate, G = velocity_loop_rate(X, ref, p, noise)
     on = t >= p[P.adapt_from] - SWITCH_TOL
-    return np.maximum(velocity_loop_rate(X, ref, p, noise), select(on, adaptation_rate(G, p), 0.0))
+    return np.maximum(rate, select(on, adaptation_rate(G, p), 0.0))
 
 
 def loop_derivative(t, X, ref, p, noise, dX):

@@ -48,7 +48,7 @@ def test_the_velocity_loop_rate_is_the_loops_own(c):
         X[5:11] = sc.theta_hat_initial
         t = float(rng.uniform(0, 5))
         rate = equations.velocity_loop_rate(X[:, None], loop._reference_tuple(t), loop.P.T,
-                                            (0.0, 0.0, 0.0, 0.0))[0]
+                                            (0.0, 0.0, 0.0, 0.0))[0][0]
         assert rate == pytest.approx(_jacobian_radius(sc, X, t), rel=1e-4)
 
 
