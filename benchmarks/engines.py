@@ -350,7 +350,7 @@ def main(argv=None):
             times.append(t)
         t_sweep = float(np.median(times))
         run_steps = sum(r.rk4_steps for r in batch_res)  # refined intervals included
-        refined = sum(r.rk4_steps - r.substeps * (len(r.t) - 1) for r in batch_res)
+        refined = sum(r.rk4_steps - r.substeps * r.scenario.steps for r in batch_res)
         ns = t_sweep / run_steps * 1e9 * min(os.cpu_count() or 1, n_pts)
         rows.append((f"Fig. 11 sweep ({n_pts} runs x 250 s), batch engine, numba, median of 5",
                      t_sweep, f"{run_steps / 1e6:.1f} M RK4 run-steps ({DEFAULT_SUBSTEPS} to "

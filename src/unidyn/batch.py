@@ -175,7 +175,8 @@ def _round_up(m: int) -> int:
 
 #: RK4 steps the compiled engine takes per thread between returns to Python (a group
 #: of runs in SIMD lanes counts as one): the interpreter can then handle Ctrl-C and
-#: update the progress bar (about 0.1 s).
+#: update the progress bar (about 0.1 s). Intervals taken again with finer steps are
+#: not foreseen: a slice where many are takes longer (Ctrl-C waits for it).
 SLICE_STEPS = 200_000
 #: Show a progress bar (on a terminal) when a call takes at least this many RK4 steps.
 PROGRESS_STEPS = 5_000_000
@@ -209,7 +210,9 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
     :param backend: ``"numba"`` (compiled kernel, :mod:`unidyn._kernels`; needs numba and
         the built-in trajectories), ``"numpy"`` (vectorised numpy), or ``"auto"`` (numba
         when it can be used, else numpy). Both integrate the same equations with the
-        same steps and agree to rounding.
+        same steps and agree to rounding (the compiled sin and cos,
+        :mod:`unidyn._vecmath`, are NaN beyond 1e8 rad, a heading after 16 million
+        turns, where the run then stops as non-finite).
     :param progress: ``None`` (default: a tqdm progress bar on stderr for long calls,
         only when stderr is a terminal), ``False`` (none), ``True`` (always a bar), or a
         callable ``f(done_samples, total_samples)``
@@ -414,17 +417,19 @@ def _integrate(run: _Run, m: int, bar):
         _steps(run, loop, X, m, h, check, record, bar)
 
 
-def _rk4(loop, X, t0, k, m, h):
-    """m RK4 steps of length h from (t0, X) in noise interval k, all runs at once; the
-    speed limits are hard: a step that crosses one ends on it."""
+def _rk4(loop, X, t0, k, m, h, rows=None):
+    """m RK4 steps of length h from (t0, X) in noise interval k, all runs at once (or
+    the runs ``rows``, X then theirs only); the speed limits are hard: a step that
+    crosses one ends on it."""
+    vmax = loop.vmax if rows is None else loop.vmax[rows]
     for j in range(m):
         t = t0 + j * h
-        k1 = loop.rhs(t, X, k)
-        k2 = loop.rhs(t + h / 2, X + h / 2 * k1, k)
-        k3 = loop.rhs(t + h / 2, X + h / 2 * k2, k)
-        k4 = loop.rhs(t + h, X + h * k3, k)
+        k1 = loop.rhs(t, X, k, rows)
+        k2 = loop.rhs(t + h / 2, X + h / 2 * k1, k, rows)
+        k3 = loop.rhs(t + h / 2, X + h / 2 * k2, k, rows)
+        k4 = loop.rhs(t + h, X + h * k3, k, rows)
         X = X + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        X[:, 3:5] = saturate(X[:, 3:5], loop.vmax)
+        X[:, 3:5] = saturate(X[:, 3:5], vmax)
     return X
 
 
@@ -441,7 +446,7 @@ def _steps(run, loop, X, m, h, check, record, bar):
         finer = np.zeros(loop.B, dtype=bool)
         if (checked & running).any():  # as _kernels._interval_steps
             rate = np.where(checked & running, loop.step_rate(t0, X, k), 0.0)  # NaN: not finer
-            run.seen = np.maximum(run.seen, rate)
+            run.seen = np.fmax(run.seen, rate)
             finer = rate > run.rate_max
             need = Ts * rate / STEP_RATE_REFINED
             too = finer & ~(need <= MAX_SUBSTEPS)
@@ -458,8 +463,8 @@ def _steps(run, loop, X, m, h, check, record, bar):
         for mk_value in np.unique(mk[finer]) if finer.any() else ():
             # these runs' interval again, with their own finer step (each row of the
             # numpy engine is computed independently of the others)
-            rows = finer & (mk == mk_value)
-            X[rows] = _rk4(loop, X0, t0, k, int(mk_value), Ts / mk_value)[rows]
+            rows = np.flatnonzero(finer & (mk == mk_value))
+            X[rows] = _rk4(loop, X0[rows], t0, k, int(mk_value), Ts / mk_value, rows)
         status = np.where(running, check(X), run.status)
         stopped = running & (status != OK)
         # the sample at the end of interval k is logged with interval k's
@@ -481,17 +486,16 @@ _CAUSE = {
        "or the speed the controller asks for)",
     4: "diverged: |w| = {v:.3g} rad/s is beyond {b:.3g} rad/s (1e6 times the steering "
        "limit, or the turn rate the controller asks for)",
-    6: "too stiff for the batch engine: the loop reached a rate of {v:.3g} 1/s (the "
-       "velocity loop as the compensator closes it with theta_hat, or the update law "
-       "with adaptation gain gamma = {gamma}), beyond what " + f"{MAX_SUBSTEPS:,}" +
-       " RK4 steps per sample resolve; use a shorter Ts, or unidyn.simulate (the bdsim "
-       "diagram, adaptive step)",
+    6: "too stiff for the batch engine: the loop reached a rate of {v:.3g} 1/s ({what}), "
+       "beyond what " + f"{MAX_SUBSTEPS:,}" + " RK4 steps per sample resolve; use a shorter "
+       "Ts, or unidyn.simulate (the bdsim diagram, adaptive step)",
 }
 
 
 def _results(run: _Run) -> list:
     """One Result per run of ``run``. A run that stopped keeps the samples up to
-    its stop (a non-finite last sample is dropped) and is marked incomplete."""
+    its stop (a non-finite last sample is dropped; a run too stiff to go on keeps
+    its samples logged before that) and is marked incomplete."""
     from . import _kernels
     loop, L = run.loop, run.L
     n = loop.steps
@@ -518,8 +522,12 @@ def _results(run: _Run) -> list:
             x, y, _, u, w = run.LOG[i, nrow - 1, :5].astype(float)
             v = {2: np.hypot(x, y) if nrow else np.nan, 3: abs(u), 4: abs(w),
                  6: run.seen[i]}.get(status, 0.0)
+            what = ("the velocity loop as the compensator closes it with theta_hat = "
+                    f"{_short(run.LOG[i, nrow - 1, 5:11].astype(float))}"
+                    + (f", or the update law with adaptation gain gamma = {_short(sc.gamma)}"
+                       if sc.case == "adaptive" else ""))
             cause = _CAUSE[status].format(v=v, b=run.bounds[i, status - 2] if 1 < status < 5 else 0.0,
-                                          gamma=_short(sc.gamma))
+                                          what=what)
             message = f"{cause} at t = {t_stop:.6g} s (scenario {label})"
         series = {k: log[:, c] for k, c in _kernels.LOG_SERIES.items()}
         if sc.case == "kinematic":  # no robot velocity state: the clipped commands

@@ -197,10 +197,15 @@ class ClosedLoop:
         return np.broadcast_to(equations.loop_step_rate(
             t, X.T, self._reference_tuple(t), self.P.T, self._noise(k)), (self.B,))
 
-    def rhs(self, t, X, k):
+    def rhs(self, t, X, k, rows=None):
         """dX/dt, (B, 13), at time t in noise interval k
         (:func:`unidyn.equations.loop_derivative` on all runs at once). k must lie in
-        the current noise window (:meth:`noise_window`; the first is drawn on creation)."""
-        dX = np.empty((NSTATE, self.B))
-        equations.loop_derivative(t, X.T, self._reference_tuple(t), self.P.T, self._noise(k), dX)
+        the current noise window (:meth:`noise_window`; the first is drawn on creation).
+        With ``rows`` (an index array), X and dX/dt are those runs' only."""
+        ref, P, noise = self._reference_tuple(t), self.P, self._noise(k)
+        if rows is not None:
+            ref = tuple(r[rows] for r in ref)
+            P, noise = P[rows], tuple(v[rows] for v in noise)
+        dX = np.empty((NSTATE, X.shape[0]))
+        equations.loop_derivative(t, X.T, ref, P.T, noise, dX)
         return dX.T
