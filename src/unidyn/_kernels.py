@@ -47,9 +47,7 @@ def reference(t, p):
 def rhs(t, X, p, noise, dX):
     """dX/dt of one run (X, dX: (13,), p: a row of the parameter table), as the
     engine integrates it."""
-    d = eq.loop_rates(t, X, reference(t, p), p, noise)
-    for i in range(NSTATE):
-        dX[i] = d[i]
+    eq.loop_derivative(t, X, reference(t, p), p, noise, dX)
 
 
 #: The columns of the log, in order: the states the result keeps (pose, robot
