@@ -444,6 +444,7 @@ def _steps(run, loop, X, m, h, check, record, bar):
         loop.next_noise_window(k)
         t0 = k * Ts
         finer = np.zeros(loop.B, dtype=bool)
+        mk = np.full(loop.B, m, dtype=np.int64)  # this interval's steps, run by run
         if (checked & running).any():  # as _kernels._interval_steps
             rate = np.where(checked & running, loop.step_rate(t0, X, k), 0.0)  # NaN: not finer
             run.seen = np.fmax(run.seen, rate)
@@ -460,7 +461,7 @@ def _steps(run, loop, X, m, h, check, record, bar):
                 break
         run.work += np.where(running, m, 0)
         X0, X = X, _rk4(loop, X, t0, k, m, h)
-        for mk_value in np.unique(mk[finer]) if finer.any() else ():
+        for mk_value in np.unique(mk[finer]):
             # these runs' interval again, with their own finer step (each row of the
             # numpy engine is computed independently of the others)
             rows = np.flatnonzero(finer & (mk == mk_value))
