@@ -397,13 +397,12 @@ def adaptation_rate(G, p):
     with f the velocity loop's rate (:func:`velocity_loop_rate`) and
     :math:`q = \sum_j \gamma_j (G_{0j}^2/\theta_1 + G_{1j}^2/\theta_2)`. Returns
     :math:`\sqrt q`."""
-    q = ((p[P.gamma1] * (G[0] * G[0]) + p[P.gamma2] * (G[1] * G[1]) + p[P.gamma3] * (G[2] * G[2])
-          + p[P.gamma4] * (G[3] * G[3]) + p[P.gamma5] * (G[4] * G[4])
-          + p[P.gamma6] * (G[5] * G[5])) / p[P.theta1]
-         + (p[P.gamma1] * (G[6] * G[6]) + p[P.gamma2] * (G[7] * G[7]) + p[P.gamma3] * (G[8] * G[8])
-            + p[P.gamma4] * (G[9] * G[9]) + p[P.gamma5] * (G[10] * G[10])
-            + p[P.gamma6] * (G[11] * G[11])) / p[P.theta2])
-    return np.sqrt(q)
+    q0 = p[P.gamma1] * (G[0] * G[0])
+    q1 = p[P.gamma1] * (G[6] * G[6])
+    for j in range(1, 6):
+        q0 = q0 + p[P.gamma1 + j] * (G[j] * G[j])
+        q1 = q1 + p[P.gamma1 + j] * (G[6 + j] * G[6 + j])
+    return np.sqrt(q0 / p[P.theta1] + q1 / p[P.theta2])
 
 
 def loop_step_rate(t, X, ref, p, noise):
