@@ -169,10 +169,26 @@ def _stage(t, ref, XL, a, DL, first, PL, NL, nl, OUT):
             OUT[i * LANES + b] = d[i]
 
 
+@jit(inline=True)
+def _limit_changes(D1, D2, D3, D4, PL, b):
+    """Whether the four stages of lane b's RK4 step disagree on which limit acts on
+    the robot's accelerations (:func:`unidyn.equations.limit_state`): the step then
+    crosses a kink or a jump of the right-hand side."""
+    au = PL[P.accel_u * LANES + b]
+    aw = PL[P.accel_w * LANES + b]
+    u, w = S.u * LANES + b, S.w * LANES + b
+    c1 = eq.limit_state(D1[u], D1[w], au, aw)
+    return ((c1 != eq.limit_state(D2[u], D2[w], au, aw))
+            | (c1 != eq.limit_state(D3[u], D3[w], au, aw))
+            | (c1 != eq.limit_state(D4[u], D4[w], au, aw)))
+
+
 @jit
-def _step(XL, h, D1, D2, D3, D4, PL, nl):
+def _step(XL, h, D1, D2, D3, D4, PL, nl, KF):
     """RK4's step from the four stages, X + h / 6 (d1 + 2 d2 + 2 d3 + d4), for lanes
-    0..nl-1; the speeds end on their limits where the step crosses one."""
+    0..nl-1; the speeds end on their limits where the step crosses one. KF[b] is set
+    to 1 where lane b's step crosses a change of the limits (:func:`_limit_changes`),
+    else 0."""
     for b in range(nl):
         X = _rk4(_lane_state(XL, b), h, _lane_state(D1, b), _lane_state(D2, b),
                  _lane_state(D3, b), _lane_state(D4, b))
@@ -180,14 +196,78 @@ def _step(XL, h, D1, D2, D3, D4, PL, nl):
             XL[i * LANES + b] = X[i]
         XL[S.u * LANES + b] = eq.saturate(X[S.u], PL[P.speed_u * LANES + b])
         XL[S.w * LANES + b] = eq.saturate(X[S.w], PL[P.speed_w * LANES + b])
+        KF[b] = eq.select(_limit_changes(D1, D2, D3, D4, PL, b), 1.0, 0.0)
 
 
 @jit
-def _steps_lanes(XL, PL, NL, p0, t0, h, m, nl, D):
+def split_depth(m, parts):
+    """How many times a step of Ts / m is halved where it crosses a change of the
+    limits on the robot's accelerations (one starts or stops clipping, or a speed
+    limit is reached: a kink or a jump of the right-hand side, where RK4 is only first
+    or second order accurate): until the part that holds the change is at most
+    Ts / parts long (with parts = 640: 6 times at 10 steps per sample, not at all
+    from 640 on)."""
+    d = 0
+    while (m << d) < parts:
+        d += 1
+    return d
+
+
+@jit
+def _split(XS, PS, NS, p0, tb, h, lev, depth, one, D, KS):
+    """The RK4 step of length h from tb of lane 0 of the scratch group XS (parameters
+    PS, noise NS), split where it crosses a change of the limits: tried whole
+    (lev = 0), or known to cross one and started in halves (lev = 1), halved at most
+    depth times (:func:`split_depth`). A part that crosses none is the very step
+    :func:`_steps_lanes` takes. Returns (RK4 steps computed, steps split)."""
+    U = 1 << depth  # the step's length in units of its finest part
+    top = lev
+    steps = 0
+    splits = lev
+    pos = 0  # the units done
+    while pos < U:
+        hh = h / (1 << lev)
+        t = tb + pos * (h / U)
+        r2 = reference(t + 0.5 * hh, p0)
+        _stage(t, reference(t, p0), XS, 0.0, D[0], True, PS, NS, one, D[0])
+        _stage(t + 0.5 * hh, r2, XS, 0.5 * hh, D[0], False, PS, NS, one, D[1])
+        _stage(t + 0.5 * hh, r2, XS, 0.5 * hh, D[1], False, PS, NS, one, D[2])
+        _stage(t + hh, reference(t + hh, p0), XS, hh, D[2], False, PS, NS, one, D[3])
+        steps += 1
+        if lev < depth and _limit_changes(D[0], D[1], D[2], D[3], PS, 0):
+            lev += 1
+            splits += 1
+            continue
+        _step(XS, hh, D[0], D[1], D[2], D[3], PS, one, KS)
+        pos += U >> lev
+        while lev > top and pos % (U >> (lev - 1)) == 0:  # both halves done
+            lev -= 1
+    return steps, splits
+
+
+@jit
+def _lane_in(XS, PS, NS, XL, PL, NL, b):
+    """Lane b of a group's state XL, parameters PL and noise NL into lane 0 of the
+    scratch group XS, PS, NS."""
+    for q in range(NSTATE):
+        XS[q * LANES] = XL[q * LANES + b]
+    for q in range(NPARAM):
+        PS[q * LANES] = PL[q * LANES + b]
+    for q in range(4):
+        NS[q * LANES] = NL[q * LANES + b]
+
+
+@jit
+def _steps_lanes(XL, PL, NL, p0, t0, h, m, nl, D, KF, XP, XS, PS, NS, KS, WK, SP, depth, one):
     """m RK4 steps of length h from t0 for lanes 0..nl-1 of one group (state XL,
     parameters PL, this interval's noise NL; all lane-minor; D (4, 13 * LANES) holds
     the stages). The reference is the same for every lane (p0: the group's first
-    run), so it is evaluated once a stage."""
+    run), so it is evaluated once a stage. A lane's step that crosses a change of the
+    limits is taken again alone, in parts (:func:`_split`, in the scratch group XS,
+    PS, NS from the state before the step, kept in XP; halved at most depth times);
+    WK[b] and SP[b] count lane b's extra RK4 steps and its steps split. (one: the
+    lane count 1 as a value known only when running; a literal 1 would make numba
+    compile the steps again.)"""
     for j in range(m):
         t = t0 + j * h
         r2 = reference(t + 0.5 * h, p0)
@@ -196,7 +276,16 @@ def _steps_lanes(XL, PL, NL, p0, t0, h, m, nl, D):
         _stage(t + 0.5 * h, r2, XL, 0.5 * h, D[0], False, PL, NL, nl, D[1])
         _stage(t + 0.5 * h, r2, XL, 0.5 * h, D[1], False, PL, NL, nl, D[2])
         _stage(t + h, reference(t + h, p0), XL, h, D[2], False, PL, NL, nl, D[3])
-        _step(XL, h, D[0], D[1], D[2], D[3], PL, nl)
+        XP[:] = XL
+        _step(XL, h, D[0], D[1], D[2], D[3], PL, nl, KF)
+        for b in range(nl):
+            if KF[b] != 0.0 and depth > 0:
+                _lane_in(XS, PS, NS, XP, PL, NL, b)
+                steps, splits = _split(XS, PS, NS, p0, t, h, 1, depth, one, D, KS)
+                WK[b] += steps
+                SP[b] += splits
+                for q in range(NSTATE):
+                    XL[q * LANES + b] = XS[q * LANES]
 
 
 #: Why a run stopped (``status``): still running / complete, a non-finite state,
@@ -277,29 +366,33 @@ def _interval_steps(t, k, XL, PL, NL, p0, runs, nl, m, Ts, rate_max, refined, ma
 
 
 @jit
-def _lane_alone(XS0, XL, PL, NL, b, p0, t, h, m, XS, PS, NS, D, one):
+def _lane_alone(XS0, XL, PL, NL, b, p0, t0, h, m, parts, XS, PS, NS, D, KS, one):
     """Lane b's interval again from its start XS0, alone (in lane 0 of the scratch
-    group XS, PS, NS) with m steps of h, into lane b of XL: the numbers the run has
-    when it is alone in its group. (one: the lane count 1 as a value known only when
-    running; a literal 1 would make numba compile the steps again for it.)"""
-    for q in range(NSTATE):
-        XS[q * LANES] = XS0[q * LANES + b]
-    for q in range(NPARAM):
-        PS[q * LANES] = PL[q * LANES + b]
-    for q in range(4):
-        NS[q * LANES] = NL[q * LANES + b]
-    _steps_lanes(XS, PS, NS, p0, t, h, m, one, D)
+    group XS, PS, NS) with m steps of h (each split where it crosses a change of the
+    limits, :func:`_split`), into lane b of XL: the numbers the run has when it is
+    alone in its group. Returns (RK4 steps computed, steps split)."""
+    _lane_in(XS, PS, NS, XS0, PL, NL, b)
+    steps = 0
+    splits = 0
+    for j in range(m):
+        st, sp = _split(XS, PS, NS, p0, t0 + j * h, h, 0, split_depth(m, parts), one, D, KS)
+        steps += st
+        splits += sp
     for q in range(NSTATE):
         XL[q * LANES + b] = XS[q * LANES]
+    return steps, splits
 
 
 @jit
 def _run_group(XL, PL, runs, nl, m, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n, L, bound,
-               rate_max, refined, max_steps, LOG, status, last, seen, m_max, work):
+               rate_max, refined, max_steps, parts, LOG, status, last, seen, m_max, work,
+               splits):
     """Advance the nl runs of one group (run runs[b] in lane b; state XL and
     parameters PL lane-minor) over sample intervals k0..k1-1 with m RK4 steps each;
-    a lane whose loop is faster at an interval's start than m steps resolve takes
-    that interval alone with finer steps (:func:`_interval_steps`).
+    a lane whose loop is faster at an interval's start than m steps resolve
+    (:func:`_interval_steps`), or one of whose steps crosses a change of the limits,
+    takes that interval again alone, with its steps split where they cross such a
+    change (:func:`_lane_alone`; splits counts them).
     A run that stops is no longer logged (its lane goes on being computed, unused)."""
     NL = np.empty(4 * LANES)
     D = np.zeros((4, NSTATE * LANES))
@@ -309,7 +402,13 @@ def _run_group(XL, PL, runs, nl, m, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n,
     PS = np.zeros(NPARAM * LANES)
     NS = np.zeros(4 * LANES)
     MK = np.empty(LANES, dtype=np.int64)
+    KF = np.zeros(LANES)
+    KS = np.zeros(LANES)
+    XP = np.empty(NSTATE * LANES)
+    WK = np.zeros(LANES, dtype=np.int64)
+    SP = np.zeros(LANES, dtype=np.int64)
     h = Ts / m
+    depth = split_depth(m, parts)
     p0 = P_[runs[0]]
     for k in range(k0, k1):
         r = k - kn
@@ -319,21 +418,34 @@ def _run_group(XL, PL, runs, nl, m, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n,
             NL[LANES + b] = pos_noise[i, r, 1]
             NL[2 * LANES + b] = vel_noise[i, r, 0]
             NL[3 * LANES + b] = vel_noise[i, r, 1]
-        finer = _interval_steps(k * Ts, k, XL, PL, NL, p0, runs, nl, m, Ts, rate_max, refined,
-                                max_steps, status, seen, last, m_max, work, MK)
+        _interval_steps(k * Ts, k, XL, PL, NL, p0, runs, nl, m, Ts, rate_max, refined,
+                        max_steps, status, seen, last, m_max, work, MK)
         running = False
         for b in range(nl):
             running = running or status[runs[b]] == OK
         if not running:
             return
+        finer = False
+        for b in range(nl):
+            finer = finer or MK[b] > m
         if finer:
             XS0[:] = XL
-        _steps_lanes(XL, PL, NL, p0, k * Ts, h, m, nl, D)
-        if finer:
-            for b in range(nl):
-                if MK[b] > m and status[runs[b]] == OK:
-                    _lane_alone(XS0, XL, PL, NL, b, p0, k * Ts, Ts / MK[b], MK[b], XS, PS, NS, D,
-                                min(nl, 1))
+        WK[:] = 0
+        SP[:] = 0
+        _steps_lanes(XL, PL, NL, p0, k * Ts, h, m, nl, D, KF, XP, XS, PS, NS, KS, WK, SP,
+                     depth, min(nl, 1))
+        for b in range(nl):
+            i = runs[b]
+            if status[i] != OK:
+                continue
+            work[i] += WK[b]
+            if MK[b] > m:  # the interval again, alone, finer (MK[b] counted already)
+                steps, split = _lane_alone(XS0, XL, PL, NL, b, p0, k * Ts, Ts / MK[b], MK[b],
+                                           parts, XS, PS, NS, D, KS, min(nl, 1))
+                work[i] += steps - MK[b]
+                splits[i] += split
+            else:
+                splits[i] += SP[b]
         for b in range(nl):
             i = runs[b]
             if status[i] != OK:
@@ -351,7 +463,8 @@ def _run_group(XL, PL, runs, nl, m, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n,
 
 @jit(parallel=True)
 def run_groups(XG, PG, runs, nlanes, mG, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n, L, bound,
-               rate_max, refined, max_steps, LOG, status, last, seen, m_max, work):
+               rate_max, refined, max_steps, parts, LOG, status, last, seen, m_max, work,
+               splits):
     """Advance every group of runs over sample intervals k0..k1-1, one group per
     thread at a time. Group g holds nlanes[g] runs (indices runs[g, :nlanes[g]] into
     the per-run arrays) that share their RK4 steps per interval, mG[g], and their
@@ -365,8 +478,10 @@ def run_groups(XG, PG, runs, nlanes, mG, P_, pos_noise, vel_noise, kn, Ts, k0, k
     takes that interval with ceil(Ts rate / refined) steps, at most max_steps (else it
     stops with status STEP); seen[i] and m_max[i] keep its fastest rate and most
     steps, work[i] counts the RK4 steps computed for it (with the coarse steps of an
-    interval taken again finer)."""
+    interval taken again) and splits[i] its steps split where they cross a change of
+    the limits on the robot's accelerations, down to parts of Ts / parts
+    (:func:`split_depth`)."""
     for g in prange(XG.shape[0]):
         _run_group(XG[g], PG[g], runs[g], nlanes[g], mG[g], P_, pos_noise, vel_noise, kn, Ts,
-                   k0, k1, n, L, bound, rate_max, refined, max_steps, LOG, status, last, seen,
-                   m_max, work)
+                   k0, k1, n, L, bound, rate_max, refined, max_steps, parts, LOG, status, last,
+                   seen, m_max, work, splits)

@@ -31,15 +31,16 @@ import numpy as np
 
 from ._validate import ValidationError, integer
 from .closedloop import ClosedLoop
-from .equations import TRAJECTORY_KINDS, P, saturate
+from .equations import TRAJECTORY_KINDS, P, limit_state, saturate
 from .result import Result
 from .scenario import Scenario
 
 __all__ = ["simulate_batch", "DEFAULT_SUBSTEPS"]
 
 #: RK4 steps per sample interval Ts. With Ts = 0.1 s this is a 10 ms step; on the
-#: Fig. 11 grid the IAE is then within about 1e-4 (relative) of the bdsim diagram
-#: (benchmarks/engines.py prints the measured accuracy).
+#: noise-free Fig. 11 grid the IAE is then within 5e-7 (relative) of a converged run,
+#: 4.4e-6 for exact compensation at the highest gains (benchmarks/engines.py prints
+#: the measured accuracy).
 DEFAULT_SUBSTEPS = 10
 
 
@@ -62,6 +63,10 @@ STEP_RATE_LIMIT = 0.5
 #: that interval is integrated with steps short enough for |rate h| <= STEP_RATE_REFINED.
 STEP_RATE_CHECK = 2.0
 STEP_RATE_REFINED = 1.0
+#: A step across a change of the limits on the robot's accelerations is taken in
+#: parts, halved until the part that holds the change is at most Ts / SPLIT_PARTS
+#: (:func:`unidyn._kernels.split_depth`).
+SPLIT_PARTS = 160
 
 
 def _regressor_scale(sc: Scenario) -> np.ndarray:
@@ -206,7 +211,13 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
         state-dependent rate (:func:`unidyn.equations.loop_step_rate`) at the start of
         every interval, and where |rate h| > STEP_RATE_CHECK that run's interval is
         integrated alone with ceil(Ts rate / STEP_RATE_REFINED) steps (the most it
-        took is ``Result.substeps_max``; it depends on that run alone)
+        took is ``Result.substeps_max``; it depends on that run alone). A step
+        across a change of the limits on the robot's accelerations (a limit starts
+        or stops clipping, or a speed limit is reached: a kink or a jump of the
+        right-hand side, where RK4 loses its order) is taken in halves, and the
+        half holding the change in halves again, down to Ts / SPLIT_PARTS
+        (``Result.split_steps`` counts them): without it the noise-free Fig. 11 IAE
+        was up to 1e-4 from a converged run at the default step
     :param backend: ``"numba"`` (compiled kernel, :mod:`unidyn._kernels`; needs numba and
         the built-in trajectories), ``"numpy"`` (vectorised numpy), or ``"auto"`` (numba
         when it can be used, else numpy). Both integrate the same equations with the
@@ -328,6 +339,7 @@ class _Run:
         self.seen = np.zeros(B)  # the fastest rate met
         self.m_max = np.array(m, dtype=np.int64)  # the most steps an interval took
         self.work = np.zeros(B, dtype=np.int64)  # RK4 steps taken
+        self.splits = np.zeros(B, dtype=np.int64)  # steps split at a change of the limits
         self.interrupted = False
         self.backend = ""
 
@@ -380,8 +392,9 @@ def _integrate_numba(run: _Run, bar):
             k1 = min(n, k + S, loop.noise_end)
             _kernels.run_groups(XG, PG, runs, nlanes, mG, loop.P, loop.pos_noise, loop.vel_noise,
                                 loop.noise_k0, float(loop.Ts), k, k1, n, run.L, run.bounds,
-                                run.rate_max, STEP_RATE_REFINED, MAX_SUBSTEPS, run.LOG,
-                                run.status, run.last, run.seen, run.m_max, run.work)
+                                run.rate_max, STEP_RATE_REFINED, MAX_SUBSTEPS, SPLIT_PARTS,
+                                run.LOG,
+                                run.status, run.last, run.seen, run.m_max, run.work, run.splits)
             bar.advance(k1 - k)
             k = k1
     finally:
@@ -417,19 +430,56 @@ def _integrate(run: _Run, m: int, bar):
         _steps(run, loop, X, m, h, check, record, bar)
 
 
-def _rk4(loop, X, t0, k, m, h, rows=None):
-    """m RK4 steps of length h from (t0, X) in noise interval k, all runs at once (or
-    the runs ``rows``, X then theirs only); the speed limits are hard: a step that
-    crosses one ends on it."""
-    vmax = loop.vmax if rows is None else loop.vmax[rows]
+def _rk4_step(loop, X, t, h, k, rows):
+    """One RK4 step of length h from (t, X) for the runs ``rows`` (X theirs only):
+    the new state (the speed limits are hard: a step that crosses one ends on it) and
+    whether each run's stages disagree on which limit acts on its accelerations (as
+    :func:`unidyn._kernels._limit_changes`)."""
+    k1 = loop.rhs(t, X, k, rows)
+    k2 = loop.rhs(t + 0.5 * h, X + 0.5 * h * k1, k, rows)
+    k3 = loop.rhs(t + 0.5 * h, X + 0.5 * h * k2, k, rows)
+    k4 = loop.rhs(t + h, X + h * k3, k, rows)
+    Xn = X + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    Xn[:, 3:5] = saturate(Xn[:, 3:5], loop.vmax[rows])
+    au, aw = loop.P[rows, P.accel_u], loop.P[rows, P.accel_w]
+    c = [limit_state(d[:, 3], d[:, 4], au, aw) for d in (k1, k2, k3, k4)]
+    return Xn, (c[0] != c[1]) | (c[0] != c[2]) | (c[0] != c[3])
+
+
+def _rk4(loop, X, t0, k, m, h, rows, work, splits):
+    """m RK4 steps of length h from (t0, X) in noise interval k for the runs ``rows``
+    (X theirs only), as the compiled engine takes them (:func:`unidyn._kernels._steps_lanes`
+    and :func:`~unidyn._kernels._split`: the same parts, in the same arithmetic): a
+    run's step that crosses a change of the limits on its accelerations is taken
+    again in halves, and the half that holds the change in halves again, at most
+    :func:`~unidyn._kernels.split_depth` times. work and splits (per run of the
+    batch) count the RK4 steps beyond m and the steps split."""
+    from ._kernels import split_depth
+    depth = split_depth(m, SPLIT_PARTS)
+    U = 1 << depth
+
+    def part(X, rows, tb, pos, lev):
+        hh = h / (1 << lev)
+        Xn, c = _rk4_step(loop, X, tb + pos * (h / U), hh, k, rows)
+        work[rows] += 1
+        if lev < depth and c.any():
+            r = np.flatnonzero(c)
+            splits[rows[r]] += 1
+            Xn[r] = halves(X[r], rows[r], tb, pos, lev + 1)
+        return Xn
+
+    def halves(X, rows, tb, pos, lev):
+        X = part(X, rows, tb, pos, lev)
+        return part(X, rows, tb, pos + (U >> lev), lev)
+
     for j in range(m):
-        t = t0 + j * h
-        k1 = loop.rhs(t, X, k, rows)
-        k2 = loop.rhs(t + h / 2, X + h / 2 * k1, k, rows)
-        k3 = loop.rhs(t + h / 2, X + h / 2 * k2, k, rows)
-        k4 = loop.rhs(t + h, X + h * k3, k, rows)
-        X = X + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        X[:, 3:5] = saturate(X[:, 3:5], vmax)
+        tb = t0 + j * h
+        Xn, c = _rk4_step(loop, X, tb, h, k, rows)
+        if depth > 0 and c.any():
+            r = np.flatnonzero(c)
+            splits[rows[r]] += 1
+            Xn[r] = halves(X[r], rows[r], tb, 0, 1)
+        X = Xn
     return X
 
 
@@ -460,12 +510,16 @@ def _steps(run, loop, X, m, h, check, record, bar):
             if not running.any():
                 break
         run.work += np.where(running, m, 0)
-        X0, X = X, _rk4(loop, X, t0, k, m, h)
+        work, split = np.zeros(loop.B, dtype=np.int64), np.zeros(loop.B, dtype=np.int64)
+        X0, X = X, _rk4(loop, X, t0, k, m, h, np.arange(loop.B), work, split)
+        run.work += np.where(running, work, 0)
+        run.splits += np.where(running & ~finer, split, 0)
         for mk_value in np.unique(mk[finer]):
             # these runs' interval again, with their own finer step (each row of the
             # numpy engine is computed independently of the others)
             rows = np.flatnonzero(finer & (mk == mk_value))
-            X[rows] = _rk4(loop, X0[rows], t0, k, int(mk_value), Ts / mk_value, rows)
+            X[rows] = _rk4(loop, X0[rows], t0, k, int(mk_value), Ts / mk_value, rows,
+                           run.work, run.splits)
         status = np.where(running, check(X), run.status)
         stopped = running & (status != OK)
         # the sample at the end of interval k is logged with interval k's
@@ -535,5 +589,6 @@ def _results(run: _Run) -> list:
             series["velocity"] = series["v_ref"]
         out.append(Result(scenario=sc, t=t, **series, engine="batch", complete=complete,
                           message=message, backend=run.backend, substeps=int(run.m[i]),
-                          substeps_max=int(run.m_max[i]), rk4_steps=int(run.work[i])))
+                          substeps_max=int(run.m_max[i]), rk4_steps=int(run.work[i]),
+                          split_steps=int(run.splits[i])))
     return out

@@ -37,7 +37,7 @@ __all__ = ["select", "sin", "cos", "tanh", "point_velocity", "robot_acceleration
            "kinematic_law_rate", "compensation_regressor", "compensation", "update_rate",
            "figure_eight", "circle", "line", "loop_signals", "loop_rates", "loop_derivative",
            "update_rates", "loop_acceleration", "velocity_loop_rate", "adaptation_rate",
-           "loop_step_rate", "STATE", "S",
+           "loop_step_rate", "limit_state", "STATE", "S",
            "LOOP_PARAMETERS", "P", "TRAJECTORY_KINDS", "SWITCH_TOL"]
 
 #: Adaptation is on for t >= adapt_from - SWITCH_TOL (s): the switch then falls on
@@ -118,6 +118,21 @@ def limited_acceleration(u, w, du, dw, speed_u, speed_w, accel_u, accel_w):
     du = select(((u >= speed_u) & (du > 0.0)) | ((u <= -speed_u) & (du < 0.0)), 0.0, du)
     dw = select(((w >= speed_w) & (dw > 0.0)) | ((w <= -speed_w) & (dw < 0.0)), 0.0, dw)
     return du, dw
+
+
+def limit_state(du, dw, accel_u, accel_w):
+    """Which limit acts on the robot's accelerations (du, dw) as :func:`loop_rates`
+    returns them (after :func:`limited_acceleration`): for each velocity 1 or -1 at
+    the acceleration limit (+ or -), 2 held at a speed limit (an acceleration of
+    exactly 0), 0 free; as one number, code_u + 4 code_w.
+
+    Where it changes, the right-hand side has a kink (a limit starts or stops
+    clipping) or a jump (a speed limit is reached): an RK4 step across that point
+    is only first or second order accurate, so the batch engine splits such a step
+    (the stages of one step disagree on this state)."""
+    cu = select(du >= accel_u, 1.0, select(du <= -accel_u, -1.0, select(du == 0.0, 2.0, 0.0)))
+    cw = select(dw >= accel_w, 1.0, select(dw <= -accel_w, -1.0, select(dw == 0.0, 2.0, 0.0)))
+    return cu + 4.0 * cw
 
 
 # --------------------------------------------------------------------- controllers

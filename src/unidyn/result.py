@@ -122,6 +122,9 @@ class Result:
         where the loop was faster than that step resolves (a compensated run whose
         estimate has drifted; see :func:`unidyn.simulate_batch`)
     :ivar rk4_steps: the RK4 steps the batch engine took over the whole run
+    :ivar split_steps: the batch engine's steps that crossed a change of the limits on
+        the robot's accelerations (a limit starting or stopping to clip: a kink of the
+        right-hand side) and were split there (see :func:`unidyn.simulate_batch`)
     """
 
     scenario: object
@@ -138,6 +141,7 @@ class Result:
     substeps: int | None = None
     substeps_max: int | None = None
     rk4_steps: int | None = None
+    split_steps: int | None = None
     backend: str = ""
     error: np.ndarray = field(init=False)
     metrics: dict = field(init=False)
@@ -171,6 +175,7 @@ class Result:
             "backend": self.backend,
             "substeps": self.substeps,
             "substeps_max": self.substeps_max,
+            "split_steps": self.split_steps,
             "complete": self.complete,
             "message": self.message,
             "scenario": sc.to_dict(),
