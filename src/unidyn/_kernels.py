@@ -201,48 +201,87 @@ def _step(XL, h, D1, D2, D3, D4, PL, nl, KF):
 
 @jit
 def split_depth(m, parts):
-    """How many times a step of Ts / m is halved where it crosses a change of the
-    limits on the robot's accelerations (one starts or stops clipping, or a speed
-    limit is reached: a kink or a jump of the right-hand side, where RK4 is only first
-    or second order accurate): until the part that holds the change is at most
-    Ts / parts long (with parts = 640: 6 times at 10 steps per sample, not at all
-    from 640 on)."""
+    """In how fine parts a step of Ts / m that crosses a change of the limits on the
+    robot's accelerations is located (one starts or stops clipping, or a speed limit
+    is reached: a kink or a jump of the right-hand side, where RK4 is only first or
+    second order accurate): 2^-depth of the step, at most Ts / parts long (with
+    parts = 160: depth 4 at 10 steps per sample, 0, not split, from 160 on)."""
     d = 0
     while (m << d) < parts:
         d += 1
     return d
 
 
+@jit(inline=True)
+def _dense_weights(th):
+    """RK4's continuous extension (order 3): the state at t + th h is X + h (b1 k1 +
+    b2 (k2 + k3) + b4 k4) from the stages k1..k4 of the step from (t, X)."""
+    c = 2.0 / 3.0
+    return (th * (1.0 + th * (-1.5 + th * c)), th * th * (1.0 - th * c),
+            th * th * (-0.5 + th * c))
+
+
 @jit
-def _split(XS, PS, NS, p0, tb, h, lev, depth, one, D, KS):
+def _split(XS, PS, NS, p0, tb, h, depth, tried, one, D, DC, KS):
     """The RK4 step of length h from tb of lane 0 of the scratch group XS (parameters
-    PS, noise NS), split where it crosses a change of the limits: tried whole
-    (lev = 0), or known to cross one and started in halves (lev = 1), halved at most
-    depth times (:func:`split_depth`). A part that crosses none is the very step
-    :func:`_steps_lanes` takes. Returns (RK4 steps computed, steps split)."""
+    PS, noise NS), split where it crosses a change of the limits (D holds the step's
+    stages when ``tried``: it was computed and crosses one). Where a step crosses a
+    change, the change is located to one part of 2^-depth of the step by bisection,
+    each probe one right-hand side at RK4's continuous extension of that step
+    (:func:`_dense_weights`); then the step up to that part, the part, and the rest
+    are steps of their own, each checked again. A step that crosses no change is the
+    very step :func:`_steps_lanes` takes. DC (2, 13 * LANES) is scratch. Returns (RK4
+    steps computed, changes located)."""
     U = 1 << depth  # the step's length in units of its finest part
-    top = lev
     steps = 0
-    splits = lev
+    located = 0
     pos = 0  # the units done
+    end = U  # the units the next step reaches
+    klo = -1  # a located part: from klo to khi
+    khi = -1
+    au = PS[P.accel_u * LANES]
+    aw = PS[P.accel_w * LANES]
+    iu = S.u * LANES
+    iw = S.w * LANES
     while pos < U:
-        hh = h / (1 << lev)
+        hh = (end - pos) * (h / U)
         t = tb + pos * (h / U)
-        r2 = reference(t + 0.5 * hh, p0)
-        _stage(t, reference(t, p0), XS, 0.0, D[0], True, PS, NS, one, D[0])
-        _stage(t + 0.5 * hh, r2, XS, 0.5 * hh, D[0], False, PS, NS, one, D[1])
-        _stage(t + 0.5 * hh, r2, XS, 0.5 * hh, D[1], False, PS, NS, one, D[2])
-        _stage(t + hh, reference(t + hh, p0), XS, hh, D[2], False, PS, NS, one, D[3])
-        steps += 1
-        if lev < depth and _limit_changes(D[0], D[1], D[2], D[3], PS, 0):
-            lev += 1
-            splits += 1
+        if not tried:
+            r2 = reference(t + 0.5 * hh, p0)
+            _stage(t, reference(t, p0), XS, 0.0, D[0], True, PS, NS, one, D[0])
+            _stage(t + 0.5 * hh, r2, XS, 0.5 * hh, D[0], False, PS, NS, one, D[1])
+            _stage(t + 0.5 * hh, r2, XS, 0.5 * hh, D[1], False, PS, NS, one, D[2])
+            _stage(t + hh, reference(t + hh, p0), XS, hh, D[2], False, PS, NS, one, D[3])
+            steps += 1
+        tried = False
+        if end - pos > 1 and _limit_changes(D[0], D[1], D[2], D[3], PS, 0):
+            located += 1
+            c1 = eq.limit_state(D[0][iu], D[0][iw], au, aw)
+            lo = pos
+            hi = end
+            while hi - lo > 1:
+                q = (lo + hi) // 2
+                b1, b2, b4 = _dense_weights((q - pos) / (end - pos))
+                for i in range(NSTATE):
+                    DC[0][i * LANES] = (b1 * D[0][i * LANES] + b2 * (D[1][i * LANES] + D[2][i * LANES])
+                                        + b4 * D[3][i * LANES])
+                tq = tb + q * (h / U)
+                _stage(tq, reference(tq, p0), XS, hh, DC[0], False, PS, NS, one, DC[1])
+                if eq.limit_state(DC[1][iu], DC[1][iw], au, aw) == c1:
+                    lo = q
+                else:
+                    hi = q
+            if lo > pos:  # up to the part first, then the part
+                end = lo
+                klo = lo
+                khi = hi
+            else:
+                end = hi
             continue
         _step(XS, hh, D[0], D[1], D[2], D[3], PS, one, KS)
-        pos += U >> lev
-        while lev > top and pos % (U >> (lev - 1)) == 0:  # both halves done
-            lev -= 1
-    return steps, splits
+        pos = end
+        end = khi if pos == klo else U
+    return steps, located
 
 
 @jit
@@ -258,16 +297,17 @@ def _lane_in(XS, PS, NS, XL, PL, NL, b):
 
 
 @jit
-def _steps_lanes(XL, PL, NL, p0, t0, h, m, nl, D, KF, XP, XS, PS, NS, KS, WK, SP, depth, one):
+def _steps_lanes(XL, PL, NL, p0, t0, h, m, nl, D, KF, XP, XS, PS, NS, DS, DC, KS, WK, SP, depth,
+                 one):
     """m RK4 steps of length h from t0 for lanes 0..nl-1 of one group (state XL,
     parameters PL, this interval's noise NL; all lane-minor; D (4, 13 * LANES) holds
     the stages). The reference is the same for every lane (p0: the group's first
     run), so it is evaluated once a stage. A lane's step that crosses a change of the
     limits is taken again alone, in parts (:func:`_split`, in the scratch group XS,
-    PS, NS from the state before the step, kept in XP; halved at most depth times);
-    WK[b] and SP[b] count lane b's extra RK4 steps and its steps split. (one: the
-    lane count 1 as a value known only when running; a literal 1 would make numba
-    compile the steps again.)"""
+    PS, NS from the state before the step, kept in XP, with its stages copied to DS;
+    located to 2^-depth of the step); WK[b] and SP[b] count lane b's extra RK4 steps
+    and the changes located. (one: the lane count 1 as a value known only when
+    running; a literal 1 would make numba compile the steps again.)"""
     for j in range(m):
         t = t0 + j * h
         r2 = reference(t + 0.5 * h, p0)
@@ -281,7 +321,10 @@ def _steps_lanes(XL, PL, NL, p0, t0, h, m, nl, D, KF, XP, XS, PS, NS, KS, WK, SP
         for b in range(nl):
             if KF[b] != 0.0 and depth > 0:
                 _lane_in(XS, PS, NS, XP, PL, NL, b)
-                steps, splits = _split(XS, PS, NS, p0, t, h, 1, depth, one, D, KS)
+                for s_ in range(4):
+                    for q in range(NSTATE):
+                        DS[s_][q * LANES] = D[s_][q * LANES + b]
+                steps, splits = _split(XS, PS, NS, p0, t, h, depth, True, one, DS, DC, KS)
                 WK[b] += steps
                 SP[b] += splits
                 for q in range(NSTATE):
@@ -366,7 +409,7 @@ def _interval_steps(t, k, XL, PL, NL, p0, runs, nl, m, Ts, rate_max, refined, ma
 
 
 @jit
-def _lane_alone(XS0, XL, PL, NL, b, p0, t0, h, m, parts, XS, PS, NS, D, KS, one):
+def _lane_alone(XS0, XL, PL, NL, b, p0, t0, h, m, parts, XS, PS, NS, D, DC, KS, one):
     """Lane b's interval again from its start XS0, alone (in lane 0 of the scratch
     group XS, PS, NS) with m steps of h (each split where it crosses a change of the
     limits, :func:`_split`), into lane b of XL: the numbers the run has when it is
@@ -375,7 +418,8 @@ def _lane_alone(XS0, XL, PL, NL, b, p0, t0, h, m, parts, XS, PS, NS, D, KS, one)
     steps = 0
     splits = 0
     for j in range(m):
-        st, sp = _split(XS, PS, NS, p0, t0 + j * h, h, 0, split_depth(m, parts), one, D, KS)
+        st, sp = _split(XS, PS, NS, p0, t0 + j * h, h, split_depth(m, parts), False, one, D, DC,
+                        KS)
         steps += st
         splits += sp
     for q in range(NSTATE):
@@ -405,6 +449,8 @@ def _run_group(XL, PL, runs, nl, m, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n,
     KF = np.zeros(LANES)
     KS = np.zeros(LANES)
     XP = np.empty(NSTATE * LANES)
+    DS = np.zeros((4, NSTATE * LANES))
+    DC = np.zeros((2, NSTATE * LANES))
     WK = np.zeros(LANES, dtype=np.int64)
     SP = np.zeros(LANES, dtype=np.int64)
     h = Ts / m
@@ -432,7 +478,7 @@ def _run_group(XL, PL, runs, nl, m, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n,
             XS0[:] = XL
         WK[:] = 0
         SP[:] = 0
-        _steps_lanes(XL, PL, NL, p0, k * Ts, h, m, nl, D, KF, XP, XS, PS, NS, KS, WK, SP,
+        _steps_lanes(XL, PL, NL, p0, k * Ts, h, m, nl, D, KF, XP, XS, PS, NS, DS, DC, KS, WK, SP,
                      depth, min(nl, 1))
         for b in range(nl):
             i = runs[b]
@@ -441,7 +487,7 @@ def _run_group(XL, PL, runs, nl, m, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n,
             work[i] += WK[b]
             if MK[b] > m:  # the interval again, alone, finer (MK[b] counted already)
                 steps, split = _lane_alone(XS0, XL, PL, NL, b, p0, k * Ts, Ts / MK[b], MK[b],
-                                           parts, XS, PS, NS, D, KS, min(nl, 1))
+                                           parts, XS, PS, NS, D, DC, KS, min(nl, 1))
                 work[i] += steps - MK[b]
                 splits[i] += split
             else:

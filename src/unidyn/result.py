@@ -122,9 +122,10 @@ class Result:
         where the loop was faster than that step resolves (a compensated run whose
         estimate has drifted; see :func:`unidyn.simulate_batch`)
     :ivar rk4_steps: the RK4 steps the batch engine took over the whole run
-    :ivar split_steps: the batch engine's steps that crossed a change of the limits on
-        the robot's accelerations (a limit starting or stopping to clip: a kink of the
-        right-hand side) and were split there (see :func:`unidyn.simulate_batch`)
+    :ivar split_steps: how many times the batch engine split a step where it crossed a
+        change of the limits on the robot's accelerations (a limit starting or stopping
+        to clip, a speed limit reached: a kink or a jump of the right-hand side; see
+        :func:`unidyn.simulate_batch`)
     """
 
     scenario: object

@@ -2,8 +2,9 @@
 limit starts or stops clipping it has a kink, and where a speed limit is reached a
 jump. RK4 across such a point is only first or second order accurate, which left the
 Fig. 11 IAE 1e-4 from a converged run at the default step. The batch engine splits
-the steps whose stages disagree on which limit acts (equations.limit_state), in both
-backends, with the same numbers whichever runs share a call."""
+a step whose stages disagree on which limit acts (equations.limit_state) where the
+change is (located by bisection), in both backends, with the same numbers whichever
+runs share a call."""
 
 import numpy as np
 import pytest
@@ -50,7 +51,7 @@ def test_split_steps_reach_a_converged_run_where_unsplit_ones_do_not(case, k, mo
 
 
 def test_the_split_error_shrinks_as_the_square_of_the_finest_part(monkeypatch):
-    """A kink inside a part of length d costs an error of order d^2: a finest part
+    """A kink located to a part of length d costs an error of order d^2: a part
     four times shorter brings the run more than five times closer to the converged
     one (an error of order d would be four times; measured 7.5, the rest of the error
     being the step's own)."""
