@@ -13,7 +13,8 @@ import pytest
 pytestmark = pytest.mark.reliability
 
 SCRIPT = textwrap.dedent("""
-    import sys
+    import faulthandler, signal, sys
+    faulthandler.register(signal.SIGUSR1)  # the test asks where it is, if it hangs
     from unidyn import Scenario
     from unidyn.batch import simulate_batch
     from unidyn.runner import SimulationInterrupted
@@ -48,7 +49,14 @@ def test_sigint_stops_a_long_batch_run_and_keeps_the_part_computed(backend, T, L
         time.sleep(1.5)
         sent = time.monotonic()
         p.send_signal(signal.SIGINT)
-        out, err = p.communicate(timeout=20)
+        try:
+            out, err = p.communicate(timeout=20)
+        except subprocess.TimeoutExpired:
+            p.send_signal(signal.SIGUSR1)  # its threads' tracebacks, on its stderr
+            time.sleep(1.0)
+            p.kill()
+            out, err = p.communicate()
+            pytest.fail(f"no exit 20 s after SIGINT; stdout: {out!r}; stderr: {err[-6000:]}")
         took = time.monotonic() - sent
     finally:
         if p.poll() is None:
