@@ -37,12 +37,19 @@ SCRIPT = textwrap.dedent("""
 """)
 
 
+def _no_sigint_ignore():
+    """Ctrl-C as in a terminal: a process started from a shell's background job
+    inherits SIGINT ignored, and Python then raises no KeyboardInterrupt."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("backend, T, L", [("numba", 1e6, 100), ("numpy", 2e5, 5)])
 def test_sigint_stops_a_long_batch_run_and_keeps_the_part_computed(backend, T, L):
     env = {**os.environ, "MPLBACKEND": "Agg"}
-    p = subprocess.Popen([sys.executable, "-c", SCRIPT, backend, str(T), str(L)], stdout=subprocess.PIPE,
-                         stderr=subprocess.PIPE, text=True, env=env)
+    p = subprocess.Popen([sys.executable, "-c", SCRIPT, backend, str(T), str(L)],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+                         preexec_fn=_no_sigint_ignore)
     try:
         line = p.stdout.readline()  # after numba's (cached) compilation
         assert line.strip() == "started", (line, p.stderr.read() if p.poll() is not None else "")
