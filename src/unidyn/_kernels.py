@@ -199,6 +199,18 @@ def _step(XL, h, D1, D2, D3, D4, PL, nl, KF):
         KF[b] = eq.select(_limit_changes(D1, D2, D3, D4, PL, b), 1.0, 0.0)
 
 
+@jit(inline=True)
+def _stages(t, h, XL, PL, NL, p0, nl, D):
+    """RK4's four stages of the step of length h from t for lanes 0..nl-1 of a group
+    into D[0..3]; the reference (p0's) is evaluated once a stage for all lanes."""
+    r2 = reference(t + 0.5 * h, p0)
+    # first: a literal, so that numba compiles the stage without the branch
+    _stage(t, reference(t, p0), XL, 0.0, D[0], True, PL, NL, nl, D[0])
+    _stage(t + 0.5 * h, r2, XL, 0.5 * h, D[0], False, PL, NL, nl, D[1])
+    _stage(t + 0.5 * h, r2, XL, 0.5 * h, D[1], False, PL, NL, nl, D[2])
+    _stage(t + h, reference(t + h, p0), XL, h, D[2], False, PL, NL, nl, D[3])
+
+
 @jit
 def split_depth(m, parts):
     """In how fine parts a step of Ts / m that crosses a change of the limits on the
@@ -247,11 +259,7 @@ def _split(XS, PS, NS, p0, tb, h, depth, tried, one, D, DC, KS):
         hh = (end - pos) * (h / U)
         t = tb + pos * (h / U)
         if not tried:
-            r2 = reference(t + 0.5 * hh, p0)
-            _stage(t, reference(t, p0), XS, 0.0, D[0], True, PS, NS, one, D[0])
-            _stage(t + 0.5 * hh, r2, XS, 0.5 * hh, D[0], False, PS, NS, one, D[1])
-            _stage(t + 0.5 * hh, r2, XS, 0.5 * hh, D[1], False, PS, NS, one, D[2])
-            _stage(t + hh, reference(t + hh, p0), XS, hh, D[2], False, PS, NS, one, D[3])
+            _stages(t, hh, XS, PS, NS, p0, one, D)
             steps += 1
         tried = False
         if end - pos > 1 and _limit_changes(D[0], D[1], D[2], D[3], PS, 0):
@@ -310,12 +318,7 @@ def _steps_lanes(XL, PL, NL, p0, t0, h, m, nl, D, KF, XP, XS, PS, NS, DS, DC, KS
     running; a literal 1 would make numba compile the steps again.)"""
     for j in range(m):
         t = t0 + j * h
-        r2 = reference(t + 0.5 * h, p0)
-        # first: a literal, so that numba compiles the stage without the branch
-        _stage(t, reference(t, p0), XL, 0.0, D[0], True, PL, NL, nl, D[0])
-        _stage(t + 0.5 * h, r2, XL, 0.5 * h, D[0], False, PL, NL, nl, D[1])
-        _stage(t + 0.5 * h, r2, XL, 0.5 * h, D[1], False, PL, NL, nl, D[2])
-        _stage(t + h, reference(t + h, p0), XL, h, D[2], False, PL, NL, nl, D[3])
+        _stages(t, h, XL, PL, NL, p0, nl, D)
         XP[:] = XL
         _step(XL, h, D[0], D[1], D[2], D[3], PL, nl, KF)
         for b in range(nl):
@@ -464,16 +467,13 @@ def _run_group(XL, PL, runs, nl, m, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n,
             NL[LANES + b] = pos_noise[i, r, 1]
             NL[2 * LANES + b] = vel_noise[i, r, 0]
             NL[3 * LANES + b] = vel_noise[i, r, 1]
-        _interval_steps(k * Ts, k, XL, PL, NL, p0, runs, nl, m, Ts, rate_max, refined,
-                        max_steps, status, seen, last, m_max, work, MK)
+        finer = _interval_steps(k * Ts, k, XL, PL, NL, p0, runs, nl, m, Ts, rate_max, refined,
+                                max_steps, status, seen, last, m_max, work, MK)
         running = False
         for b in range(nl):
             running = running or status[runs[b]] == OK
         if not running:
             return
-        finer = False
-        for b in range(nl):
-            finer = finer or MK[b] > m
         if finer:
             XS0[:] = XL
         WK[:] = 0
