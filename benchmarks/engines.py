@@ -19,7 +19,7 @@ runs with and without thinning the log (``log_every``), in float64 and float32
 result's own arrays.
 
     python benchmarks/engines.py --memory            # the memory table only
-    python benchmarks/engines.py --memory --long     # also a 10^7-sample run (2-3 min)
+    python benchmarks/engines.py --memory --long     # also two 10^7-sample runs (4-6 min)
 """
 
 import argparse
@@ -115,6 +115,8 @@ os.environ["MPLBACKEND"] = "Agg"
 from unidyn import Scenario
 from unidyn.batch import simulate_batch
 T, L, dtype = float(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
+series = tuple(s for s in sys.argv[4].split(",") if s) if sys.argv[4] != "all" else None
+more = {} if series is None else {"log_series": series}
 simulate_batch([Scenario.paper(4, T=1.0)], backend="auto", progress=False)  # load the kernel
 def rss():
     # VmHWM: this process's peak resident set (ru_maxrss would include the parent's
@@ -124,13 +126,16 @@ def rss():
             return int(line.split()[1]) / 1024
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 base = rss()
-r, = simulate_batch([Scenario.paper(4, T=T, log_every=L, log_dtype=dtype)], progress=False)
+r, = simulate_batch([Scenario.paper(4, T=T, log_every=L, log_dtype=dtype, **more)],
+                    progress=False)
 run = rss()
 with tempfile.TemporaryDirectory() as d:
     r.save(d)
 # the result's own series: its arrays are views of one log, counted once
 owners = {}
 for a in (r.t, r.pose, r.velocity, r.reference, r.v_d, r.v_ref, r.theta_hat, r.error):
+    if a is None:  # not logged (log_series)
+        continue
     while a.base is not None:
         a = a.base
     owners[id(a)] = a.nbytes
@@ -286,16 +291,19 @@ def arithmetic_limit(ns_measured=None):
 
 def memory_table(long=False):
     """Peak resident memory of long single runs, each in a fresh interpreter."""
-    # (T, log_every, log_dtype) at Ts = 0.1 s: a million samples each
-    cases = [(1e5, 1, "float64"), (1e5, 1, "float32"), (1e5, 10, "float64"),
-             (1e5, 10, "float32")] + ([(1e6, 1, "float32")] if long else [])
+    # (T, log_every, log_dtype, log_series) at Ts = 0.1 s: a million samples each
+    cases = [(1e5, 1, "float64", "all"), (1e5, 1, "float32", "all"),
+             (1e5, 1, "float64", ""), (1e5, 1, "float32", ""),
+             (1e5, 10, "float64", "all"), (1e5, 10, "float32", "all")] + (
+        [(1e6, 1, "float32", "all"), (1e6, 1, "float64", "")] if long else [])
     print("\n| run (Ts = 0.1 s) | samples | logged | peak RSS before [MB] | after the run [MB] "
           "| after writing files [MB] | run [bytes per sample] | logged series [bytes per "
           "logged sample] |")
     print("|---|---:|---:|---:|---:|---:|---:|---:|")
-    for T, L, dtype in cases:
-        what = f"T = {T:g} s, log_every = {L}, {dtype}"
-        r = subprocess.run([sys.executable, "-c", MEMORY_PROBE, str(T), str(L), dtype],
+    for T, L, dtype, series in cases:
+        what = (f"T = {T:g} s, log_every = {L}, {dtype}"
+                + ("" if series == "all" else f", log_series = ({series})"))
+        r = subprocess.run([sys.executable, "-c", MEMORY_PROBE, str(T), str(L), dtype, series],
                            capture_output=True, text=True)
         if r.returncode != 0:
             print(f"| {what} | FAILED: {r.stderr.strip()[-200:]} |")
@@ -311,7 +319,7 @@ def main(argv=None):
     p.add_argument("--memory", action="store_true", help="only the memory table")
     p.add_argument("--limit", action="store_true", help="only the arithmetic limit")
     p.add_argument("--long", action="store_true",
-                   help="add a 10^7-sample float32 run to the memory table (2-3 min)")
+                   help="add 10^7-sample runs (float32; float64 with log_series=()) to the memory table (4-6 min)")
     args = p.parse_args(argv)
     if args.memory:
         memory_table(args.long)

@@ -421,6 +421,9 @@ BAD_VALUES = [
     ("log_every", 3, "log_every"),  # does not divide T/Ts = 2000
     ("log_dtype", "float16", "log_dtype"),
     ("log_dtype", 32, "log_dtype"),
+    ("log_series", ("theta",), "log_series"),
+    ("log_series", 3, "log_series"),
+    ("log_series", [None], "log_series"),
     ("x0", (1e300, 0.0, 0.0), "x0"),
     ("x0", (0.0, 0.0, 1e300), "x0"),
 ]

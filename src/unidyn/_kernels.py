@@ -61,11 +61,25 @@ def _columns(first, last):
     return slice(LOG_COLUMNS.index(first), LOG_COLUMNS.index(last) + 1)
 
 
-#: Where each series of a :class:`~unidyn.Result` lies in a row of the log.
+#: Where each series of a :class:`~unidyn.Result` lies in a row of the full log.
 LOG_SERIES = {"pose": _columns("x", "psi"), "velocity": _columns("u", "w"),
               "theta_hat": _columns("theta_hat1", "theta_hat6"),
               "reference": _columns("x_d", "y_d"), "v_d": _columns("u_d", "w_d"),
               "v_ref": _columns("u_ref", "w_ref")}
+
+
+def log_layout(series):
+    """The log of a run that keeps the named series (:data:`LOG_SERIES` keys; the
+    others are not stored): (the columns of :data:`LOG_COLUMNS` it keeps, in order,
+    as an index array; where each kept series lies in its rows)."""
+    keep = [c for c in range(NLOG)
+            if any(k in series and c in range(NLOG)[sl] for k, sl in LOG_SERIES.items())]
+    where = {}
+    for k, sl in LOG_SERIES.items():
+        if k in series:
+            first = keep.index(range(NLOG)[sl][0])
+            where[k] = slice(first, first + len(range(NLOG)[sl]))
+    return np.array(keep, dtype=np.int64), where
 
 
 @jit
@@ -356,7 +370,7 @@ def check_state(X, bound):
 
 
 @jit
-def log_row(k, n, L, stopped):
+def log_index(k, n, L, stopped):
     """Row of the logged arrays for sample k (every L-th sample, plus the sample a
     run stopped at); -1 when sample k is not logged."""
     if k % L == 0:
@@ -367,11 +381,22 @@ def log_row(k, n, L, stopped):
 
 
 @jit
-def start(X, P_, pos_noise, vel_noise, bound, LOG, status):
-    """Log sample 0 of every run and check its state (noise row 0: interval 0)."""
+def log_row(t, X, p, noise, cols, row, out):
+    """The kept columns cols of the log row at (t, X) (:func:`log_signals`, into the
+    scratch row) into out."""
+    log_signals(t, X, p, noise, row)
+    for j in range(cols.shape[0]):
+        out[j] = row[cols[j]]
+
+
+@jit
+def start(X, P_, pos_noise, vel_noise, bound, cols, LOG, status):
+    """Log sample 0 of every run (its columns cols) and check its state (noise row 0:
+    interval 0)."""
+    row = np.empty(NLOG)
     for i in range(X.shape[0]):
         noise = (pos_noise[i, 0, 0], pos_noise[i, 0, 1], vel_noise[i, 0, 0], vel_noise[i, 0, 1])
-        log_signals(0.0, X[i], P_[i], noise, LOG[i, 0])
+        log_row(0.0, X[i], P_[i], noise, cols, row, LOG[i, 0])
         status[i] = check_state(X[i], bound[i])
 
 
@@ -432,7 +457,7 @@ def _lane_alone(XS0, XL, PL, NL, b, p0, t0, h, m, parts, XS, PS, NS, D, DC, KS, 
 
 @jit
 def _run_group(XL, PL, runs, nl, m, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n, L, bound,
-               rate_max, refined, max_steps, parts, LOG, status, last, seen, m_max, work,
+               rate_max, refined, max_steps, parts, cols, LOG, status, last, seen, m_max, work,
                splits):
     """Advance the nl runs of one group (run runs[b] in lane b; state XL and
     parameters PL lane-minor) over sample intervals k0..k1-1 with m RK4 steps each;
@@ -456,6 +481,7 @@ def _run_group(XL, PL, runs, nl, m, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n,
     DC = np.zeros((2, NSTATE * LANES))
     WK = np.zeros(LANES, dtype=np.int64)
     SP = np.zeros(LANES, dtype=np.int64)
+    full = np.empty(NLOG)
     h = Ts / m
     depth = split_depth(m, parts)
     p0 = P_[runs[0]]
@@ -499,17 +525,17 @@ def _run_group(XL, PL, runs, nl, m, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n,
             for q in range(NSTATE):
                 x[q] = XL[q * LANES + b]
             st = check_state(x, bound[i])
-            row = log_row(k + 1, n, L, st != OK)
+            row = log_index(k + 1, n, L, st != OK)
             if row >= 0:
                 # logged with interval k's measurement, as the diagram logs it before the tick
-                log_signals((k + 1) * Ts, x, P_[i], _lane_noise(NL, b), LOG[i, row])
+                log_row((k + 1) * Ts, x, P_[i], _lane_noise(NL, b), cols, full, LOG[i, row])
             status[i] = st
             last[i] = k + 1
 
 
 @jit(parallel=True)
 def run_groups(XG, PG, runs, nlanes, mG, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n, L, bound,
-               rate_max, refined, max_steps, parts, LOG, status, last, seen, m_max, work,
+               rate_max, refined, max_steps, parts, cols, LOG, status, last, seen, m_max, work,
                splits):
     """Advance every group of runs over sample intervals k0..k1-1, one group per
     thread at a time. Group g holds nlanes[g] runs (indices runs[g, :nlanes[g]] into
@@ -518,7 +544,8 @@ def run_groups(XG, PG, runs, nlanes, mG, P_, pos_noise, vel_noise, kn, Ts, k0, k
     states (updated in place) and parameters, lane-minor. Per run: P_ (B, ...) its
     parameters; pos_noise, vel_noise (B, rows, 2) the noise of intervals kn, kn + 1, ...
     (k0 >= kn, k1 <= kn + rows); every L-th sample (and the one a run stops at) is
-    logged into LOG (B, rows, NLOG; float64 or float32); status[i] says why run i
+    logged into LOG (B, rows, len(cols); float64 or float32): the columns cols of
+    :data:`LOG_COLUMNS` (:func:`log_layout`); status[i] says why run i
     stopped (OK while it runs) and last[i] is the last sample it reached. Where the
     loop's rate at an interval's start exceeds rate_max[i] (inf: not checked), run i
     takes that interval with ceil(Ts rate / refined) steps, at most max_steps (else it
@@ -529,5 +556,5 @@ def run_groups(XG, PG, runs, nlanes, mG, P_, pos_noise, vel_noise, kn, Ts, k0, k
     (:func:`split_depth`)."""
     for g in prange(XG.shape[0]):
         _run_group(XG[g], PG[g], runs[g], nlanes[g], mG[g], P_, pos_noise, vel_noise, kn, Ts,
-                   k0, k1, n, L, bound, rate_max, refined, max_steps, parts, LOG, status, last,
-                   seen, m_max, work, splits)
+                   k0, k1, n, L, bound, rate_max, refined, max_steps, parts, cols, LOG, status,
+                   last, seen, m_max, work, splits)

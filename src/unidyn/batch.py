@@ -33,7 +33,7 @@ from ._validate import ValidationError, integer
 from .closedloop import ClosedLoop
 from .equations import TRAJECTORY_KINDS, P, limit_state, saturate
 from .result import Result
-from .scenario import Scenario
+from .scenario import ALWAYS_LOGGED, OPTIONAL_SERIES, Scenario
 
 __all__ = ["simulate_batch", "DEFAULT_SUBSTEPS"]
 
@@ -261,7 +261,7 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
     m_all = [stable_substeps(s, int(substeps)) for s in scs]  # refuses before any work
     groups = {}
     for i, s in enumerate(scs):
-        key = (s.T, s.Ts, s.log_every, s.log_dtype) + (() if use_numba else (m_all[i],))
+        key = (s.T, s.Ts, s.log_every, s.log_dtype, s.log_series) + (() if use_numba else (m_all[i],))
         groups.setdefault(key, []).append(i)
     bar = _Progress(progress, sum(scs[i].steps * m_all[i] for i in range(len(scs))),
                     sum(scs[g[0]].steps for g in groups.values()))
@@ -330,8 +330,14 @@ class _Run:
         n, B = loop.steps, loop.B
         self.L = L = int(loop.scenarios[0].log_every)
         rows = n // L + 2  # every L-th sample, plus the one a run stops at
-        from ._kernels import NLOG  # (here: importing _kernels loads numba)
-        self.LOG = np.full((B, rows, NLOG), np.nan, dtype=loop.scenarios[0].log_dtype)
+        from ._kernels import log_layout  # (here: importing _kernels loads numba)
+        sc0 = loop.scenarios[0]
+        # only the columns of the series asked for (Scenario.log_series); a kinematic
+        # robot's velocity is its clipped command, v_ref
+        kinematic = any(sc.case == "kinematic" for sc in loop.scenarios)
+        self.cols, self.layout = log_layout(ALWAYS_LOGGED + sc0.log_series
+                                            + (("v_ref",) if kinematic else ()))
+        self.LOG = np.full((B, rows, len(self.cols)), np.nan, dtype=sc0.log_dtype)
         self.status = np.zeros(B, dtype=np.int64)
         self.last = np.zeros(B, dtype=np.int64)
         self.bounds = np.array([sc.divergence_bounds() for sc in loop.scenarios])
@@ -376,7 +382,8 @@ def _integrate_numba(run: _Run, bar):
     run.backend = "numba (compiled)"
     n = loop.steps
     X = loop.initial_state()
-    _kernels.start(X, loop.P, loop.pos_noise, loop.vel_noise, run.bounds, run.LOG, run.status)
+    _kernels.start(X, loop.P, loop.pos_noise, loop.vel_noise, run.bounds, run.cols, run.LOG,
+                   run.status)
     runs, nlanes, mG = _lane_groups(loop, run.m)
     # lane-minor: value i of lane b at [i * LANES + b]
     XG = np.ascontiguousarray(X[runs].transpose(0, 2, 1)).reshape(len(runs), -1)
@@ -396,7 +403,7 @@ def _integrate_numba(run: _Run, bar):
             _kernels.run_groups(XG, PG, runs, nlanes, mG, loop.P, loop.pos_noise, loop.vel_noise,
                                 loop.noise_k0, float(loop.Ts), k, k1, n, run.L, run.bounds,
                                 run.rate_max, STEP_RATE_REFINED, MAX_SUBSTEPS, SPLIT_PARTS,
-                                run.LOG,
+                                run.cols, run.LOG,
                                 run.status, run.last, run.seen, run.m_max, run.work, run.splits)
             bar.advance(k1 - k)
             k = k1
@@ -423,7 +430,7 @@ def _integrate(run: _Run, m: int, bar):
     def record(rows, X, t, noise_k, which):  # the columns of _kernels.LOG_COLUMNS
         s = loop.signals(t, X, noise_k)
         row = np.concatenate([X[:, :11], s["h_d"], s["v_d"], saturate(s["v_ref"], loop.vmax)],
-                             axis=1)
+                             axis=1)[:, run.cols]
         for i in np.flatnonzero(which):
             run.LOG[i, rows[i]] = row[i]
 
@@ -619,19 +626,25 @@ def _results(run: _Run) -> list:
         elif status == 0:
             message = f"interrupted at t = {t_stop:.6g} s (scenario {label})"
         else:
-            x, y, _, u, w = run.LOG[i, nrow - 1, :5].astype(float)
+            last_row = run.LOG[i, nrow - 1].astype(float)
+            (x, y, _), (u, w) = last_row[run.layout["pose"]], last_row[run.layout["velocity"]]
             v = {2: np.hypot(x, y) if nrow else np.nan, 3: abs(u), 4: abs(w),
                  6: run.seen[i]}.get(status, 0.0)
-            what = ("the velocity loop as the compensator closes it with theta_hat = "
-                    f"{_short(run.LOG[i, nrow - 1, 5:11].astype(float))}"
+            estimate = (f" with theta_hat = {_short(last_row[run.layout['theta_hat']])}"
+                        if "theta_hat" in run.layout else "")
+            what = ("the velocity loop as the compensator closes it" + estimate
                     + (f", or the update law with adaptation gain gamma = {_short(sc.gamma)}"
                        if sc.case == "adaptive" else ""))
             cause = _CAUSE[status].format(v=v, b=run.bounds[i, status - 2] if 1 < status < 5 else 0.0,
                                           what=what)
             message = f"{cause} at t = {t_stop:.6g} s (scenario {label})"
-        series = {k: log[:, c] for k, c in _kernels.LOG_SERIES.items()}
+        series = {k: log[:, run.layout[k]] if k in run.layout else None
+                  for k in _kernels.LOG_SERIES}
         if sc.case == "kinematic":  # no robot velocity state: the clipped commands
             series["velocity"] = series["v_ref"]
+        for k in OPTIONAL_SERIES:
+            if k not in sc.log_series:
+                series[k] = None
         out.append(Result(scenario=sc, t=t, **series, engine="batch", complete=complete,
                           message=message, backend=run.backend, substeps=int(run.m[i]),
                           substeps_max=int(run.m_max[i]), rk4_steps=int(run.work[i]),

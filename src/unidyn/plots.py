@@ -169,7 +169,8 @@ def plot_velocities(result, axes=None):
     velocities (Figs. 4b, 6b, 8b, 10b)."""
     axes = _two_panels(axes)
     for i, (ax, n, unit) in enumerate(zip(axes, ("u", r"\omega"), ("m/s", "rad/s"))):
-        ax.plot(result.t, result.v_d[:, i], **REFERENCE, label=f"${n}_d$ (reference)")
+        if result.v_d is not None:  # not logged when the scenario's log_series leaves it out
+            ax.plot(result.t, result.v_d[:, i], **REFERENCE, label=f"${n}_d$ (reference)")
         ax.plot(result.t, result.velocity[:, i], color="C0", lw=0.9, label=f"${n}$")
         ax.set_ylabel(_unit(f"${n}$", unit))
         ax.set_xlim(result.t[0], result.t[-1])
@@ -197,6 +198,9 @@ def plot_theta_hat(result, ax=None, relative=True, panels=False):
     true value is near zero (smaller than 1 % of the largest), whose ratio would
     swamp the rest; ``relative=False`` plots the raw estimates. Returns the axis.
     """
+    if result.theta_hat is None:
+        raise ValueError("this result has no theta_hat: its scenario's log_series leaves it "
+                         "out (log_series=('theta_hat', ...) keeps it)")
     theta = np.asarray(result.scenario.robot.theta, dtype=float)
     th = np.asarray(result.theta_hat, dtype=float)
     t = result.t
@@ -267,8 +271,8 @@ def compare_errors(results, ax=None):
 
 @figstyle.styled
 def save_figures(result, folder, dpi=figstyle.DPI) -> list:
-    """Write path.png, error.png, positions.png, velocities.png and (adaptive)
-    theta_hat.png into ``folder``; returns the paths written."""
+    """Write path.png, error.png, positions.png, velocities.png and (adaptive, with
+    theta_hat logged) theta_hat.png into ``folder``; returns the paths written."""
     from pathlib import Path
 
     folder = Path(folder)
@@ -282,7 +286,7 @@ def save_figures(result, folder, dpi=figstyle.DPI) -> list:
     done(plot_error(result).figure, "error.png")
     done(plot_positions(result)[0].figure, "positions.png")
     done(plot_velocities(result)[0].figure, "velocities.png")
-    if result.scenario.case == "adaptive":
+    if result.scenario.case == "adaptive" and result.theta_hat is not None:
         done(plot_theta_hat(result, panels=True)[0].figure, "theta_hat.png")
     return written
 

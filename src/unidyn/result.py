@@ -39,8 +39,14 @@ def _floats(a) -> list:
 
 
 def distance(a, b):
-    """Row-wise Euclidean distance between (N, 2) arrays, in their floating type."""
-    return np.hypot(a[:, 0] - b[:, 0], a[:, 1] - b[:, 1])
+    """Row-wise Euclidean distance between (N, 2) arrays, in their floating type
+    (a block of rows at a time: no temporaries the size of the series)."""
+    a, b = np.asarray(a), np.asarray(b)
+    out = np.empty(len(a), dtype=np.result_type(a, b))
+    for i0 in range(0, len(a), _BLOCK):
+        i1 = i0 + _BLOCK
+        np.hypot(a[i0:i1, 0] - b[i0:i1, 0], a[i0:i1, 1] - b[i0:i1, 1], out=out[i0:i1])
+    return out
 
 
 def metrics(t, error, velocity) -> dict:
@@ -105,6 +111,9 @@ class Result:
     :ivar v_ref: commands applied to the robot, (N, 2)
     :ivar error: distance error \|h_d - h\|, m, (N,)
     :ivar theta_hat: parameter estimate, (N, 6) (constant for non-adaptive cases)
+
+    ``v_d``, ``v_ref`` and ``theta_hat`` are ``None`` where the scenario's
+    ``log_series`` leaves them out (the others are always there).
     :ivar metrics: see :func:`metrics`; when the run did not complete every value is
         ``None`` (metrics of a partial run are not a result)
     :ivar partial_metrics: when the run did not complete, the metrics of the part that
@@ -133,9 +142,9 @@ class Result:
     pose: np.ndarray
     velocity: np.ndarray
     reference: np.ndarray
-    v_d: np.ndarray
-    v_ref: np.ndarray
-    theta_hat: np.ndarray
+    v_d: np.ndarray | None
+    v_ref: np.ndarray | None
+    theta_hat: np.ndarray | None
     engine: str = "bdsim"
     complete: bool = True
     message: str = ""
@@ -186,7 +195,7 @@ class Result:
             "metrics": _finite_or_null(self.metrics, "metrics", notes),
             "partial_metrics": _finite_or_null(self.partial_metrics, "partial_metrics", notes),
             "theta_hat_final": (_finite_or_null(_floats(self.theta_hat[-1]), "theta_hat_final", notes)
-                                if len(self.t) else None),
+                                if len(self.t) and self.theta_hat is not None else None),
         }
         if notes:
             out["notes"] = notes
@@ -204,11 +213,15 @@ class Result:
         folder.mkdir(parents=True, exist_ok=True)
         cols = {"t": self.t, "x": self.pose[:, 0], "y": self.pose[:, 1], "psi": self.pose[:, 2],
                 "u": self.velocity[:, 0], "w": self.velocity[:, 1],
-                "x_d": self.reference[:, 0], "y_d": self.reference[:, 1],
-                "u_d": self.v_d[:, 0], "w_d": self.v_d[:, 1],
-                "u_ref": self.v_ref[:, 0], "w_ref": self.v_ref[:, 1], "error": self.error}
-        for i in range(6):
-            cols[f"theta_hat{i + 1}"] = self.theta_hat[:, i]
+                "x_d": self.reference[:, 0], "y_d": self.reference[:, 1]}
+        if self.v_d is not None:  # the series logged (Scenario.log_series)
+            cols.update(u_d=self.v_d[:, 0], w_d=self.v_d[:, 1])
+        if self.v_ref is not None:
+            cols.update(u_ref=self.v_ref[:, 0], w_ref=self.v_ref[:, 1])
+        cols["error"] = self.error
+        if self.theta_hat is not None:
+            for i in range(6):
+                cols[f"theta_hat{i + 1}"] = self.theta_hat[:, i]
         header = ",".join(cols) + "\n"
         # float32 series: the 9 digits that give each value back exactly (t is float64)
         fmt = "%.10g" if self.pose.dtype == np.float64 else "%.9g"

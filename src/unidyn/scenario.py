@@ -33,15 +33,24 @@ CONTROL_MODES = ("continuous", "sampled")
 VD_DOT_METHODS = ("analytic", "filter", "difference")
 # v_d' methods each control mode can use (the sampled controller has no rate output)
 _VD_DOT_FOR = {"continuous": ("analytic", "filter"), "sampled": ("difference",)}
-#: The most samples (T/Ts) one run may integrate, and the most it may log
-#: (T/Ts/log_every), by log_dtype. Measured by benchmarks/engines.py: a run takes
-#: about 160 MB to start, 32 MB for its held noise (drawn a window at a time), and
-#: 152 bytes per logged sample in float64, 80 in float32 (the time stamps stay
-#: float64); writing its files streams them. So a run stays within about 1 GB.
-MAX_SAMPLES = 10_000_000
-MAX_LOGGED = {"float64": 5_000_000, "float32": 10_000_000}
 #: The floating types a result's series can be logged in (``log_dtype``).
 LOG_DTYPES = ("float64", "float32")
+#: The series of a result that are always logged (the error and the metrics are
+#: computed from them): pose (3 values a sample), velocity (2), reference (2).
+ALWAYS_LOGGED = ("pose", "velocity", "reference")
+#: The series a scenario may leave out of its log (``log_series``), with their
+#: values per sample: v_d (2), v_ref (2), theta_hat (6).
+OPTIONAL_SERIES = ("v_d", "v_ref", "theta_hat")
+_SERIES_WIDTH = {"pose": 3, "velocity": 2, "reference": 2, "v_d": 2, "v_ref": 2, "theta_hat": 6}
+#: The most samples (T/Ts) one run may integrate, and the most bytes its log may
+#: hold (:meth:`Scenario.logged_bytes` per logged sample, times T/Ts/log_every).
+#: Measured by benchmarks/engines.py: a run takes about 160 MB to start, 32 MB for
+#: its held noise (drawn a window at a time), and its log (152 bytes per logged
+#: sample with every series in float64, 80 in float32, 72 and 40 with only the
+#: series that are always logged); writing its files streams them. So a run stays
+#: within about 1 GB.
+MAX_SAMPLES = 10_000_000
+MAX_LOG_BYTES = 800_000_000
 #: A state this many times beyond its physical scale (the speed limits, or the
 #: reference's size and speed where there are none) counts as diverged: both
 #: engines stop there (see :meth:`Scenario.divergence_bounds`).
@@ -93,6 +102,11 @@ class Scenario:
         memory of a long run (80 instead of 152 bytes per logged sample) and
         rounds the logged values to 7 significant digits (about 1e-7 m on a 1 m path),
         which is what the metrics are then computed from.
+    :param log_series: the series the result keeps besides ``pose``, ``velocity``
+        and ``reference`` (always logged: the error and the metrics come from them):
+        any of ``"v_d"``, ``"v_ref"``, ``"theta_hat"`` (default all three; the others
+        are ``None`` in the result). ``log_series=()`` logs 72 bytes a sample in
+        float64, 40 in float32 (:meth:`logged_bytes`). The integration is the same.
     """
 
     case: str = "adaptive"
@@ -123,6 +137,7 @@ class Scenario:
     name: str = ""
     log_every: int = 1
     log_dtype: str = "float64"
+    log_series: tuple = OPTIONAL_SERIES
 
     def __post_init__(self):
         s = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
@@ -189,16 +204,23 @@ class Scenario:
                                   f"{self.steps}, got {le!r}")
         s("log_every", int(le))
         s("log_dtype", choice("log_dtype", self.log_dtype, LOG_DTYPES))
-        cap = MAX_LOGGED[self.log_dtype]
+        s("log_series", _log_series(self.log_series))
+        cap = MAX_LOG_BYTES // self.logged_bytes()
         if self.steps // self.log_every > cap:
             need = -(-self.steps // cap)
             need = next(d for d in range(need, self.steps + 1) if self.steps % d == 0)
-            other = ("" if self.log_dtype == "float32" else
-                     f", or log_dtype='float32' (up to {MAX_LOGGED['float32']:.0e})")
+            other = []
+            if self.log_dtype == "float64":
+                other.append("log_dtype='float32'")
+            if self.log_series:
+                other.append("log_series=() (only pose, velocity and reference)")
             raise ValidationError(
-                f"T/Ts/log_every must be at most {cap:.0e} logged samples in {self.log_dtype} "
-                f"(about 1 GB); T = {self.T:g} s, Ts = {self.Ts:g} s give {self.steps} samples: "
-                f"set log_every >= {need} (a divisor of {self.steps}){other}")
+                f"T/Ts/log_every must be at most {cap:.2e} logged samples with log_dtype = "
+                f"{self.log_dtype!r} and log_series = {list(self.log_series)} "
+                f"({self.logged_bytes()} bytes a sample; {MAX_LOG_BYTES / 1e6:.0f} MB in all); "
+                f"T = {self.T:g} s, Ts = {self.Ts:g} s give {self.steps} samples: "
+                f"set log_every >= {need} (a divisor of {self.steps})"
+                + (f", or {' or '.join(other)}" if other else ""))
         if not isinstance(self.name, str):
             raise ValidationError(f"name must be a string, got {self.name!r}")
 
@@ -251,6 +273,13 @@ class Scenario:
             max(1.0, P),
             vmax if np.isfinite(vmax) else U,
             wmax if np.isfinite(wmax) else max(1.0, U / self.a)])
+
+    def logged_bytes(self) -> int:
+        """The bytes a result holds per logged sample: the time stamp (float64), the
+        series logged (:data:`ALWAYS_LOGGED` and ``log_series``) and the error, in
+        ``log_dtype``."""
+        n = sum(_SERIES_WIDTH[k] for k in ALWAYS_LOGGED + self.log_series) + 1
+        return 8 + n * np.dtype(self.log_dtype).itemsize
 
     @property
     def steps(self) -> int:
@@ -322,6 +351,23 @@ def plain_value(v):
     if isinstance(v, dict):
         return {str(k): plain_value(x) for k, x in v.items()}
     return v
+
+
+def _log_series(value) -> tuple:
+    """``log_series`` validated: the optional series named, in the order of
+    :data:`OPTIONAL_SERIES` (one name may be given as a string; the series that are
+    always logged may be named too)."""
+    if isinstance(value, str):
+        value = (value,)
+    if not isinstance(value, (tuple, list)) or not all(isinstance(v, str) for v in value):
+        raise ValidationError(f"log_series must be a list of series names (any of "
+                              f"{', '.join(OPTIONAL_SERIES)}), got {value!r}")
+    unknown = [v for v in value if v not in OPTIONAL_SERIES + ALWAYS_LOGGED]
+    if unknown:
+        raise ValidationError(f"log_series: unknown series {unknown[0]!r}; allowed: "
+                              f"{', '.join(OPTIONAL_SERIES)} ({', '.join(ALWAYS_LOGGED)} "
+                              f"are always logged)")
+    return tuple(k for k in OPTIONAL_SERIES if k in value)
 
 
 def _check_fields(data):

@@ -170,6 +170,12 @@ def wrong_type(field):
                                                           "start", "velocity"]),
                                          st.one_of(not_numeric, st.just([])),
                                          min_size=1, max_size=3))
+    if field == "log_series":
+        return st.one_of(numbers, st.booleans(),
+                         st.text(max_size=8).filter(lambda s: s not in (
+                             "v_d", "v_ref", "theta_hat", "pose", "velocity", "reference")),
+                         st.lists(numbers, min_size=1, max_size=3),
+                         st.dictionaries(st.text(max_size=4), numbers, max_size=2))
     if field in ("noise", "limits"):
         return st.one_of(numbers.filter(lambda x: x != 0), st.just(True),
                          st.text(max_size=8).filter(lambda s: s not in ("none", "off")),

@@ -32,7 +32,7 @@ from hypothesis import strategies as st
 
 from unidyn import RobotParameters, ValidationError, robots
 from unidyn.control import LEAKAGE_FORMS
-from unidyn.scenario import LOG_DTYPES
+from unidyn.scenario import ALWAYS_LOGGED, LOG_DTYPES, OPTIONAL_SERIES
 from unidyn.scenario import CASES, CONTROL_MODES, VD_DOT_METHODS, Scenario
 
 pytestmark = pytest.mark.reliability
@@ -273,6 +273,14 @@ INVALID = {
     "control": bad_choice(CONTROL_MODES),
     "leakage": bad_choice(LEAKAGE_FORMS),
     "log_dtype": bad_choice(LOG_DTYPES),
+    "log_series": st.one_of(
+        st.text(max_size=8).filter(lambda v: v not in OPTIONAL_SERIES + ALWAYS_LOGGED),
+        st.lists(st.text(max_size=8), min_size=1, max_size=3).filter(
+            lambda v: any(x not in OPTIONAL_SERIES + ALWAYS_LOGGED for x in v)),
+        st.lists(st.one_of(small_ints, finite, st.none(), st.booleans()), min_size=1,
+                 max_size=2),
+        small_ints, finite, st.booleans(), st.none(), st.builds(object),
+        st.dictionaries(st.sampled_from(OPTIONAL_SERIES), st.booleans(), max_size=2)),
     "vd_dot": st.one_of(bad_choice(VD_DOT_METHODS, none_ok=True), st.just("difference")),
     "vd_dot_continuous": bad_choice(("input", "filter")),
     "vd_dot_sampled": bad_choice(("input", "difference")),
@@ -327,6 +335,7 @@ SCENARIO_FIELDS = {"case": "case", "robot": "robot", "a": "positive", "x0": "vec
                    "adapt_from": "nonnegative", "leakage": "leakage", "noise": "noise",
                    "limits": "limits_table", "control": "control", "vd_dot": "vd_dot",
                    "name": "name", "log_every": "positive_int", "log_dtype": "log_dtype",
+                   "log_series": "log_series",
                    **{k: "positive" for k in ("kx", "ky", "lx", "ly", "ku", "kw", "lu", "lw",
                                               "T", "Ts", "tau")}}
 

@@ -100,3 +100,97 @@ def test_the_held_noise_drawn_in_windows_is_the_noise_drawn_whole(backend, monke
     assert np.array_equal(np.concatenate(got)[:31], want)
     with pytest.raises(ValueError, match="follow each other"):
         loop.noise_window(0, 3)
+
+
+# ------------------------------------------------------------------ log_series
+def _owners(r):
+    """The arrays a result holds (its series are views of one log), by identity."""
+    out = {}
+    for a in (r.t, r.pose, r.velocity, r.reference, r.v_d, r.v_ref, r.theta_hat, r.error):
+        if a is None:
+            continue
+        while a.base is not None:
+            a = a.base
+        out[id(a)] = a
+    return out
+
+
+@pytest.mark.parametrize("backend", ["numba", "numpy"])
+def test_log_series_keeps_only_the_series_asked_for_and_changes_nothing_else(backend):
+    """Leaving series out of the log changes what is stored only: the series kept
+    and the metrics are bit for bit those of the full log, in every case (the
+    kinematic robot's velocity, its clipped command, included)."""
+    scs = [Scenario.paper(n, T=8.0, adapt_from=2.0) for n in (1, 2, 3, 4)]
+    full = simulate_batch(scs, backend=backend)
+    for series in ((), ("theta_hat",), ("v_d", "v_ref")):
+        part = simulate_batch([s.replace(log_series=series) for s in scs], backend=backend)
+        for a, b in zip(full, part):
+            assert b.complete
+            for f in FIELDS:
+                if f in ("pose", "velocity", "reference") or f in series:
+                    assert np.array_equal(getattr(a, f), getattr(b, f)), (f, series)
+                else:
+                    assert getattr(b, f) is None, (f, series)
+            assert np.array_equal(a.error, b.error) and a.metrics == b.metrics
+
+
+def test_log_series_in_the_diagram_engine():
+    sc = Scenario.paper(4, T=2.0, adapt_from=1.0)
+    full = unidyn.simulate(sc)
+    part = unidyn.simulate(sc.replace(log_series=["v_ref"]))
+    assert part.theta_hat is None and part.v_d is None
+    for f in ("pose", "velocity", "reference", "v_ref", "error"):
+        assert np.array_equal(getattr(full, f), getattr(part, f)), f
+    assert full.metrics == part.metrics
+
+
+@pytest.mark.parametrize("dtype", ["float64", "float32"])
+def test_a_log_of_the_essential_series_takes_under_100_bytes_a_sample(dtype):
+    """What the result holds per logged sample (t, pose, velocity, reference and the
+    error) is what Scenario.logged_bytes says: 72 bytes in float64, 40 in float32;
+    all series: 152 and 80."""
+    sc = Scenario.paper(4, T=50.0, log_dtype=dtype)
+    for series, want in (((), {"float64": 72, "float32": 40}),
+                         (sc.log_series, {"float64": 152, "float32": 80})):
+        r, = simulate_batch([sc.replace(log_series=series)])
+        per_sample = sum(a.nbytes for a in _owners(r).values()) / len(r.t)
+        # (the log has one row more than a complete run's samples: the row for the
+        # sample a run stops at)
+        assert per_sample == pytest.approx(want[dtype], rel=0.01)
+        assert r.scenario.logged_bytes() == want[dtype]
+    # 10^7 samples logged whole in float64 fit the log's budget without the others
+    assert Scenario(T=1e6, Ts=0.1, log_series=()).steps == 10_000_000
+    with pytest.raises(unidyn.ValidationError, match="log_series"):
+        Scenario(T=1e6, Ts=0.1)
+
+
+def test_files_and_figures_of_a_run_without_some_series(tmp_path):
+    import json
+
+    from unidyn.plots import save_figures
+    r, = simulate_batch([Scenario.paper(4, T=5.0, adapt_from=1.0, log_series=["v_ref"])])
+    r.save(tmp_path)
+    header = (tmp_path / "timeseries.csv").read_text().splitlines()[0].split(",")
+    assert header == ["t", "x", "y", "psi", "u", "w", "x_d", "y_d", "u_ref", "w_ref", "error"]
+    data = np.genfromtxt(tmp_path / "timeseries.csv", delimiter=",", names=True)
+    np.testing.assert_allclose(data["w_ref"], r.v_ref[:, 1], rtol=1e-9)  # 10 digits
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["theta_hat_final"] is None
+    assert summary["scenario"]["log_series"] == ["v_ref"]
+    assert summary["metrics"]["iae"] == pytest.approx(r.metrics["iae"], rel=1e-12)
+    written = {p.name for p in save_figures(r, tmp_path / "fig")}
+    assert written == {"path.png", "error.png", "positions.png", "velocities.png"}
+    with pytest.raises(ValueError, match="log_series"):
+        r.plot_theta_hat()
+
+
+def test_log_series_is_validated_and_read_back():
+    assert Scenario(log_series="theta_hat").log_series == ("theta_hat",)
+    # in the order of the result's series, the ones always logged dropped
+    sc = Scenario(log_series=["theta_hat", "pose", "v_d"])
+    assert sc.log_series == ("v_d", "theta_hat")
+    assert Scenario.from_dict(sc.to_dict()) == sc
+    with pytest.raises(unidyn.ValidationError, match="v_d, v_ref, theta_hat"):
+        Scenario(log_series=["error"])
+    with pytest.raises(unidyn.ValidationError, match="log_series"):
+        Scenario(log_series={"theta_hat": True})
