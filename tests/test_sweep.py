@@ -266,6 +266,17 @@ def test_sweep_id_is_the_definition_not_the_engine_or_columns():
     assert all(s.columns == a.columns for s in changed)
 
 
+def test_a_field_added_to_scenarios_keeps_the_ids_of_earlier_sweeps():
+    """Folders written before log_series existed are still resumable: at its default
+    the field is left out of the id. The ids below are the ones version 1a4d620 (before
+    log_series) computed for these sweeps."""
+    assert sw.sweep_id(small_sweep()) == (
+        "sha256:947ffa3e6b27e613e23d8f63aa0b44201839739a7df771a3088cba6afd40b301")
+    assert sw.sweep_id(small_sweep().with_base(log_dtype="float32")) == (
+        "sha256:894469cba9abe388d91d344d06a04fcb2b4b4ff188f7c1495674ffa90fe2bc17")
+    assert sw.sweep_id(small_sweep().with_base(log_series=[])) != sw.sweep_id(small_sweep())
+
+
 def test_rows_without_sweep_json_are_tied_to_their_sweep(tmp_path):
     s = small_sweep()
     run_sweep(s, tmp_path, chunk_size=3, progress=False)

@@ -261,7 +261,8 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
     m_all = [stable_substeps(s, int(substeps)) for s in scs]  # refuses before any work
     groups = {}
     for i, s in enumerate(scs):
-        key = (s.T, s.Ts, s.log_every, s.log_dtype, s.log_series) + (() if use_numba else (m_all[i],))
+        key = ((s.T, s.Ts, s.log_every, s.log_dtype, s.log_series, s.case == "kinematic")
+               + (() if use_numba else (m_all[i],)))
         groups.setdefault(key, []).append(i)
     bar = _Progress(progress, sum(scs[i].steps * m_all[i] for i in range(len(scs))),
                     sum(scs[g[0]].steps for g in groups.values()))
@@ -333,10 +334,14 @@ class _Run:
         from ._kernels import log_layout  # (here: importing _kernels loads numba)
         sc0 = loop.scenarios[0]
         # only the columns of the series asked for (Scenario.log_series); a kinematic
-        # robot's velocity is its clipped command, v_ref
-        kinematic = any(sc.case == "kinematic" for sc in loop.scenarios)
-        self.cols, self.layout = log_layout(ALWAYS_LOGGED + sc0.log_series
-                                            + (("v_ref",) if kinematic else ()))
+        # robot (its runs are a group of their own) has no velocity state: its velocity
+        # is its clipped command, v_ref
+        if sc0.case == "kinematic":
+            logged = ("pose", "reference", "v_ref") + sc0.log_series
+            self.cols, self.layout = log_layout(logged)
+            self.layout["velocity"] = self.layout["v_ref"]
+        else:
+            self.cols, self.layout = log_layout(ALWAYS_LOGGED + sc0.log_series)
         self.LOG = np.full((B, rows, len(self.cols)), np.nan, dtype=sc0.log_dtype)
         self.status = np.zeros(B, dtype=np.int64)
         self.last = np.zeros(B, dtype=np.int64)
@@ -640,8 +645,6 @@ def _results(run: _Run) -> list:
             message = f"{cause} at t = {t_stop:.6g} s (scenario {label})"
         series = {k: log[:, run.layout[k]] if k in run.layout else None
                   for k in _kernels.LOG_SERIES}
-        if sc.case == "kinematic":  # no robot velocity state: the clipped commands
-            series["velocity"] = series["v_ref"]
         for k in OPTIONAL_SERIES:
             if k not in sc.log_series:
                 series[k] = None

@@ -42,7 +42,7 @@ def distance(a, b):
     """Row-wise Euclidean distance between (N, 2) arrays, in their floating type
     (a block of rows at a time: no temporaries the size of the series)."""
     a, b = np.asarray(a), np.asarray(b)
-    out = np.empty(len(a), dtype=np.result_type(a, b))
+    out = np.empty(len(a), dtype=np.result_type(a, b, np.float16))  # ints: float64
     for i0 in range(0, len(a), _BLOCK):
         i1 = i0 + _BLOCK
         np.hypot(a[i0:i1, 0] - b[i0:i1, 0], a[i0:i1, 1] - b[i0:i1, 1], out=out[i0:i1])

@@ -104,9 +104,10 @@ class Scenario:
         which is what the metrics are then computed from.
     :param log_series: the series the result keeps besides ``pose``, ``velocity``
         and ``reference`` (always logged: the error and the metrics come from them):
-        any of ``"v_d"``, ``"v_ref"``, ``"theta_hat"`` (default all three; the others
-        are ``None`` in the result). ``log_series=()`` logs 72 bytes a sample in
-        float64, 40 in float32 (:meth:`logged_bytes`). The integration is the same.
+        any of ``"v_d"``, ``"v_ref"``, ``"theta_hat"``, as a list or a comma-separated
+        string (default all three; the others are ``None`` in the result).
+        ``log_series=()`` logs 72 bytes a sample in float64, 40 in float32
+        (:meth:`logged_bytes`). The integration is the same.
     """
 
     case: str = "adaptive"
@@ -279,6 +280,8 @@ class Scenario:
         series logged (:data:`ALWAYS_LOGGED` and ``log_series``) and the error, in
         ``log_dtype``."""
         n = sum(_SERIES_WIDTH[k] for k in ALWAYS_LOGGED + self.log_series) + 1
+        if self.case == "kinematic" and "v_ref" in self.log_series:
+            n -= _SERIES_WIDTH["v_ref"]  # its velocity is v_ref, held once
         return 8 + n * np.dtype(self.log_dtype).itemsize
 
     @property
@@ -355,10 +358,12 @@ def plain_value(v):
 
 def _log_series(value) -> tuple:
     """``log_series`` validated: the optional series named, in the order of
-    :data:`OPTIONAL_SERIES` (one name may be given as a string; the series that are
-    always logged may be named too)."""
+    :data:`OPTIONAL_SERIES` (a list, or a string of names separated by commas; the
+    series that are always logged may be named too)."""
     if isinstance(value, str):
-        value = (value,)
+        value = tuple(v.strip() for v in value.split(",") if v.strip())
+    elif isinstance(value, np.ndarray) and value.ndim == 1:
+        value = value.tolist()
     if not isinstance(value, (tuple, list)) or not all(isinstance(v, str) for v in value):
         raise ValidationError(f"log_series must be a list of series names (any of "
                               f"{', '.join(OPTIONAL_SERIES)}), got {value!r}")

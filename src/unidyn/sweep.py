@@ -349,7 +349,7 @@ _SWEEP_OWNED = ("metrics.csv", RECORD_NAME, "metrics.png", "claims.md", "fig11.p
 #: Scenario fields added after sweep ids were first written, with the value every
 #: earlier sweep had: left out of the id at that value, so that folders written
 #: before the field existed keep their id.
-FIELDS_ADDED_SINCE_IDS = {"log_dtype": "float64"}
+FIELDS_ADDED_SINCE_IDS = {"log_dtype": "float64", "log_series": ["v_d", "v_ref", "theta_hat"]}
 
 
 def sweep_id(sweep: Sweep) -> str:

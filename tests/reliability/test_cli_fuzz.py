@@ -172,8 +172,10 @@ def wrong_type(field):
                                          min_size=1, max_size=3))
     if field == "log_series":
         return st.one_of(numbers, st.booleans(),
-                         st.text(max_size=8).filter(lambda s: s not in (
-                             "v_d", "v_ref", "theta_hat", "pose", "velocity", "reference")),
+                         st.text(max_size=8).filter(lambda s: any(  # an unknown name in it
+                             x.strip() and x.strip() not in ("v_d", "v_ref", "theta_hat", "pose",
+                                                             "velocity", "reference")
+                             for x in s.split(","))),
                          st.lists(numbers, min_size=1, max_size=3),
                          st.dictionaries(st.text(max_size=4), numbers, max_size=2))
     if field in ("noise", "limits"):

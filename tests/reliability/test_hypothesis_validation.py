@@ -274,7 +274,9 @@ INVALID = {
     "leakage": bad_choice(LEAKAGE_FORMS),
     "log_dtype": bad_choice(LOG_DTYPES),
     "log_series": st.one_of(
-        st.text(max_size=8).filter(lambda v: v not in OPTIONAL_SERIES + ALWAYS_LOGGED),
+        # a string is a comma-separated list of names: one unknown name in it
+        st.text(max_size=8).filter(lambda v: any(
+            x.strip() and x.strip() not in OPTIONAL_SERIES + ALWAYS_LOGGED for x in v.split(","))),
         st.lists(st.text(max_size=8), min_size=1, max_size=3).filter(
             lambda v: any(x not in OPTIONAL_SERIES + ALWAYS_LOGGED for x in v)),
         st.lists(st.one_of(small_ints, finite, st.none(), st.booleans()), min_size=1,

@@ -158,6 +158,13 @@ def test_a_log_of_the_essential_series_takes_under_100_bytes_a_sample(dtype):
         # sample a run stops at)
         assert per_sample == pytest.approx(want[dtype], rel=0.01)
         assert r.scenario.logged_bytes() == want[dtype]
+    # a kinematic robot's velocity is its clipped command, held once
+    kin = Scenario.paper(1, T=50.0, log_dtype=dtype)
+    for series in ((), ("v_ref",), ("theta_hat",), kin.log_series):
+        r, = simulate_batch([kin.replace(log_series=series)])
+        per_sample = sum(a.nbytes for a in _owners(r).values()) / len(r.t)
+        assert per_sample == pytest.approx(r.scenario.logged_bytes(), rel=0.01), series
+    assert kin.replace(log_series=()).logged_bytes() == {"float64": 72, "float32": 40}[dtype]
     # 10^7 samples logged whole in float64 fit the log's budget without the others
     assert Scenario(T=1e6, Ts=0.1, log_series=()).steps == 10_000_000
     with pytest.raises(unidyn.ValidationError, match="log_series"):
@@ -186,6 +193,8 @@ def test_files_and_figures_of_a_run_without_some_series(tmp_path):
 
 def test_log_series_is_validated_and_read_back():
     assert Scenario(log_series="theta_hat").log_series == ("theta_hat",)
+    assert Scenario(log_series="theta_hat, v_d").log_series == ("v_d", "theta_hat")
+    assert Scenario(log_series="").log_series == ()
     # in the order of the result's series, the ones always logged dropped
     sc = Scenario(log_series=["theta_hat", "pose", "v_d"])
     assert sc.log_series == ("v_d", "theta_hat")
@@ -194,3 +203,8 @@ def test_log_series_is_validated_and_read_back():
         Scenario(log_series=["error"])
     with pytest.raises(unidyn.ValidationError, match="log_series"):
         Scenario(log_series={"theta_hat": True})
+
+
+def test_the_error_of_integer_arrays_is_a_float():
+    from unidyn.result import distance
+    assert distance(np.array([[0, 0], [1, 1]]), np.array([[3, 4], [1, 1]])).tolist() == [5.0, 0.0]
