@@ -51,7 +51,8 @@ def rhs(t, X, p, noise, dX):
 
 
 #: The columns of the log, in order: the states the result keeps (pose, robot
-#: velocity, theta_hat: the first 11 of :data:`unidyn.equations.STATE`), then h_d,
+#: velocity, theta_hat: the first 11 of :data:`unidyn.equations.STATE`; a kinematic
+#: robot, which has no velocity state, moves at its clipped command), then h_d,
 #: v_d and v_ref (after the speed limits). Nothing else is logged.
 LOG_COLUMNS = eq.STATE[:11] + ("x_d", "y_d", "u_d", "w_d", "u_ref", "w_ref")
 NLOG = len(LOG_COLUMNS)
@@ -72,13 +73,12 @@ def log_layout(series):
     """The log of a run that keeps the named series (:data:`LOG_SERIES` keys; the
     others are not stored): (the columns of :data:`LOG_COLUMNS` it keeps, in order,
     as an index array; where each kept series lies in its rows)."""
-    keep = [c for c in range(NLOG)
-            if any(k in series and c in range(NLOG)[sl] for k, sl in LOG_SERIES.items())]
-    where = {}
-    for k, sl in LOG_SERIES.items():
+    keep, where = [], {}
+    for k, sl in LOG_SERIES.items():  # in the order of the columns
         if k in series:
-            first = keep.index(range(NLOG)[sl][0])
-            where[k] = slice(first, first + len(range(NLOG)[sl]))
+            columns = range(NLOG)[sl]
+            where[k] = slice(len(keep), len(keep) + len(columns))
+            keep += columns
     return np.array(keep, dtype=np.int64), where
 
 
@@ -96,6 +96,9 @@ def log_signals(t, X, p, noise, out):
     out[14] = wd
     out[15] = eq.saturate(u_ref, p[P.speed_u])
     out[16] = eq.saturate(w_ref, p[P.speed_w])
+    dynamic = p[P.dynamic] != 0.0  # else the robot moves at its clipped command
+    out[S.u] = eq.select(dynamic, X[S.u], out[15])
+    out[S.w] = eq.select(dynamic, X[S.w], out[16])
 
 
 # ------------------------------------------------------------------ runs in lanes

@@ -33,7 +33,7 @@ from ._validate import ValidationError, integer
 from .closedloop import ClosedLoop
 from .equations import TRAJECTORY_KINDS, P, limit_state, saturate
 from .result import Result
-from .scenario import ALWAYS_LOGGED, OPTIONAL_SERIES, Scenario
+from .scenario import ALWAYS_LOGGED, Scenario
 
 __all__ = ["simulate_batch", "DEFAULT_SUBSTEPS"]
 
@@ -261,8 +261,7 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
     m_all = [stable_substeps(s, int(substeps)) for s in scs]  # refuses before any work
     groups = {}
     for i, s in enumerate(scs):
-        key = ((s.T, s.Ts, s.log_every, s.log_dtype, s.log_series, s.case == "kinematic")
-               + (() if use_numba else (m_all[i],)))
+        key = (s.T, s.Ts, s.log_every, s.log_dtype, s.log_series) + (() if use_numba else (m_all[i],))
         groups.setdefault(key, []).append(i)
     bar = _Progress(progress, sum(scs[i].steps * m_all[i] for i in range(len(scs))),
                     sum(scs[g[0]].steps for g in groups.values()))
@@ -333,15 +332,8 @@ class _Run:
         rows = n // L + 2  # every L-th sample, plus the one a run stops at
         from ._kernels import log_layout  # (here: importing _kernels loads numba)
         sc0 = loop.scenarios[0]
-        # only the columns of the series asked for (Scenario.log_series); a kinematic
-        # robot (its runs are a group of their own) has no velocity state: its velocity
-        # is its clipped command, v_ref
-        if sc0.case == "kinematic":
-            logged = ("pose", "reference", "v_ref") + sc0.log_series
-            self.cols, self.layout = log_layout(logged)
-            self.layout["velocity"] = self.layout["v_ref"]
-        else:
-            self.cols, self.layout = log_layout(ALWAYS_LOGGED + sc0.log_series)
+        # only the columns of the series asked for (Scenario.log_series)
+        self.cols, self.layout = log_layout(ALWAYS_LOGGED + sc0.log_series)
         self.LOG = np.full((B, rows, len(self.cols)), np.nan, dtype=sc0.log_dtype)
         self.status = np.zeros(B, dtype=np.int64)
         self.last = np.zeros(B, dtype=np.int64)
@@ -432,10 +424,14 @@ def _integrate(run: _Run, m: int, bar):
                  np.abs(X[:, 3]) > b[:, 1], np.abs(X[:, 4]) > b[:, 2]],
                 [NONFINITE, POSITION, SPEED_U, SPEED_W], OK)
 
+    dynamic = loop.P[:, P.dynamic, None] != 0.0
+
     def record(rows, X, t, noise_k, which):  # the columns of _kernels.LOG_COLUMNS
         s = loop.signals(t, X, noise_k)
-        row = np.concatenate([X[:, :11], s["h_d"], s["v_d"], saturate(s["v_ref"], loop.vmax)],
-                             axis=1)[:, run.cols]
+        v_ref = saturate(s["v_ref"], loop.vmax)
+        # a kinematic robot moves at its clipped command
+        row = np.concatenate([X[:, :3], np.where(dynamic, X[:, 3:5], v_ref), X[:, 5:11],
+                              s["h_d"], s["v_d"], v_ref], axis=1)[:, run.cols]
         for i in np.flatnonzero(which):
             run.LOG[i, rows[i]] = row[i]
 
@@ -645,9 +641,6 @@ def _results(run: _Run) -> list:
             message = f"{cause} at t = {t_stop:.6g} s (scenario {label})"
         series = {k: log[:, run.layout[k]] if k in run.layout else None
                   for k in _kernels.LOG_SERIES}
-        for k in OPTIONAL_SERIES:
-            if k not in sc.log_series:
-                series[k] = None
         out.append(Result(scenario=sc, t=t, **series, engine="batch", complete=complete,
                           message=message, backend=run.backend, substeps=int(run.m[i]),
                           substeps_max=int(run.m_max[i]), rk4_steps=int(run.work[i]),

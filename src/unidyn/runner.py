@@ -235,13 +235,12 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
     theta_hat = signals.get("theta_hat")
     if theta_hat is None:
         theta_hat = np.tile(sc.theta_hat_initial, (len(t), 1))
-    # the series asked for (Scenario.log_series), in log_dtype
-    c = lambda k, a: np.asarray(a, dtype=sc.log_dtype) if k in sc.log_series else None  # noqa: E731
-    result = Result(scenario=sc, t=t, pose=np.asarray(signals["pose"], dtype=sc.log_dtype),
-                    velocity=np.asarray(velocity, dtype=sc.log_dtype),
-                    reference=np.asarray(signals["reference"], dtype=sc.log_dtype),
-                    v_d=c("v_d", signals["v_d"]), v_ref=c("v_ref", signals["v_ref"]),
-                    theta_hat=c("theta_hat", theta_hat), engine="bdsim",
+    c = lambda a: np.asarray(a, dtype=sc.log_dtype)  # noqa: E731
+    kept = lambda k, a: c(a) if k in sc.log_series else None  # noqa: E731 (log_series)
+    result = Result(scenario=sc, t=t, pose=c(signals["pose"]), velocity=c(velocity),
+                    reference=c(signals["reference"]), v_d=kept("v_d", signals["v_d"]),
+                    v_ref=kept("v_ref", signals["v_ref"]),
+                    theta_hat=kept("theta_hat", theta_hat), engine="bdsim",
                     complete=failure is None, message=failure or "",
                     backend=f"solve_ivp {method}")
     if interrupted:

@@ -280,8 +280,6 @@ class Scenario:
         series logged (:data:`ALWAYS_LOGGED` and ``log_series``) and the error, in
         ``log_dtype``."""
         n = sum(_SERIES_WIDTH[k] for k in ALWAYS_LOGGED + self.log_series) + 1
-        if self.case == "kinematic" and "v_ref" in self.log_series:
-            n -= _SERIES_WIDTH["v_ref"]  # its velocity is v_ref, held once
         return 8 + n * np.dtype(self.log_dtype).itemsize
 
     @property
