@@ -289,6 +289,31 @@ def arithmetic_limit(ns_measured=None):
     return step
 
 
+def sweep_floor(scs, step_ns):
+    """The least time the Fig. 11 sweep can take on this machine with RK4: every run at
+    the default step (no interval taken finer, no split), each run-step at the
+    arithmetic limit, spread over the threads with the speed-up the engine gets from
+    them (the noise-free sweep timed on one thread and on all)."""
+    import numba
+    n_all = numba.get_num_threads()
+    times = {}
+    try:
+        for n in sorted({1, n_all}):
+            numba.set_num_threads(n)
+            times[n], _ = timed(lambda: simulate_batch(scs, backend="numba", progress=False))
+    finally:
+        numba.set_num_threads(n_all)
+    speedup = times[1] / times[n_all]
+    least = sum(sc.steps for sc in scs) * DEFAULT_SUBSTEPS
+    floor = least * step_ns * 1e-9 / speedup
+    print(f"\nfloor of the Fig. 11 sweep with RK4 on this machine: {least / 1e6:.2f} M run-steps "
+          f"(every run at {DEFAULT_SUBSTEPS} steps per 0.1 s: no interval taken finer, no "
+          f"split) at the arithmetic limit ({step_ns:.0f} ns) on {n_all} threads, which speed "
+          f"the noise-free sweep up {speedup:.2f}x over one ({times[1]:.1f} s against "
+          f"{times[n_all]:.1f} s): {floor:.2f} s.")
+    return floor
+
+
 def memory_table(long=False):
     """Peak resident memory of long single runs, each in a fresh interpreter."""
     # (T, log_every, log_dtype, log_series) at Ts = 0.1 s: a million samples each
@@ -418,7 +443,8 @@ def main(argv=None):
                   ("uncompensated", "compensated 0.9", "adaptive", "compensated exact"),
                   rel.max(axis=0))))
     if _kernels.AVAILABLE:
-        arithmetic_limit(ns_run_step)
+        step_ns = arithmetic_limit(ns_run_step)
+        sweep_floor(fig11_scenarios(noise=False), step_ns)
     memory_table(args.long)
 
 

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from ._validate import ValidationError, integer, positive, real
-from .result import write_atomic
+from .result import json_ready, write_atomic
 
 __all__ = ["read_toml", "parse_toml_value", "read_scenario_table", "expand_range",
            "check_keys", "scenario_from_layers", "plain", "read_metrics", "write_sweep_record",
@@ -247,7 +247,7 @@ def write_sweep_record(folder, record: dict, **state) -> Path:
     """Write ``sweep.json`` in ``folder``: the record and the state of the run
     (``finished``, ``failed``); returns its path."""
     path = Path(folder) / RECORD_NAME
-    write_atomic(path, json.dumps({**record, **state}, indent=2) + "\n")
+    write_atomic(path, json.dumps(json_ready({**record, **state}), indent=2, allow_nan=False) + "\n")
     return path
 
 

@@ -31,15 +31,16 @@ class Limits:
     Commands are clipped to the speed limits, and the actual velocities are
     kept inside them; accelerations are clipped to the acceleration limits.
     All are applied inside the state derivative as pure functions of state and
-    input, so they are exact under any adaptive ODE solver.
+    input, so they are exact under any adaptive ODE solver. JSON files
+    (``summary.json``, ``sweep.json``) write an infinite limit as ``null``.
 
-    :param speed_max: max \|u\|, m/s, > 0 (inf: no limit)
+    :param speed_max: max \|u\|, m/s, > 0 (inf or None: no limit)
     :type speed_max: float
-    :param steer_max: max \|w\|, rad/s, > 0 (inf: no limit)
+    :param steer_max: max \|w\|, rad/s, > 0 (inf or None: no limit)
     :type steer_max: float
-    :param accel_max: max \|u'\|, m/s², > 0 (inf: no limit)
+    :param accel_max: max \|u'\|, m/s², > 0 (inf or None: no limit)
     :type accel_max: float
-    :param angular_accel_max: max \|w'\|, rad/s², > 0 (inf: no limit)
+    :param angular_accel_max: max \|w'\|, rad/s², > 0 (inf or None: no limit)
     :type angular_accel_max: float
     """
 
@@ -50,7 +51,8 @@ class Limits:
 
     def __post_init__(self):
         for k in ("speed_max", "steer_max", "accel_max", "angular_accel_max"):
-            object.__setattr__(self, k, positive(k, getattr(self, k), allow_inf=True))
+            v = getattr(self, k)  # None (JSON's null): no limit
+            object.__setattr__(self, k, np.inf if v is None else positive(k, v, allow_inf=True))
         speed = np.array([self.speed_max, self.steer_max])
         accel = np.array([self.accel_max, self.angular_accel_max])
         speed.flags.writeable = False

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import os
 import tempfile
 from dataclasses import dataclass, field
@@ -188,7 +189,7 @@ class Result:
             "split_steps": self.split_steps,
             "complete": self.complete,
             "message": self.message,
-            "scenario": sc.to_dict(),
+            "scenario": json_ready(sc.to_dict()),  # no limit: null
             "seed": None if sc.noise is None else sc.noise.seed,
             "samples": int(len(self.t)),
             "t_end": float(self.t[-1]) if len(self.t) else 0.0,
@@ -259,6 +260,19 @@ class Result:
     def plot_theta_hat(self, ax=None, **kw):
         from .plots import plot_theta_hat
         return plot_theta_hat(self, ax=ax, **kw)
+
+
+def json_ready(value):
+    """Plain data with every non-finite float replaced by None, for strict JSON (a
+    scenario's infinite limit, "no limit", is written ``null``, which
+    :class:`unidyn.model.Limits` reads back as no limit)."""
+    if isinstance(value, dict):
+        return {k: json_ready(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_ready(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
 
 
 def _finite_or_null(value, where: str, notes: list):

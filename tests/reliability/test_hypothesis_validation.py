@@ -230,7 +230,8 @@ LIMIT_KEYS = ("speed_max", "steer_max", "accel_max", "angular_accel_max")
 def bad_limits_table():
     table = st.one_of(
         st.tuples(st.sampled_from(LIMIT_KEYS),
-                  st.one_of(zero, negative, neg_inf, nan, not_a_number)).map(
+                  st.one_of(zero, negative, neg_inf, nan,  # None (null) is "no limit"
+                            not_a_number.filter(lambda v: v is not None))).map(
             lambda p: {p[0]: p[1]}),
         st.text(min_size=1, max_size=8).filter(lambda k: k not in LIMIT_KEYS).map(
             lambda k: {k: 1.0}))
@@ -258,7 +259,9 @@ INVALID = {
     "positive": st.one_of(not_a_number, zero, negative, neg_inf, nan, inf),
     "positive_or_none": st.one_of(not_a_number.filter(lambda v: v is not None), zero, negative,
                                   neg_inf, nan, inf),
-    "positive_or_inf": st.one_of(not_a_number, zero, negative, neg_inf, nan),
+    # a limit: inf, or None (JSON's null), is "no limit"
+    "positive_or_inf": st.one_of(not_a_number.filter(lambda v: v is not None), zero, negative,
+                                 neg_inf, nan),
     "positive_int": st.one_of(not_a_number, zero, negative, neg_inf, nan, inf,
                               st.just(1.5), st.just(True)),
     "nonnegative": st.one_of(not_a_number, negative, neg_inf, nan, inf),

@@ -65,3 +65,30 @@ def test_non_finite_numbers_are_written_as_null_with_a_note(tmp_path):
     assert s["partial_metrics"]["iae"] is None and s["partial_metrics"]["error_final"] is None
     assert s["theta_hat_final"] == [None] * 6
     assert any("iae" in note and "inf" in note for note in s["notes"])
+
+
+@pytest.mark.parametrize("limits", [unidyn.Limits(),
+                                    unidyn.Limits(speed_max=np.inf, steer_max=1.745,
+                                                  accel_max=0.3, angular_accel_max=np.inf)],
+                         ids=["none", "some"])
+def test_a_run_without_limits_is_saved_and_read_back(tmp_path, limits):
+    """"No limit" (inf) is written as null, and a null limit reads back as none."""
+    sc = Scenario.paper(3, T=0.5, limits=limits)
+    r, = simulate_batch([sc], backend="numpy")
+    r.save(tmp_path)
+    s = _strict((tmp_path / "summary.json").read_text())
+    nulls = [k for k, v in s["scenario"]["limits"].items() if v is None]
+    assert nulls == [k for k, v in limits.as_dict().items() if v == np.inf]
+    assert Scenario.from_dict(s["scenario"]) == sc
+
+
+def test_a_sweep_without_limits_writes_strict_json_and_resumes(tmp_path):
+    from unidyn.sweep import Sweep, run_sweep
+    sw = Sweep(base={"T": 0.5, "noise": "off", "case": "kinematic",
+                     "limits": {"speed_max": float("inf"), "steer_max": 1.745}},
+               grid={"kx": [1.0, 2.0]})
+    first = run_sweep(sw, tmp_path / "s", progress=False)
+    s = _strict((tmp_path / "s" / "sweep.json").read_text())
+    assert s["sweep"]["base"]["limits"]["speed_max"] is None
+    again = run_sweep(sw, tmp_path / "s", progress=False)  # the same sweep: resumed
+    assert (first.ran, again.ran, again.skipped) == (2, 0, 2)

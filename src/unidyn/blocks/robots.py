@@ -106,13 +106,13 @@ class DynamicUnicycle(ContinuousBlock):
             (x, y, psi, u, w) with \|u\| <= speed_max and \|w\| <= steer_max (else
             a ValidationError), defaults to zeros
         :type x0: array_like(3) or array_like(5), optional
-        :param speed_max: max \|u\|, m/s, > 0, defaults to inf
+        :param speed_max: max \|u\|, m/s, > 0 (inf or None: no limit), defaults to inf
         :type speed_max: float
-        :param accel_max: max \|u'\|, m/s², > 0, defaults to inf
+        :param accel_max: max \|u'\|, m/s², > 0 (inf or None: no limit), defaults to inf
         :type accel_max: float
-        :param steer_max: max \|w\|, rad/s, > 0, defaults to inf
+        :param steer_max: max \|w\|, rad/s, > 0 (inf or None: no limit), defaults to inf
         :type steer_max: float
-        :param angular_accel_max: max \|w'\|, rad/s², > 0, defaults to inf
+        :param angular_accel_max: max \|w'\|, rad/s², > 0 (inf or None: no limit), defaults to inf
         :type angular_accel_max: float
         :param limits: all four limits at once (overrides the four arguments above)
         :type limits: unidyn.Limits, optional
@@ -225,9 +225,9 @@ class KinematicUnicycle(ContinuousBlock):
         :type a: float
         :param x0: initial pose (x, y, psi), defaults to zeros
         :type x0: array_like(3), optional
-        :param speed_max: max \|u\|, m/s, > 0, defaults to inf
+        :param speed_max: max \|u\|, m/s, > 0 (inf or None: no limit), defaults to inf
         :type speed_max: float
-        :param steer_max: max \|w\|, rad/s, > 0, defaults to inf
+        :param steer_max: max \|w\|, rad/s, > 0 (inf or None: no limit), defaults to inf
         :type steer_max: float
         :param limits: speed limits as a ``unidyn.Limits`` (acceleration limits are ignored)
         :type limits: unidyn.Limits, optional
