@@ -219,6 +219,50 @@ def test_resume_drops_a_line_cut_short(tmp_path):
     assert csv_rows(cut) == csv_rows(tmp_path / "whole")
 
 
+LOOKALIKE = ["null", "1.50", "007", "Infinity", "true", "[1]", 'say "hi"', "x,y"]
+
+
+def test_labels_and_strings_that_look_like_numbers_stay_as_written(tmp_path):
+    """A variant's label is text: "007" is not 7.0, "null" not empty, and a resumed
+    sweep's metrics.csv is byte for byte that of an uninterrupted one."""
+    s = Sweep(base={"T": 0.3, "noise": "off", "case": "kinematic"}, grid={"kx": [1.0, 2.0]},
+              variants=[{"label": lab} for lab in LOOKALIKE])
+    whole = run_sweep(s, tmp_path / "whole", progress=False)
+    text = (tmp_path / "whole" / "metrics.csv").read_bytes()
+    assert [r["variant"] for r in read_metrics(tmp_path / "whole")] == [
+        lab for lab in LOOKALIKE for _ in range(2)]
+    assert [r["variant"] for r in whole.rows] == [lab for lab in LOOKALIKE for _ in range(2)]
+    again = run_sweep(s, tmp_path / "whole", progress=False)
+    assert (again.ran, (tmp_path / "whole" / "metrics.csv").read_bytes()) == (0, text)
+    cut = tmp_path / "cut"
+    run_sweep(s, cut, progress=False)
+    lines = (cut / "metrics.csv").read_text().splitlines(keepends=True)
+    (cut / "metrics.csv").write_text("".join(lines[:7]) + lines[7][:5])  # cut mid-row
+    assert run_sweep(s, cut, progress=False).ran == len(LOOKALIKE) * 2 - 6
+    assert (cut / "metrics.csv").read_bytes() == text
+
+
+@pytest.mark.parametrize("bad", ["a\rb", "a\u2028b", "a\tb", "a\nb", ""])
+def test_a_label_with_a_line_break_or_control_is_refused(bad):
+    with pytest.raises(ValidationError, match=r"variants\[0\] needs a label .*printable"):
+        Sweep(base=SHORT, grid={"kx": [1.0]}, variants=[{"label": bad}])
+
+
+def test_a_grid_value_given_twice_as_int_and_float_is_refused():
+    with pytest.raises(ValidationError, match=r"grid.kx has the value 1.0 twice"):
+        Sweep(base=SHORT, grid={"kx": [1, 1.0]})
+
+
+def test_string_grid_values_round_trip_through_metrics_csv(tmp_path):
+    from unidyn.files import cell, read_rows
+    for v in LOOKALIKE + ["p3dx_laser", "", 1.5, 7, None, [1, 2]]:
+        buf = rows_text(["index", "v", "iae", "complete"],
+                        [{"index": 0, "v": v, "iae": 1.0, "complete": True}])
+        (tmp_path / "m.csv").write_text(buf)
+        rows, clean = read_rows(tmp_path / "m.csv", ["index", "v", "iae", "complete"])
+        assert clean and rows[0]["v"] == v, (v, cell(v), rows)
+
+
 def crash_after(monkeypatch, n_chunks, exc=RuntimeError("simulated crash")):
     """Make run_sweep's chunk runner raise after ``n_chunks`` real chunks."""
     real = sw._run_chunk

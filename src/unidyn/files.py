@@ -222,16 +222,24 @@ def scenario_from_layers(layers, name: str = ""):
     return sc
 
 
+#: Columns of metrics.csv that hold text as written (a variant's label, the case):
+#: never read as a number or JSON, so a label "007" or "null" stays itself.
+TEXT_COLUMNS = ("variant", "case")
+
+
 def cell(v) -> str:
-    """A CSV cell: round-trip text for numbers, JSON for lists and tables."""
+    """A CSV cell: round-trip text for numbers, JSON for lists and tables; a string as
+    written, or JSON-quoted where it would read back as something else ("1.5", "null")."""
     if v is None:
         return ""
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, float):
         return repr(v)
-    if isinstance(v, (int, str)):
+    if isinstance(v, int):
         return str(v)
+    if isinstance(v, str):
+        return v if _parse_cell(v) == v else json.dumps(v)
     return json.dumps(v, sort_keys=True, separators=(",", ":"))
 
 
@@ -281,11 +289,10 @@ def read_rows(path: Path, columns: list):
     text = path.read_text()
     if not text.strip():
         return [], False
-    lines = text.splitlines(keepends=True)
     clean = text.endswith("\n")
     if not clean:
-        lines = lines[:-1]  # a line cut short by an interruption
-    reader = csv.reader(io.StringIO("".join(lines)))
+        text = text[:text.rfind("\n") + 1]  # a line cut short by an interruption
+    reader = csv.reader(io.StringIO(text, newline=""))
     header = next(reader, None)
     if header != columns:
         raise ValidationError(f"{path} has columns {header}, this sweep writes {columns}; "
@@ -325,7 +332,7 @@ def _parse_row(rec: dict) -> dict:
             if v not in ("true", "false"):
                 raise ValueError(v)
             out[k] = v == "true"
-        elif k == "case":
+        elif k in TEXT_COLUMNS:
             out[k] = v
         else:
             out[k] = _parse_cell(v)
@@ -352,7 +359,7 @@ def read_metrics(path) -> list:
 def write_rows(fh, columns, rows):
     w = csv.writer(fh, lineterminator="\n")
     for r in rows:
-        w.writerow([cell(r[c]) for c in columns])
+        w.writerow([r[c] if c in TEXT_COLUMNS else cell(r[c]) for c in columns])
 
 
 def rows_text(columns, rows) -> str:

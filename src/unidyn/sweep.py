@@ -54,7 +54,7 @@ from ._dask import run_on_dask
 from ._validate import ValidationError, choice, integer
 from .batch import DEFAULT_SUBSTEPS
 from .files import (ID_NAME, MAX_POINTS, METRICS, RECORD_NAME, cell, check_keys,
-                    expand_range, finished_rows, plain, read_rows, read_sweep_id,
+                    expand_range, finished_rows, is_number, plain, read_rows, read_sweep_id,
                     read_sweep_record, read_toml, rows_text, scenario_from_layers,
                     write_rows, write_sweep_id, write_sweep_record)
 from .outdir import FolderLock, staged_output
@@ -143,7 +143,10 @@ class Sweep:
                 raise ValidationError(f"{where} is empty; give at least one value")
             seen = set()
             for v in values:
-                key = cell(v)
+                try:  # 1 and 1.0 are one value
+                    key = float(v) if is_number(v) else cell(v)
+                except OverflowError:  # an integer beyond floats: refused with its point
+                    key = cell(v)
                 if key in seen:
                     raise ValidationError(f"{where} has the value {v!r} twice")
                 seen.add(key)
@@ -157,8 +160,10 @@ class Sweep:
             where = f"variants[{i}]"
             v = check_keys(where, v, allow_label=True)
             label = v.get("label")
-            if not isinstance(label, str) or not label:
-                raise ValidationError(f"{where} needs a label (a non-empty string), got {label!r}")
+            if not isinstance(label, str) or not label or not label.isprintable():
+                raise ValidationError(f"{where} needs a label (a non-empty string of printable "
+                                      f"characters: no line breaks, tabs or controls), got "
+                                      f"{label!r}")
             if len(label) > MAX_NAME:
                 raise ValidationError(f"{where}.label is {len(label)} characters long; at most "
                                       f"{MAX_NAME} are allowed (it names rows and legends)")
