@@ -129,12 +129,17 @@ def fastest_rate(sc: Scenario) -> tuple[float, str]:
         rates[f"compensator gains ku, kw = {sc.ku:g}, {sc.kw:g} 1/s"] = max(sc.ku, sc.kw)
         if sc.derivative == "filter":
             rates[f"derivative filter tau = {sc.tau:g} s"] = 1.0 / sc.tau
-    if sc.case == "adaptive":
+    if sc.case == "adaptive" and sc.adapt_from < sc.T:  # else the update never runs
         gamma, sigma = np.array(sc.gamma), np.array(sc.sigma)
-        G = _regressor_scale(sc)
-        q = float(np.sum(gamma * (G[0] ** 2 / abs(th[0]) + G[1] ** 2 / abs(th[1]))))
-        rates[f"adaptation gain gamma = {_short(sc.gamma)} (update law with the robot, "
-              f"Eqs. 18/20)"] = float(np.sqrt(q))
+        with np.errstate(over="ignore", invalid="ignore"):  # a huge gain: inf, refused below
+            G = _regressor_scale(sc)
+            q = float(np.sum(gamma * (G[0] ** 2 / abs(th[0]) + G[1] ** 2 / abs(th[1]))))
+        # the regressor's scale: name what it grows with (v_d' of Eq. 10, Eq. 14)
+        _, V, Acc = sc.reference_scale
+        rates[f"update law with the robot, Eqs. 18/20: adaptation gain gamma = "
+              f"{_short(sc.gamma)}, regressor from the reference (speed {V:.3g} m/s, "
+              f"acceleration {Acc:.3g} m/s²), kx, ky = {sc.kx:g}, {sc.ky:g}, "
+              f"lx, ly = {sc.lx:g}, {sc.ly:g} and a = {sc.a:g}"] = float(np.sqrt(q))
         leak = {"paper": gamma * sigma, "fx44850": sigma, "none": 0.0 * sigma}[sc.leakage]
         rates[f"leakage gamma*sigma = {float(np.max(leak)):.3g} 1/s (Eq. 20)"] = float(np.max(leak))
     what = max(rates, key=rates.get)

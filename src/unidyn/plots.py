@@ -79,10 +79,18 @@ def reference_once(result):
     span = period if period is not None else t_end
     if traj is not None and hasattr(traj, "position"):
         t = np.linspace(float(result.t[0]), float(result.t[0]) + span, 1000)
-        xy = np.asarray(traj.position(t), dtype=float).reshape(len(t), 2)
+        with np.errstate(all="ignore"):  # a reference beyond floats (the run stopped): NaN
+            xy = np.asarray(traj.position(t), dtype=float).reshape(len(t), 2)
         return xy, period
     m = result.t <= result.t[0] + span + 1e-9
     return np.asarray(result.reference)[m], period
+
+
+def _time_axis(ax, t):
+    """The x range of a time plot: the run's span (a run stopped at its first
+    sample has none: matplotlib's own range then)."""
+    if len(t) and t[-1] > t[0]:
+        ax.set_xlim(t[0], t[-1])
 
 
 def _reference_label(period):
@@ -134,7 +142,7 @@ def plot_error(result, ax=None, label=None, legend=False):
     ax.plot(result.t, result.error, color="C0", label=label or _label(result))
     ax.set_xlabel(_unit("t", "s"))
     ax.set_ylabel(_unit("distance error", "m"))
-    ax.set_xlim(result.t[0], result.t[-1])
+    _time_axis(ax, result.t)
     figstyle.ylim_from_data(ax, floor=0)
     if legend:
         figstyle.legend(ax)
@@ -156,7 +164,7 @@ def plot_positions(result, axes=None):
         ax.plot(result.t, result.reference[:, i], **REFERENCE, label=f"${n}_d$ (reference)")
         ax.plot(result.t, result.pose[:, i], color="C0", label=f"${n}$")
         ax.set_ylabel(_unit(f"${n}$", "m"))
-        ax.set_xlim(result.t[0], result.t[-1])
+        _time_axis(ax, result.t)
         figstyle.ylim_from_data(ax)
         figstyle.legend(ax, outside="right")
     axes[-1].set_xlabel(_unit("t", "s"))
@@ -173,7 +181,7 @@ def plot_velocities(result, axes=None):
             ax.plot(result.t, result.v_d[:, i], **REFERENCE, label=f"${n}_d$ (reference)")
         ax.plot(result.t, result.velocity[:, i], color="C0", lw=0.9, label=f"${n}$")
         ax.set_ylabel(_unit(f"${n}$", unit))
-        ax.set_xlim(result.t[0], result.t[-1])
+        _time_axis(ax, result.t)
         figstyle.ylim_from_data(ax)
         figstyle.legend(ax, outside="right")
     axes[-1].set_xlabel(_unit("t", "s"))
@@ -236,7 +244,7 @@ def plot_theta_hat(result, ax=None, relative=True, panels=False):
         if t_on is not None and t[0] < t_on < t[-1]:
             a.axvline(t_on, color="0.5", lw=0.7, ls=":", label="adaptation on")
         a.set_ylabel(_unit(rf"$\hat\theta_{i + 1}$", units[i]))
-        a.set_xlim(t[0], t[-1])
+        _time_axis(a, t)
         lines = [l for l in a.get_lines() if l.get_label() != "adaptation on"]
         figstyle.ylim_from_data(a, lines=lines, pad=0.12)
     for a in axes[-2:]:

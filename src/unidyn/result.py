@@ -62,13 +62,14 @@ def metrics(t, error, velocity) -> dict:
     t = np.asarray(t, dtype=float)
     e, v = np.asarray(error), np.asarray(velocity)
     e64 = lambda i0, i1: e[i0:i1].astype(float)  # noqa: E731
-    return {
-        "iae": _trapz(e64, t),
-        "ise": _trapz(lambda i0, i1: e64(i0, i1) ** 2, t),
-        "itae": _trapz(lambda i0, i1: t[i0:i1] * e64(i0, i1), t),
-        "energy": _trapz(lambda i0, i1: np.sum(v[i0:i1].astype(float) ** 2, axis=-1), t),
-        "error_final": _floats(e[-1:])[0] if len(e) else float("nan"),
-    }
+    with np.errstate(over="ignore", invalid="ignore"):  # beyond floats: inf (null in files)
+        return {
+            "iae": _trapz(e64, t),
+            "ise": _trapz(lambda i0, i1: e64(i0, i1) ** 2, t),
+            "itae": _trapz(lambda i0, i1: t[i0:i1] * e64(i0, i1), t),
+            "energy": _trapz(lambda i0, i1: np.sum(v[i0:i1].astype(float) ** 2, axis=-1), t),
+            "error_final": _floats(e[-1:])[0] if len(e) else float("nan"),
+        }
 
 
 #: Rows of timeseries.csv formatted at a time.

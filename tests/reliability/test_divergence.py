@@ -2,6 +2,8 @@
 an error naming the cause and the part computed; the batch engine's step accounts
 for the adaptation gain (Eqs. 18/20)."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -93,3 +95,25 @@ def test_the_diagram_stops_at_its_wall_clock_limit():
     with pytest.raises(SimulationError, match="wall-clock limit of 1 s") as info:
         unidyn.simulate(sc, timeout=1.0)
     assert not info.value.result.complete and info.value.result.t[-1] < 200.0
+
+
+def test_an_update_that_never_runs_sets_no_step():
+    """adapt_from >= T: the run is compensation with theta_hat0, and its step that of
+    the compensated loop (it was the update law's, 160 steps per sample at k = 35)."""
+    never = Scenario.paper(4, kx=35.0, ky=35.0, T=50.0)
+    assert stable_substeps(never, 10) == stable_substeps(never.replace(case="compensated"), 10)
+    assert stable_substeps(never.replace(adapt_from=0.0), 10) > 100
+    assert "update law" in fastest_rate(never.replace(adapt_from=49.9))[1]
+
+
+@pytest.mark.parametrize("field, value", [("kx", 1e300), ("trajectory", {"type": "circle",
+                                                                        "radius": 1.0,
+                                                                        "omega": 1e10})])
+def test_a_refused_update_law_names_what_its_regressor_grows_with(field, value):
+    sc = Scenario.paper(4, adapt_from=0.0, **{field: value})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no overflow warning on the way
+        with pytest.raises(ValidationError, match="update law") as err:
+            stable_substeps(sc, 10)
+    msg = str(err.value)
+    assert "kx, ky = 1e+300" in msg if field == "kx" else "speed 1e+10 m/s" in msg
