@@ -116,6 +116,7 @@ def test_several_logs_no_validate_columns_and_convention(tmp_path, capsys):
     (["--columns", "t=a,t=b"], ["--columns", "'t' twice"]),
     (["--delay", "soon"], ["--delay", "'soon'"]),
     (["--delay", "-1"], ["--delay"]),
+    (["--delay", "1e9"], ["--delay", "a third of the longest piece"]),  # longer than the log
     (["--validate", "nothere.csv"], ["nothere.csv"]),
     (["--commands", "zoh"], ["--commands", "zoh"]),
     (["--gap", "0"], ["gap", "> 0"]),
@@ -155,3 +156,21 @@ def test_gap_sets_where_a_log_is_split(tmp_path, capsys):
         assert code == 0, err
         pieces[gap] = json.loads((tmp_path / f"I{gap}" / "theta.json").read_text())["segments"]
     assert pieces == {None: 2, "10": 1, "0.15": 2}
+
+
+def test_overwrite_says_first_what_it_replaces_and_leaves_no_stale_file(tmp_path, capsys):
+    """--overwrite names the files it will replace before it starts; the new results
+    replace the whole set, so no validation of the earlier identification stays beside
+    the new theta.json."""
+    p = write(tmp_path / "a.csv", held_log())
+    code, _, err = run(capsys, "identify", p, "--out", tmp_path / "I")
+    assert code == 0, err
+    assert (tmp_path / "I" / "validation.json").exists()
+    code, _, err = run(capsys, "identify", p, "--out", tmp_path / "I")
+    assert code == 2 and "--overwrite" in err  # refused: nothing replaced silently
+    code, out, err = run(capsys, "identify", p, "--no-validate", "--overwrite",
+                         "--out", tmp_path / "I")
+    assert code == 0, err
+    assert "replacing" in err and "theta.json, validation.json, validation.png" in err
+    assert "replaced   the previous theta.json, validation.json, validation.png" in out
+    assert sorted(f.name for f in (tmp_path / "I").iterdir()) == ["theta.json"]

@@ -472,6 +472,7 @@ def _cli_words(text: str) -> str:
     for lib, cli in (("commands='linear'", "--commands linear"),
                      ("commands='held'", "--commands held"),
                      ("delay='auto'", "--delay auto"),
+                     ("delay must be <= a third", "--delay must be <= a third"),
                      ("method='output-error'", "--method output-error"),
                      ("use a longer log or a shorter window", "use a longer log or a "
                                                              "smaller --window")):
@@ -514,8 +515,14 @@ def _cmd_identify(args) -> int:
     out = Path(args.out)
     staging = staged_output(out, overwrite=args.overwrite, results=("theta.json",),
                             what="identification results",
-                            owned=("theta.json", "validation.json", "validation.png"))
+                            owned=("theta.json", "validation.json", "validation.png"))  # as below
+    owned = ("theta.json", "validation.json", "validation.png")
     with staging as stage:
+        replaced = _listing(out, owned) if stage.held else ""
+        if replaced:
+            print(f"unidyn: replacing {out}/ ({replaced}) once the new identification is "
+                  f"written; kept as they are if it fails or is interrupted", file=sys.stderr,
+                  flush=True)
         try:
             with warnings.catch_warnings():   # the summary prints them
                 warnings.simplefilter("ignore", ident.IdentificationWarning)
@@ -549,6 +556,8 @@ def _cmd_identify(args) -> int:
     print(f"written    {final / path.name}")
     if not args.no_validate:
         print(f"written    {final / 'validation.json'}, {final / 'validation.png'}")
+    if replaced:  # an identification is swapped in whole or not at all
+        print(f"replaced   the previous {replaced}")
     return 0
 
 

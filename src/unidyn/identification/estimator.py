@@ -589,6 +589,9 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
     dt_med = float(np.median(np.concatenate([np.diff(t[a:b]) for a, b in segs])))
     delay_auto, delay = _delay_arg(delay, dt_med)
     longest = max(t[b - 1] - t[a] for a, b in segs)
+    if delay > longest / 3:  # the commands shifted by it would leave too little to fit
+        raise ValidationError(f"delay must be <= a third of the longest piece of the log "
+                              f"({longest / 3:g} s), got {delay:g} s")
     if window is not None and window > longest / 3:
         raise ValidationError(f"window must be <= a third of the longest piece of the log "
                               f"({longest / 3:g} s), got {window!r}")
