@@ -29,6 +29,10 @@ __all__ = ["AVAILABLE", "LOG_COLUMNS", "reference", "rhs", "run_groups", "start"
            "POSITION", "SPEED_U", "SPEED_W", "INTERRUPTED", "STEP"]
 
 NSTATE = len(eq.STATE)
+#: The rows of an RK4 stage: the 13 rates, then (row CODE) which limits act there
+#: (:func:`unidyn.equations.limit_state`), which tells where a step crosses a change.
+CODE = NSTATE
+NSTAGE = NSTATE + 1
 
 
 @jit(inline=True)
@@ -181,23 +185,21 @@ def _stage(t, ref, XL, a, DL, first, PL, NL, nl, OUT):
         X = _lane_state(XL, b)
         if not first:
             X = _axpy(X, a, _lane_state(DL, b))
-        d = eq.loop_rates(t, X, ref, _lane_params(PL, b), _lane_noise(NL, b))
+        d, code = eq.loop_rates_and_limits(t, X, ref, _lane_params(PL, b), _lane_noise(NL, b))
         for i in range(NSTATE):
             OUT[i * LANES + b] = d[i]
+        OUT[CODE * LANES + b] = code
 
 
 @jit(inline=True)
 def _limit_changes(D1, D2, D3, D4, PL, b):
-    """Whether the four stages of lane b's RK4 step disagree on which limit acts on
-    the robot's accelerations (:func:`unidyn.equations.limit_state`): the step then
-    crosses a kink or a jump of the right-hand side."""
-    au = PL[P.accel_u * LANES + b]
-    aw = PL[P.accel_w * LANES + b]
-    u, w = S.u * LANES + b, S.w * LANES + b
-    c1 = eq.limit_state(D1[u], D1[w], au, aw)
-    return ((c1 != eq.limit_state(D2[u], D2[w], au, aw))
-            | (c1 != eq.limit_state(D3[u], D3[w], au, aw))
-            | (c1 != eq.limit_state(D4[u], D4[w], au, aw)))
+    """Whether the four stages of lane b's RK4 step disagree on which limits act on
+    the robot's accelerations and its command (:func:`unidyn.equations.limit_state`,
+    in the stages' row CODE): the step then crosses a kink or a jump of the
+    right-hand side."""
+    c = CODE * LANES + b
+    c1 = D1[c]
+    return (c1 != D2[c]) | (c1 != D3[c]) | (c1 != D4[c])
 
 
 @jit
@@ -268,10 +270,7 @@ def _split(XS, PS, NS, p0, tb, h, depth, tried, one, D, DC, KS):
     end = U  # the units the next step reaches
     klo = -1  # a located part: from klo to khi
     khi = -1
-    au = PS[P.accel_u * LANES]
-    aw = PS[P.accel_w * LANES]
-    iu = S.u * LANES
-    iw = S.w * LANES
+    ic = CODE * LANES
     while pos < U:
         hh = (end - pos) * (h / U)
         t = tb + pos * (h / U)
@@ -281,7 +280,7 @@ def _split(XS, PS, NS, p0, tb, h, depth, tried, one, D, DC, KS):
         tried = False
         if end - pos > 1 and _limit_changes(D[0], D[1], D[2], D[3], PS, 0):
             located += 1
-            c1 = eq.limit_state(D[0][iu], D[0][iw], au, aw)
+            c1 = D[0][ic]
             lo = pos
             hi = end
             while hi - lo > 1:
@@ -292,7 +291,7 @@ def _split(XS, PS, NS, p0, tb, h, depth, tried, one, D, DC, KS):
                                         + b4 * D[3][i * LANES])
                 tq = tb + q * (h / U)
                 _stage(tq, reference(tq, p0), XS, hh, DC[0], False, PS, NS, one, DC[1])
-                if eq.limit_state(DC[1][iu], DC[1][iw], au, aw) == c1:
+                if DC[1][ic] == c1:
                     lo = q
                 else:
                     hi = q
@@ -342,7 +341,7 @@ def _steps_lanes(XL, PL, NL, p0, t0, h, m, nl, D, KF, XP, XS, PS, NS, DS, DC, KS
             if KF[b] != 0.0 and depth > 0:
                 _lane_in(XS, PS, NS, XP, PL, NL, b)
                 for s_ in range(4):
-                    for q in range(NSTATE):
+                    for q in range(NSTAGE):
                         DS[s_][q * LANES] = D[s_][q * LANES + b]
                 steps, splits = _split(XS, PS, NS, p0, t, h, depth, True, one, DS, DC, KS)
                 WK[b] += steps
@@ -470,7 +469,7 @@ def _run_group(XL, PL, runs, nl, m, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n,
     change (:func:`_lane_alone`; splits counts them).
     A run that stops is no longer logged (its lane goes on being computed, unused)."""
     NL = np.empty(4 * LANES)
-    D = np.zeros((4, NSTATE * LANES))
+    D = np.zeros((4, NSTAGE * LANES))
     x = np.empty(NSTATE)
     XS0 = np.empty(NSTATE * LANES)
     XS = np.zeros(NSTATE * LANES)
@@ -480,8 +479,8 @@ def _run_group(XL, PL, runs, nl, m, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n,
     KF = np.zeros(LANES)
     KS = np.zeros(LANES)
     XP = np.empty(NSTATE * LANES)
-    DS = np.zeros((4, NSTATE * LANES))
-    DC = np.zeros((2, NSTATE * LANES))
+    DS = np.zeros((4, NSTAGE * LANES))
+    DC = np.zeros((2, NSTAGE * LANES))
     WK = np.zeros(LANES, dtype=np.int64)
     SP = np.zeros(LANES, dtype=np.int64)
     full = np.empty(NLOG)
@@ -555,7 +554,7 @@ def run_groups(XG, PG, runs, nlanes, mG, P_, pos_noise, vel_noise, kn, Ts, k0, k
     stops with status STEP); seen[i] and m_max[i] keep its fastest rate and most
     steps, work[i] counts the RK4 steps computed for it (with the coarse steps of an
     interval taken again) and splits[i] its steps split where they cross a change of
-    the limits on the robot's accelerations, down to parts of Ts / parts
+    the limits (on the robot's accelerations or its command), down to parts of Ts / parts
     (:func:`split_depth`)."""
     for g in prange(XG.shape[0]):
         _run_group(XG[g], PG[g], runs[g], nlanes[g], mG[g], P_, pos_noise, vel_noise, kn, Ts,

@@ -31,7 +31,7 @@ import numpy as np
 
 from ._validate import ValidationError, integer
 from .closedloop import ClosedLoop
-from .equations import TRAJECTORY_KINDS, P, limit_state, saturate
+from .equations import STATE, TRAJECTORY_KINDS, P, saturate
 from .result import Result
 from .scenario import ALWAYS_LOGGED, Scenario
 
@@ -42,6 +42,8 @@ __all__ = ["simulate_batch", "DEFAULT_SUBSTEPS"]
 #: 4.4e-6 for exact compensation at the highest gains (benchmarks/engines.py prints
 #: the measured accuracy).
 DEFAULT_SUBSTEPS = 10
+#: The loop's state count (:data:`unidyn.equations.STATE`).
+NSTATE = len(STATE)
 
 
 def _group(scenarios):
@@ -63,7 +65,7 @@ STEP_RATE_LIMIT = 0.5
 #: that interval is integrated with steps short enough for |rate h| <= STEP_RATE_REFINED.
 STEP_RATE_CHECK = 2.0
 STEP_RATE_REFINED = 1.0
-#: A step across a change of the limits on the robot's accelerations is split where
+#: A step across a change of the limits (on the robot's accelerations or its command) is split where
 #: the change is, located to a part of at most Ts / SPLIT_PARTS
 #: (:func:`unidyn._kernels.split_depth`; measured on the noise-free Fig. 11 grid: the
 #: IAE within 5e-7 of a converged run with 160, 2.3e-6 with 80, 1e-5 with 40).
@@ -218,10 +220,10 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
         every interval, and where |rate h| > STEP_RATE_CHECK that run's interval is
         integrated alone with ceil(Ts rate / STEP_RATE_REFINED) steps (the most it
         took is ``Result.substeps_max``; it depends on that run alone). A step
-        across a change of the limits on the robot's accelerations (a limit starts
-        or stops clipping, or a speed limit is reached: a kink or a jump of the
-        right-hand side, where RK4 loses its order; the step's stages disagree on
-        which limit acts) is split there: the change is located by bisection to a
+        across a change of the limits (a limit starts or stops clipping the robot's
+        accelerations or its command, or a speed limit is reached: a kink or a jump
+        of the right-hand side, where RK4 loses its order; the step's stages
+        disagree on which limits act) is split there: the change is located by bisection to a
         part of at most Ts / SPLIT_PARTS, and the step up to that part, the part and
         the rest are steps of their own (``Result.split_steps`` counts the splits).
         Without it the noise-free Fig. 11 IAE was up to 1e-4 from a converged run at
@@ -448,29 +450,26 @@ def _integrate(run: _Run, m: int, bar):
 
 def _stages(loop, X, t, h, k, rows):
     """RK4's four stages of the step of length h from (t, X) in noise interval k, for
-    the runs ``rows`` (X theirs only)."""
-    k1 = loop.rhs(t, X, k, rows)
-    k2 = loop.rhs(t + 0.5 * h, X + 0.5 * h * k1, k, rows)
-    k3 = loop.rhs(t + 0.5 * h, X + 0.5 * h * k2, k, rows)
-    k4 = loop.rhs(t + h, X + h * k3, k, rows)
+    the runs ``rows`` (X theirs only): each the rates (B, 13) and, in a last column,
+    which limits act (:func:`unidyn.equations.limit_state`)."""
+    k1 = loop.rhs(t, X, k, rows, limits=True)
+    k2 = loop.rhs(t + 0.5 * h, X + 0.5 * h * k1[:, :NSTATE], k, rows, limits=True)
+    k3 = loop.rhs(t + 0.5 * h, X + 0.5 * h * k2[:, :NSTATE], k, rows, limits=True)
+    k4 = loop.rhs(t + h, X + h * k3[:, :NSTATE], k, rows, limits=True)
     return k1, k2, k3, k4
 
 
-def _limit_codes(loop, d, rows):
-    return limit_state(d[:, 3], d[:, 4], loop.P[rows, P.accel_u], loop.P[rows, P.accel_w])
-
-
-def _changes(loop, ks, rows):
-    """Whether each run's stages disagree on which limit acts on its accelerations
-    (as :func:`unidyn._kernels._limit_changes`)."""
-    c = [_limit_codes(loop, d, rows) for d in ks]
+def _changes(ks):
+    """Whether each run's stages disagree on which limits act (as
+    :func:`unidyn._kernels._limit_changes`)."""
+    c = [d[:, NSTATE] for d in ks]
     return (c[0] != c[1]) | (c[0] != c[2]) | (c[0] != c[3])
 
 
 def _combine(loop, X, h, ks, rows):
     """RK4's step from its stages; the speed limits are hard: a step that crosses one
     ends on it."""
-    k1, k2, k3, k4 = ks
+    k1, k2, k3, k4 = (d[:, :NSTATE] for d in ks)
     Xn = X + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
     Xn[:, 3:5] = saturate(Xn[:, 3:5], loop.vmax[rows])
     return Xn
@@ -493,16 +492,16 @@ def _split(loop, X, tb, h, k, depth, ks, row):
         if ks is None:
             ks = _stages(loop, X, t, hh, k, rows)
             steps += 1
-        if end - pos > 1 and _changes(loop, ks, rows)[0]:
+        if end - pos > 1 and _changes(ks)[0]:
             located += 1
-            c1 = _limit_codes(loop, ks[0], rows)[0]
+            c1 = ks[0][0, NSTATE]
             lo, hi = pos, end
             while hi - lo > 1:
                 q = (lo + hi) // 2
                 b1, b2, b4 = _dense_weights((q - pos) / (end - pos))
-                dc = b1 * ks[0] + b2 * (ks[1] + ks[2]) + b4 * ks[3]
-                d = loop.rhs(tb + q * (h / U), X + hh * dc, k, rows)
-                if _limit_codes(loop, d, rows)[0] == c1:
+                dc = (b1 * ks[0] + b2 * (ks[1] + ks[2]) + b4 * ks[3])[:, :NSTATE]
+                d = loop.rhs(tb + q * (h / U), X + hh * dc, k, rows, limits=True)
+                if d[0, NSTATE] == c1:
                     lo = q
                 else:
                     hi = q
@@ -522,7 +521,8 @@ def _split(loop, X, tb, h, k, depth, ks, row):
 def _rk4(loop, X, t0, k, m, h, rows, work, splits):
     """m RK4 steps of length h from (t0, X) in noise interval k for the runs ``rows``
     (X theirs only), as the compiled engine takes them (:func:`unidyn._kernels._steps_lanes`):
-    a run's step that crosses a change of the limits on its accelerations is split
+    a run's step that crosses a change of the limits (on its accelerations or its
+    command) is split
     there (:func:`_split`). work and splits (per run of the batch) count the RK4
     steps beyond m and the changes located."""
     from ._kernels import split_depth
@@ -532,7 +532,7 @@ def _rk4(loop, X, t0, k, m, h, rows, work, splits):
         ks = _stages(loop, X, tb, h, k, rows)
         Xn = _combine(loop, X, h, ks, rows)
         if depth > 0:
-            for r in np.flatnonzero(_changes(loop, ks, rows)):
+            for r in np.flatnonzero(_changes(ks)):
                 Xn[r], steps, located = _split(loop, X[r:r + 1], tb, h, k, depth,
                                                tuple(d[r:r + 1] for d in ks), rows[r])
                 work[rows[r]] += steps

@@ -197,15 +197,17 @@ class ClosedLoop:
         return np.broadcast_to(equations.loop_step_rate(
             t, X.T, self._reference_tuple(t), self.P.T, self._noise(k)), (self.B,))
 
-    def rhs(self, t, X, k, rows=None):
+    def rhs(self, t, X, k, rows=None, limits=False):
         """dX/dt, (B, 13), at time t in noise interval k
         (:func:`unidyn.equations.loop_derivative` on all runs at once). k must lie in
         the current noise window (:meth:`noise_window`; the first is drawn on creation).
-        With ``rows`` (an index array), X and dX/dt are those runs' only."""
+        With ``rows`` (an index array), X and dX/dt are those runs' only. With
+        ``limits``, (B, 14): a last column says which limits act
+        (:func:`unidyn.equations.limit_state`)."""
         ref, P, noise = self._reference_tuple(t), self.P, self._noise(k)
         if rows is not None:
             ref = tuple(r[rows] for r in ref)
             P, noise = P[rows], tuple(v[rows] for v in noise)
-        dX = np.empty((NSTATE, X.shape[0]))
+        dX = np.empty((NSTATE + bool(limits), X.shape[0]))
         equations.loop_derivative(t, X.T, ref, P.T, noise, dX)
         return dX.T

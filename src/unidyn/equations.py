@@ -35,7 +35,8 @@ import numpy as np
 __all__ = ["select", "sin", "cos", "tanh", "point_velocity", "robot_acceleration",
            "dynamics_regressor", "saturate", "limited_acceleration", "kinematic_law",
            "kinematic_law_rate", "compensation_regressor", "compensation", "update_rate",
-           "figure_eight", "circle", "line", "loop_signals", "loop_rates", "loop_derivative",
+           "figure_eight", "circle", "line", "loop_signals", "loop_rates", "loop_rates_and_limits",
+           "loop_derivative",
            "update_rates", "loop_acceleration", "velocity_loop_rate", "adaptation_rate",
            "loop_step_rate", "limit_state", "STATE", "S",
            "LOOP_PARAMETERS", "P", "TRAJECTORY_KINDS", "SWITCH_TOL"]
@@ -120,19 +121,24 @@ def limited_acceleration(u, w, du, dw, speed_u, speed_w, accel_u, accel_w):
     return du, dw
 
 
-def limit_state(du, dw, accel_u, accel_w):
-    """Which limit acts on the robot's accelerations (du, dw) as :func:`loop_rates`
-    returns them (after :func:`limited_acceleration`): for each velocity 1 or -1 at
+def limit_state(du, dw, accel_u, accel_w, u_ref=0.0, w_ref=0.0, speed_u=np.inf,
+                speed_w=np.inf):
+    """Which limits act: on the robot's accelerations (du, dw) as :func:`loop_rates`
+    returns them (after :func:`limited_acceleration`), for each velocity 1 or -1 at
     the acceleration limit (+ or -), 2 held at a speed limit (an acceleration of
-    exactly 0), 0 free; as one number, code_u + 4 code_w.
+    exactly 0), 0 free; and on the command (u_ref, w_ref) before it is clipped to
+    the speed limits, for each 1 or 2 beyond the limit (+ or -), 0 within. As one
+    number, code_u + 4 code_w + 16 (command_u + 3 command_w).
 
     Where it changes, the right-hand side has a kink (a limit starts or stops
-    clipping) or a jump (a speed limit is reached): an RK4 step across that point
-    is only first or second order accurate, so the batch engine splits such a step
-    (the stages of one step disagree on this state)."""
+    clipping the accelerations or the command) or a jump (a speed limit is reached):
+    an RK4 step across that point is only first or second order accurate, so the
+    batch engine splits such a step (the stages of one step disagree on this state)."""
     cu = select(du >= accel_u, 1.0, select(du <= -accel_u, -1.0, select(du == 0.0, 2.0, 0.0)))
     cw = select(dw >= accel_w, 1.0, select(dw <= -accel_w, -1.0, select(dw == 0.0, 2.0, 0.0)))
-    return cu + 4.0 * cw
+    qu = select(u_ref > speed_u, 1.0, select(u_ref < -speed_u, 2.0, 0.0))
+    qw = select(w_ref > speed_w, 1.0, select(w_ref < -speed_w, 2.0, 0.0))
+    return cu + 4.0 * cw + 16.0 * (qu + 3.0 * qw)
 
 
 # --------------------------------------------------------------------- controllers
@@ -309,7 +315,14 @@ def loop_signals(X, ref, p, noise):
 
 
 def loop_rates(t, X, ref, p, noise):
-    r"""dX/dt of the Fig. 2 loop, as a tuple of the 13 rates in the order of :data:`S`.
+    r"""dX/dt of the Fig. 2 loop, as a tuple of the 13 rates in the order of :data:`S`
+    (:func:`loop_rates_and_limits` without the limits' state)."""
+    return loop_rates_and_limits(t, X, ref, p, noise)[0]
+
+
+def loop_rates_and_limits(t, X, ref, p, noise):
+    r"""dX/dt of the Fig. 2 loop, as a tuple of the 13 rates in the order of :data:`S`,
+    and which limits act there (:func:`limit_state`).
 
     The commands are clipped to the speed limits; the robot follows Eqs. (1)-(2)
     with the acceleration limits (:func:`limited_acceleration`), or Eq. (1) with
@@ -337,10 +350,14 @@ def loop_rates(t, X, ref, p, noise):
     w_tilde = wd - wm
     r = update_rates(G, u_tilde, w_tilde, p, X)
     filtered = p[P.filtered] != 0.0
-    return (dx, dy, w_move, select(dynamic, du, 0.0), select(dynamic, dw, 0.0),
-            select(on, r[0], 0.0), select(on, r[1], 0.0), select(on, r[2], 0.0),
-            select(on, r[3], 0.0), select(on, r[4], 0.0), select(on, r[5], 0.0),
-            select(filtered, udd, 0.0), select(filtered, wdd, 0.0))
+    du = select(dynamic, du, 0.0)
+    dw = select(dynamic, dw, 0.0)
+    return ((dx, dy, w_move, du, dw,
+             select(on, r[0], 0.0), select(on, r[1], 0.0), select(on, r[2], 0.0),
+             select(on, r[3], 0.0), select(on, r[4], 0.0), select(on, r[5], 0.0),
+             select(filtered, udd, 0.0), select(filtered, wdd, 0.0)),
+            limit_state(du, dw, p[P.accel_u], p[P.accel_w], u_ref, w_ref, p[P.speed_u],
+                        p[P.speed_w]))
 
 
 def update_rates(G, u_tilde, w_tilde, p, X):
@@ -432,7 +449,10 @@ def loop_step_rate(t, X, ref, p, noise):
 
 
 def loop_derivative(t, X, ref, p, noise, dX):
-    """:func:`loop_rates` written into dX (indexed by :data:`S`)."""
-    d = loop_rates(t, X, ref, p, noise)
+    """:func:`loop_rates` written into dX (indexed by :data:`S`); where dX has one
+    row more, the limits' state (:func:`limit_state`) into that row."""
+    d, code = loop_rates_and_limits(t, X, ref, p, noise)
     for i in range(len(STATE)):
         dX[i] = d[i]
+    if len(dX) > len(STATE):
+        dX[len(STATE)] = code

@@ -134,8 +134,8 @@ class Result:
         estimate has drifted; see :func:`unidyn.simulate_batch`)
     :ivar rk4_steps: the RK4 steps the batch engine took over the whole run
     :ivar split_steps: how many times the batch engine split a step where it crossed a
-        change of the limits on the robot's accelerations (a limit starting or stopping
-        to clip, a speed limit reached: a kink or a jump of the right-hand side; see
+        change of the limits (a limit starting or stopping to clip the robot's
+        accelerations or its command, a speed limit reached: a kink or a jump of the right-hand side; see
         :func:`unidyn.simulate_batch`)
     """
 

@@ -2,8 +2,8 @@
 limit starts or stops clipping it has a kink, and where a speed limit is reached a
 jump. RK4 across such a point is only first or second order accurate, which left the
 Fig. 11 IAE 1e-4 from a converged run at the default step. The batch engine splits
-a step whose stages disagree on which limit acts (equations.limit_state) where the
-change is (located by bisection), in both backends, with the same numbers whichever
+a step whose stages disagree on which limit acts (on the accelerations or on the
+command: equations.limit_state) where the change is (located by bisection), in both backends, with the same numbers whichever
 runs share a call."""
 
 import numpy as np
@@ -29,6 +29,30 @@ def test_limit_state_names_the_limit_that_acts():
     assert equations.limit_state(du, dw, a, b).tolist() == [1.0, 3.0, -2.0, 8.0, 5.0]
     # no limits: only a velocity held at a speed limit (exactly zero) counts
     assert equations.limit_state(1e9, -1e9, np.inf, np.inf) == 0.0
+    # the command beyond its speed limit (+: 1, -: 2; w times 3), times 16
+    u_ref = np.array([0.8, -0.8, 0.5, 0.75, 0.0])
+    w_ref = np.array([0.0, 2.0, -2.0, 1.745, -1.745])
+    assert (equations.limit_state(0.1, 0.1, a, b, u_ref, w_ref, 0.75, 1.745).tolist()
+            == [16.0, 16.0 * 5, 16.0 * 6, 0.0, 0.0])
+
+
+def test_a_step_across_a_change_of_the_command_clipping_is_split():
+    """The speed limits clip the command (Eq. 2 then sees a kink where the clipping
+    starts or stops). Here the turn command stops clipping at t = 1.15 s just before
+    the angular acceleration limit starts to clip: split only at the latter, the
+    default step was 6.6e-6 m off a converged run (and the diagram); both are located
+    now."""
+    from unidyn import Scenario
+    sc = Scenario(case="uncompensated", robot="pioneer2", x0=(-0.3632, -0.0811, 1.8915),
+                  kx=2.2836, ky=2.2836, noise=None, T=5.0)
+    ref, = simulate_batch([sc], substeps=400, backend="numpy")
+    for backend in ("numba", "numpy"):
+        r, = simulate_batch([sc], backend=backend)
+        assert r.substeps == 10 and r.split_steps > 0
+        assert np.abs(r.pose[:, :2] - ref.pose[:, :2]).max() < 5e-7  # m
+    # the clipping of the command alone (no acceleration limits) is a change too
+    free = sc.replace(limits={"speed_max": 0.75, "steer_max": 1.745})
+    assert simulate_batch([free], backend="numpy")[0].split_steps > 0
 
 
 @pytest.mark.parametrize("case, k", [("a", 25.5), ("d", 35.0)])
