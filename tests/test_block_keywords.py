@@ -49,3 +49,23 @@ def test_an_initial_speed_beyond_the_limits_is_refused(x0, word):
         B.DynamicUnicycle(x0=x0, speed_max=0.75, steer_max=1.745)
     assert "DynamicUnicycle" in str(info.value) and word in str(info.value)
     B.DynamicUnicycle(x0=(0, 0, 0, 0.75, -1.745), speed_max=0.75, steer_max=1.745)  # on the limit
+
+
+def test_each_accepted_keyword_is_listed_once():
+    with pytest.raises(ValidationError) as info:
+        B.DynamicUnicycle(spedd_max=1.0)
+    names = str(info.value).split("it accepts ")[1].replace(" and bdsim's block options", ",")
+    names = [n.strip() for n in names.split(",")]
+    assert "x0" in names and len(names) == len(set(names)), names
+
+
+def test_through_bdsims_factory_the_error_is_bdsims_and_says_ours(capsys):
+    """bdsim's factory (bd.DYNAMICUNICYCLE) prints the block's error and raises its own
+    BlockCreationError (as the README says); the class raises the ValidationError."""
+    from bdsim.exceptions import BlockCreationError
+    bd = new_simulator().blockdiagram()
+    with pytest.raises(BlockCreationError):
+        bd.DYNAMICUNICYCLE(speed_max=-1.0)
+    assert "speed_max must be > 0" in capsys.readouterr().out
+    with pytest.raises(ValidationError, match="speed_max must be > 0"):
+        B.DynamicUnicycle(speed_max=-1.0, bd=bd)

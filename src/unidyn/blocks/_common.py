@@ -50,7 +50,8 @@ def check_blockargs(block, blockargs: dict) -> None:
         hint = f" (did you mean {close[0]!r}?)" if close else ""
         raise ValidationError(
             f"{cls.__name__}: unknown keyword {unknown[0]!r}{hint}; it accepts "
-            f"{', '.join(sorted(own))} and bdsim's block options {', '.join(sorted(common))}")
+            f"{', '.join(sorted(own))} and bdsim's block options "
+            f"{', '.join(sorted(common - own))}")
 
 
 def limits_from_args(limits, speed_max, steer_max, accel_max, angular_accel_max):
@@ -98,7 +99,8 @@ def check_fixed_blockargs(block, blockargs: dict) -> None:
         hint = f" (did you mean {close[0]!r}?)" if close else ""
         raise ValidationError(
             f"{cls.__name__}: unknown keyword {unknown[0]!r}{hint}; it accepts "
-            f"{', '.join(sorted(own))} and bdsim's block options {', '.join(sorted(common))}")
+            f"{', '.join(sorted(own))} and bdsim's block options "
+            f"{', '.join(sorted(common - own))}")
 
 
 def optional_limit(name: str, value):
