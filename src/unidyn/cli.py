@@ -709,6 +709,9 @@ def main(argv=None) -> int:
     except KeyboardInterrupt as err:
         detail = str(err) if isinstance(err, _Interrupted) else getattr(err, "unidyn_detail", "")
         detail = f": {detail}" if detail else ""
+        if _TERMINATED:  # SIGTERM (see entry): the same clean-up, the usual status
+            print(f"unidyn: terminated{detail}", file=sys.stderr)
+            return 128 + 15
         print(f"unidyn: interrupted{detail}", file=sys.stderr)
         return 130
     except _RunFailed as err:
@@ -733,17 +736,29 @@ def main(argv=None) -> int:
         return 2
 
 
+#: Set when SIGTERM arrived (the console script only).
+_TERMINATED = []
+
+
+def _on_sigterm(signum, frame):
+    _TERMINATED.append(True)
+    raise KeyboardInterrupt
+
+
 def entry(argv=None) -> int:
     """The ``unidyn`` console script and ``python -m unidyn``: :func:`main`, then
     Ctrl-C is ignored while Python shuts down. The command's work is done and its exit
     status stands; without this, a Ctrl-C in the second or so that the interpreter takes
     to tear down numba, matplotlib and friends prints a traceback from whatever
-    finaliser it lands in."""
+    finaliser it lands in. SIGTERM (``kill``) stops the command as Ctrl-C does, so it
+    removes its staging folder and temporary files (exit status 143)."""
     import signal
+    signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         return main(argv)
     finally:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -309,22 +309,27 @@ def _swap_in(new: Path, out: Path, owned) -> None:
 
 @contextlib.contextmanager
 def _interrupts_deferred():
-    """Hold back Ctrl-C (SIGINT) for the few system calls of a swap, so that it is
-    never cut in half; a Ctrl-C that came meanwhile is dropped once the new results
-    are in place (the command has finished), and raised if they are not."""
+    """Hold back Ctrl-C (SIGINT) and SIGTERM for the few system calls of a swap, so
+    that it is never cut in half. A Ctrl-C that came meanwhile is dropped once the new
+    results are in place (the command has finished), and raised if they are not; a
+    SIGTERM is delivered after the swap to whatever handler was there before."""
     import signal
     import threading
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    caught = []
+    caught, term = [], []
     previous = signal.signal(signal.SIGINT, lambda *a: caught.append(True))
+    previous_term = signal.signal(signal.SIGTERM, lambda *a: term.append(True))
     done = False
     try:
         yield
         done = True
     finally:
         signal.signal(signal.SIGINT, previous)
+        signal.signal(signal.SIGTERM, previous_term)
+        if term:
+            signal.raise_signal(signal.SIGTERM)
         if caught and not done:
             raise KeyboardInterrupt
 

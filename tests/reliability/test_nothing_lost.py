@@ -330,6 +330,31 @@ def test_a_killed_restart_keeps_the_old_rows_or_writes_all_new_ones(tmp_path):
 
 
 @pytest.mark.slow
+def test_sigterm_stops_a_sweep_like_ctrl_c_and_leaves_no_staging_folder(tmp_path):
+    """kill (SIGTERM) during a sweep that replaces another: the old rows stay, the
+    staging folder and temporary files go, exit status 143 (it was killed outright,
+    leaving the staging folder until a later --overwrite)."""
+    f = sweep_file(tmp_path)
+    common = ["--chunk-size", "2", "--no-progress"]
+    assert cli(tmp_path, "sweep", f, "--out", "S", *common)[0] == 0
+    old = files(tmp_path / "S")
+    g = tmp_path / "other.toml"
+    g.write_text(SWEEP_TOML.format(T=20, gains="[0.5, 1.0, 2.0, 4.0, 8.0, 16.0]"))
+    p = start(tmp_path, "sweep", g, "--out", "S", "--overwrite", *common)
+    t_end = time.monotonic() + 120
+    while p.poll() is None and time.monotonic() < t_end and not any(
+            rows_in(tmp_path / name / "metrics.csv") >= 2 for name in leftovers(tmp_path, "S")):
+        time.sleep(0.005)
+    assert p.poll() is None, "the sweep ended before it could be killed"
+    p.send_signal(signal.SIGTERM)
+    code, _, err = finish(p)
+    assert code == 143 and "unidyn: terminated: S is as it was (12 finished row(s)" in err, err
+    assert "Traceback" not in err, err
+    assert files(tmp_path / "S") == old
+    assert leftovers(tmp_path, "S") == [] and not (tmp_path / "S" / ".unidyn.lock").exists()
+    assert not [q for q in (tmp_path / "S").iterdir() if q.name.endswith(".tmp")]
+
+
 def test_two_sweeps_into_one_folder_never_both_write_it(tmp_path):
     f = sweep_file(tmp_path, T=1, gains="[1.0, 2.0, 4.0]")
     common = ["--engine", "bdsim", "--no-progress"]
