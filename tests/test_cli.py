@@ -225,6 +225,8 @@ def test_bad_set_exits_2_naming_the_key(tmp_path, capsys, item, words):
 
 @pytest.mark.parametrize("text, words", [
     ("case = 'compensated'\nkx = \n", ["malformed TOML", "line 2"]),
+    ("robot = p3dx_laser  # no quotes\n", ["malformed TOML", "line 1",
+                                          'text needs quotes: robot = "p3dx_laser"']),
     ("case = 'compensated'\nkz = 0.5\n", ["unknown scenario field 'kz'"]),
     ("kx = 'fast'\n", ["kx must be a real number"]),
     ("kx = -0.5\n", ["kx must be > 0"]),

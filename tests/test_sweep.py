@@ -92,6 +92,7 @@ def test_sweep_from_toml(tmp_path):
     ("color = 1\n", ["unknown sweep key 'color'"]),
     ("[base]\nkz = 1\n", ["base", "'kz'"]),
     ("[grid]\nkxz = [1]\n", ["grid", "'kxz'"]),
+    ("[grid]\nkz = [1]\n", ["grid", "'kz' (did you mean"]),
     ("[grid]\nkxy = 3\n", ["grid.kxy", "list"]),
     ("[grid]\nkxy = []\n", ["grid.kxy", "empty"]),
     ("[grid]\nkxy = [1, 'fast']\n", ["kxy", "real number", "'fast'"]),

@@ -77,11 +77,28 @@ def read_toml(path, what: str = "file") -> dict:
     except IsADirectoryError:
         raise ValidationError(f"{what} {path} is a folder, not a TOML file") from None
     except tomllib.TOMLDecodeError as err:
-        raise ValidationError(f"{path}: malformed TOML: {err}") from None
+        raise ValidationError(f"{path}: malformed TOML: {err}{_quote_hint(path, err)}") from None
     except UnicodeDecodeError as err:
         raise ValidationError(f"{path}: not a UTF-8 text file: {err}") from None
     except RecursionError:
         raise ValidationError(f"{path}: TOML nested too deeply to read") from None
+
+
+def _quote_hint(path, err) -> str:
+    """A hint when the line at fault gives a bare word as a value (robot = p3dx_laser):
+    TOML needs text in quotes."""
+    import re
+    at = re.search(r"at line (\d+)", str(err))
+    try:
+        line = Path(path).read_text(encoding="utf-8").splitlines()[int(at.group(1)) - 1]
+    except (AttributeError, OSError, UnicodeDecodeError, IndexError, ValueError):
+        return ""
+    key, eq_, value = line.partition("=")
+    value = value.split("#")[0].strip()
+    if eq_ and re.fullmatch(r"[A-Za-z_][\w.-]*", value) and value not in (
+            "true", "false", "inf", "nan"):
+        return f' (text needs quotes: {key.strip()} = "{value}")'
+    return ""
 
 
 def parse_toml_value(text: str):
@@ -173,7 +190,7 @@ def check_keys(where: str, d, allow_label: bool = False) -> dict:
     for k in d:
         if k not in known:
             import difflib
-            close = difflib.get_close_matches(str(k), known, n=1)
+            close = difflib.get_close_matches(str(k), known, n=1, cutoff=0.5)  # kz: kx
             hint = f" (did you mean {close[0]!r}?)" if close else ""
             raise ValidationError(f"{where}: unknown key {k!r}{hint}; allowed: scenario fields "
                                   f"and {', '.join(SPECIAL_KEYS)}")
