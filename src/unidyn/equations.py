@@ -35,9 +35,8 @@ import numpy as np
 __all__ = ["select", "sin", "cos", "tanh", "point_velocity", "robot_acceleration",
            "dynamics_regressor", "saturate", "limited_acceleration", "kinematic_law",
            "kinematic_law_rate", "compensation_regressor", "compensation", "update_rate",
-           "figure_eight", "circle", "line", "loop_signals", "loop_rates", "loop_rates_and_limits",
-           "loop_derivative",
-           "update_rates", "loop_acceleration", "velocity_loop_rate", "adaptation_rate",
+           "figure_eight", "circle", "line", "loop_signals", "loop_rates",
+           "loop_rates_and_limits", "loop_derivative", "update_rates", "loop_acceleration", "velocity_loop_rate", "adaptation_rate",
            "loop_step_rate", "limit_state", "STATE", "S",
            "LOOP_PARAMETERS", "P", "TRAJECTORY_KINDS", "SWITCH_TOL"]
 
