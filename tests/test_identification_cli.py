@@ -80,6 +80,8 @@ def test_failed_identification_keeps_the_old_results(tmp_path, capsys):
     bad.write_text("\n".join(text))
     code, _, err = run(capsys, "identify", bad, "--overwrite", "--out", out)
     assert code == 2
+    notice, err = err.split("\n", 1)  # --overwrite says first what it would replace
+    assert notice.startswith("unidyn: replacing") and "kept as they are if it fails" in notice
     one_line_error(err, "bad.csv line 31, column 'u_ref'")
     assert (out / "theta.json").read_bytes() == before
     assert sorted(p.name for p in out.iterdir()) == ["theta.json"]
