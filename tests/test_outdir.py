@@ -282,3 +282,28 @@ def test_ctrl_c_during_the_swap_is_held_back():
             signal.raise_signal(signal.SIGINT)
             raise OSError("the swap failed")  # not done: the Ctrl-C is raised after all
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_sigterm_during_the_swap_is_held_back_then_delivered():
+    """A SIGTERM during a swap reaches the handler that was there, after the swap; the
+    unidyn command's handler drops it once the results are in place (the command has
+    finished, and says what it wrote), and gets it when they are not."""
+    from unidyn import cli
+    got = []
+    previous = signal.signal(signal.SIGTERM, lambda *a: got.append("term"))
+    try:
+        with outdir._interrupts_deferred():
+            signal.raise_signal(signal.SIGTERM)
+            assert got == []  # held back during the swap
+        assert got == ["term"]  # then delivered to the handler that was there
+        signal.signal(signal.SIGTERM, cli._on_sigterm)
+        with outdir._interrupts_deferred():
+            signal.raise_signal(signal.SIGTERM)  # results in place: the command finishes
+        with pytest.raises(KeyboardInterrupt):
+            with outdir._interrupts_deferred():
+                signal.raise_signal(signal.SIGTERM)
+                raise OSError("the swap failed")  # not in place: the command stops
+        assert signal.getsignal(signal.SIGTERM) is cli._on_sigterm
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+        cli._TERMINATED.clear()

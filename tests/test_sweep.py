@@ -245,7 +245,7 @@ def test_labels_and_strings_that_look_like_numbers_stay_as_written(tmp_path):
 
 @pytest.mark.parametrize("bad", ["a\rb", "a\u2028b", "a\tb", "a\nb", ""])
 def test_a_label_with_a_line_break_or_control_is_refused(bad):
-    with pytest.raises(ValidationError, match=r"variants\[0\] needs a label .*printable"):
+    with pytest.raises(ValidationError, match=r"variants\[0\] needs a label .*one line"):
         Sweep(base=SHORT, grid={"kx": [1.0]}, variants=[{"label": bad}])
 
 
@@ -320,6 +320,23 @@ def test_a_field_added_to_scenarios_keeps_the_ids_of_earlier_sweeps():
     assert sw.sweep_id(small_sweep().with_base(log_dtype="float32")) == (
         "sha256:894469cba9abe388d91d344d06a04fcb2b4b4ff188f7c1495674ffa90fe2bc17")
     assert sw.sweep_id(small_sweep().with_base(log_series=[])) != sw.sweep_id(small_sweep())
+
+
+def test_a_label_that_looks_like_a_number_keeps_its_sweep_id_and_its_text():
+    """Labels are text in point names and legends as in metrics.csv: a first label
+    "1.50" names its points "variant=1.50" and keeps the id that version 270085f
+    (before labels were kept as text in metrics.csv) computed."""
+    s = Sweep(base={"T": 0.3, "noise": "off", "case": "kinematic"}, grid={"kx": [1.0, 2.0]},
+              variants=[{"label": "1.50"}, {"label": "b"}])
+    assert s.points()[0].scenario.name == "#0 (variant=1.50, kx=1.0)"
+    assert sw.sweep_id(s) == (
+        "sha256:8d93bdab17c28d6860769fb90a8a07e063ae65f11c9cae78e37c84ffde330a94")
+
+
+def test_a_label_may_hold_any_printable_space():
+    s = Sweep(base=SHORT, grid={"kx": [1.0]},
+              variants=[{"label": "k\u00a0=\u202f1\u3000000"}])  # no-break and ideographic
+    assert s.variants[0]["label"] == "k\u00a0=\u202f1\u3000000"
 
 
 def test_rows_without_sweep_json_are_tied_to_their_sweep(tmp_path):

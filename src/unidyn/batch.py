@@ -31,7 +31,7 @@ import numpy as np
 
 from ._validate import ValidationError, integer
 from .closedloop import ClosedLoop
-from .equations import STATE, TRAJECTORY_KINDS, P, saturate
+from .equations import STATE, SWITCH_TOL, TRAJECTORY_KINDS, P, saturate
 from .result import Result
 from .scenario import ALWAYS_LOGGED, Scenario
 
@@ -131,7 +131,8 @@ def fastest_rate(sc: Scenario) -> tuple[float, str]:
         rates[f"compensator gains ku, kw = {sc.ku:g}, {sc.kw:g} 1/s"] = max(sc.ku, sc.kw)
         if sc.derivative == "filter":
             rates[f"derivative filter tau = {sc.tau:g} s"] = 1.0 / sc.tau
-    if sc.case == "adaptive" and sc.adapt_from < sc.T:  # else the update never runs
+    # the update runs from adapt_from (less SWITCH_TOL) on, the step's end t = T included
+    if sc.case == "adaptive" and sc.adapt_from - SWITCH_TOL <= sc.T:
         gamma, sigma = np.array(sc.gamma), np.array(sc.sigma)
         with np.errstate(over="ignore", invalid="ignore"):  # a huge gain: inf, refused below
             G = _regressor_scale(sc)

@@ -745,6 +745,11 @@ def _on_sigterm(signum, frame):
     raise KeyboardInterrupt
 
 
+# a SIGTERM held back while results are swapped in is dropped once they are in place:
+# the command has finished and says so (unidyn.outdir._interrupts_deferred)
+_on_sigterm.unidyn_done_is_done = True
+
+
 def entry(argv=None) -> int:
     """The ``unidyn`` console script and ``python -m unidyn``: :func:`main`, then
     Ctrl-C is ignored while Python shuts down. The command's work is done and its exit

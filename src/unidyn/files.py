@@ -244,6 +244,12 @@ def scenario_from_layers(layers, name: str = ""):
 TEXT_COLUMNS = ("variant", "case")
 
 
+def text(v) -> str:
+    """A value as people read it: a string as it is, anything else as :func:`cell`
+    writes it (the names of points, the legends of figures)."""
+    return v if isinstance(v, str) else cell(v)
+
+
 def cell(v) -> str:
     """A CSV cell: round-trip text for numbers, JSON for lists and tables; a string as
     written, or JSON-quoted where it would read back as something else ("1.5", "null")."""

@@ -311,8 +311,10 @@ def _swap_in(new: Path, out: Path, owned) -> None:
 def _interrupts_deferred():
     """Hold back Ctrl-C (SIGINT) and SIGTERM for the few system calls of a swap, so
     that it is never cut in half. A Ctrl-C that came meanwhile is dropped once the new
-    results are in place (the command has finished), and raised if they are not; a
-    SIGTERM is delivered after the swap to whatever handler was there before."""
+    results are in place (the command has finished), and raised if they are not. A
+    SIGTERM is delivered after the swap to whatever handler was there before, except,
+    once the results are in place, to a handler marked ``unidyn_done_is_done`` (the
+    ``unidyn`` command's: its work is done, and it reports it as done)."""
     import signal
     import threading
     if threading.current_thread() is not threading.main_thread():
@@ -326,9 +328,10 @@ def _interrupts_deferred():
         yield
         done = True
     finally:
-        signal.signal(signal.SIGINT, previous)
-        signal.signal(signal.SIGTERM, previous_term)
-        if term:
+        # None: a handler set outside Python, which cannot be restored; the default then
+        signal.signal(signal.SIGINT, signal.SIG_DFL if previous is None else previous)
+        signal.signal(signal.SIGTERM, signal.SIG_DFL if previous_term is None else previous_term)
+        if term and not (done and getattr(previous_term, "unidyn_done_is_done", False)):
             signal.raise_signal(signal.SIGTERM)
         if caught and not done:
             raise KeyboardInterrupt

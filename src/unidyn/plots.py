@@ -27,7 +27,7 @@ import numpy as np
 
 from . import figstyle
 from ._validate import choice
-from .files import METRICS, cell, is_number
+from .files import METRICS, is_number, text
 from .figstyle import REFERENCE, START, label as _unit
 
 __all__ = ["plot_path", "plot_error", "plot_positions", "plot_velocities", "plot_theta_hat",
@@ -321,7 +321,7 @@ def plot_metrics(sweep, rows, path, metric: str = "iae"):
         fig, ax = plt.subplots(figsize=figstyle.size(1, 0.75))
         lines = {}
         for r in rows:
-            key = tuple(cell(r[a]) for a in others)
+            key = tuple(text(r[a]) for a in others)
             x = r[x_axis] if x_axis else r["index"]
             y = r[metric] if r["complete"] else math.nan
             lines.setdefault(key, []).append((x, y))

@@ -44,6 +44,7 @@ import math
 import os
 import sys
 import time
+import unicodedata
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -54,11 +55,11 @@ from ._dask import run_on_dask
 from ._validate import ValidationError, choice, integer
 from .batch import DEFAULT_SUBSTEPS
 from .files import (ID_NAME, MAX_POINTS, METRICS, RECORD_NAME, cell, check_keys,
-                    expand_range, finished_rows, is_number, plain, read_rows, read_sweep_id,
+                    expand_range, finished_rows, is_number, plain, text, read_rows, read_sweep_id,
                     read_sweep_record, read_toml, rows_text, scenario_from_layers,
                     write_rows, write_sweep_id, write_sweep_record)
 from .outdir import FolderLock, staged_output
-from .result import write_atomic
+from .result import json_ready, write_atomic
 
 __all__ = ["Sweep", "Point", "SweepRun", "run_sweep", "read_metrics", "plot_metrics",
            "paper_fig11", "fig11_claims", "format_fig11_claims", "plot_fig11", "Fig11Claim",
@@ -160,9 +161,10 @@ class Sweep:
             where = f"variants[{i}]"
             v = check_keys(where, v, allow_label=True)
             label = v.get("label")
-            if not isinstance(label, str) or not label or not label.isprintable():
-                raise ValidationError(f"{where} needs a label (a non-empty string of printable "
-                                      f"characters: no line breaks, tabs or controls), got "
+            if not isinstance(label, str) or not label or any(
+                    unicodedata.category(c) in ("Cc", "Zl", "Zp") for c in label):
+                raise ValidationError(f"{where} needs a label (a non-empty string on one line: "
+                                      f"no line breaks, tabs or control characters), got "
                                       f"{label!r}")
             if len(label) > MAX_NAME:
                 raise ValidationError(f"{where}.label is {len(label)} characters long; at most "
@@ -210,7 +212,7 @@ class Sweep:
                 if v is not None:
                     layers.append((f"variants[{v['label']}]", v))
                 layers.append(("grid", dict(zip(axes, combo))))
-                desc = ", ".join(f"{k}={cell(x)}" for k, x in params.items())
+                desc = ", ".join(f"{k}={text(x)}" for k, x in params.items())
                 if len(desc) > MAX_NAME:
                     desc = desc[:MAX_NAME - 3] + "..."
                 try:
@@ -399,12 +401,14 @@ def _what_is_held(out: Path, record: dict) -> tuple:
             old = read_sweep_record(out)
         except ValueError as err:  # a UnicodeDecodeError too
             return "unknown", f"its sweep.json is not valid JSON ({err})"
+        # as written (no limit: null; an old file's Infinity reads as inf)
+        old_def, new_def = json_ready(old.get("sweep")), json_ready(record["sweep"])
         if "id" in old:
             same = old["id"] == record["id"]
         else:  # written before sweeps had an id: compare the definitions
-            same = old.get("sweep") == record["sweep"]
+            same = old_def == new_def
         if not same:
-            diff = _differences(old.get("sweep"), record["sweep"])
+            diff = _differences(old_def, new_def)
             return "different", ("it differs in " + ", ".join(diff[:5])
                                  + (", ..." if len(diff) > 5 else "")
                                  if diff and diff != ["the definition"] else

@@ -104,6 +104,8 @@ def test_an_update_that_never_runs_sets_no_step():
     assert stable_substeps(never, 10) == stable_substeps(never.replace(case="compensated"), 10)
     assert stable_substeps(never.replace(adapt_from=0.0), 10) > 100
     assert "update law" in fastest_rate(never.replace(adapt_from=49.9))[1]
+    # at adapt_from = T the update runs at the last step's end (t >= adapt_from - SWITCH_TOL)
+    assert "update law" in fastest_rate(never.replace(adapt_from=50.0))[1]
 
 
 @pytest.mark.parametrize("field, value", [("kx", 1e300), ("trajectory", {"type": "circle",
