@@ -92,3 +92,14 @@ def test_a_sweep_without_limits_writes_strict_json_and_resumes(tmp_path):
     assert s["sweep"]["base"]["limits"]["speed_max"] is None
     again = run_sweep(sw, tmp_path / "s", progress=False)  # the same sweep: resumed
     assert (first.ran, again.ran, again.skipped) == (2, 0, 2)
+
+
+def test_a_changed_sweep_without_limits_names_only_what_changed(tmp_path):
+    from unidyn import ValidationError
+    from unidyn.sweep import Sweep, run_sweep
+    base = {"T": 0.5, "noise": "off", "case": "kinematic", "limits": {"speed_max": float("inf")}}
+    run_sweep(Sweep(base=base, grid={"kx": [1.0]}), tmp_path / "s", progress=False)
+    with pytest.raises(ValidationError, match="differs in base.T") as err:
+        run_sweep(Sweep(base={**base, "T": 0.4}, grid={"kx": [1.0]}), tmp_path / "s",
+                  progress=False)
+    assert "limits" not in str(err.value)
