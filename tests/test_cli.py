@@ -391,3 +391,46 @@ def test_a_run_into_a_folder_being_written_is_refused(tmp_path, capsys):
     assert list(out.iterdir()) == []
     assert run_cli(capsys, "run", "--T", "1", "--out", out)[0] == 0  # released
     assert not (out / ".unidyn.lock").exists()
+
+
+def test_ctrl_c_reported_as_a_librarys_own_error_is_an_interrupt(capsys, monkeypatch):
+    """Ctrl-C inside an import or a library's C code comes out as that library's error
+    (Python: "Error calling __set_name__", with the interrupt as its cause): exit 130,
+    one line, no traceback."""
+    import unidyn.cli as c
+
+    def interrupted_import(args):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as err:
+            raise RuntimeError("Error calling __set_name__") from err
+    monkeypatch.setattr(c, "_cmd_robots", interrupted_import)
+    assert c.main(["robots"]) == 130
+    assert capsys.readouterr().err.strip() == "unidyn: interrupted"
+
+    def plain_bug(args):
+        raise RuntimeError("a bug")
+    monkeypatch.setattr(c, "_cmd_robots", plain_bug)
+    with pytest.raises(RuntimeError, match="a bug"):  # anything else: a traceback as ever
+        c.main(["robots"])
+
+
+def test_an_interrupt_lost_in_a_finaliser_is_sent_again():
+    """Python cannot raise a KeyboardInterrupt that lands in a finaliser; it passes it to
+    sys.unraisablehook. The command's hook sends the signal again, from another thread,
+    so that it stops the command where it can."""
+    import signal
+    import time
+    from types import SimpleNamespace
+
+    import unidyn.cli as c
+    got = []
+    previous = signal.signal(signal.SIGINT, lambda *a: got.append("int"))
+    try:
+        c._unraisable(SimpleNamespace(exc_value=KeyboardInterrupt()))
+        t_end = time.monotonic() + 5
+        while not got and time.monotonic() < t_end:
+            time.sleep(0.01)
+        assert got == ["int"]
+    finally:
+        signal.signal(signal.SIGINT, previous)

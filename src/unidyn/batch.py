@@ -625,7 +625,8 @@ def _results(run: _Run) -> list:
         log = run.LOG[i, :nrow]
         if status == 1:  # drop the non-finite sample
             log, t = log[:-1], t[:-1]
-        complete = status == 0 and last == n and not run.interrupted
+        # every sample computed: complete, even if Ctrl-C came after the last
+        complete = status == 0 and last == n
         label = sc.name or sc.case
         t_stop = last * loop.Ts
         if complete:

@@ -263,7 +263,8 @@ def _run_staged(staging, sc, engine, out, animation):
         except SimulationInterrupted as err:  # Ctrl-C: keep what was computed
             if err.result is None or len(err.result.t) < 2:
                 raise
-            result, interrupted = err.result, True
+            # a Ctrl-C after the last sample: the run is complete, and written as such
+            result, interrupted = err.result, not err.result.complete
         wall = time.perf_counter() - t0
         if not result.complete:
             stage.incomplete(result.message or "the run stopped early")
@@ -734,14 +735,63 @@ def main(argv=None) -> int:
     except RecursionError:  # input nested deeper than Python can walk
         _err("input nested too deeply to process")
         return 2
+    except Exception as err:
+        if not (_SIGNALLED or _caused_by_interrupt(err)):
+            raise
+        # Ctrl-C inside an import or a library's C code, which reports it as an error of
+        # its own (numba's "Error calling __set_name__", matplotlib's "Invalid bounding
+        # box"): an interrupt all the same
+        print(f"unidyn: {'terminated' if _TERMINATED else 'interrupted'}", file=sys.stderr)
+        return 128 + 15 if _TERMINATED else 130
+
+
+def _caused_by_interrupt(err: BaseException) -> bool:
+    seen = set()
+    while err is not None and id(err) not in seen:
+        if isinstance(err, KeyboardInterrupt):
+            return True
+        seen.add(id(err))
+        err = err.__cause__ or err.__context__
+    return False
+
+
+def _unraisable(hook):
+    """A Ctrl-C (or SIGTERM) that lands in a finaliser or a weak reference's callback
+    cannot be raised there (Python prints "Exception ignored in ..." and goes on, the
+    interrupt lost): send it again, so that it stops the command where it can."""
+    import _thread
+    import os
+    import signal
+    if isinstance(hook.exc_value, KeyboardInterrupt):
+        # from another thread, a moment later: raised here, it would land in this hook
+        # again (and a threading.Thread waits for its start, where it could land too)
+        sig = signal.SIGTERM if _TERMINATED else signal.SIGINT
+        _thread.start_new_thread(_kill_soon, (os.getpid(), sig))
+    else:
+        sys.__unraisablehook__(hook)
+
+
+def _kill_soon(pid, sig):
+    import os
+    import time
+    time.sleep(0.01)
+    os.kill(pid, sig)
 
 
 #: Set when SIGTERM arrived (the console script only).
 _TERMINATED = []
+#: Set when SIGINT or SIGTERM arrived (the console script only).
+_SIGNALLED = []
 
 
 def _on_sigterm(signum, frame):
     _TERMINATED.append(True)
+    _SIGNALLED.append(True)
+    raise KeyboardInterrupt
+
+
+def _on_sigint(signum, frame):
+    _SIGNALLED.append(True)
     raise KeyboardInterrupt
 
 
@@ -756,12 +806,20 @@ def entry(argv=None) -> int:
     status stands; without this, a Ctrl-C in the second or so that the interpreter takes
     to tear down numba, matplotlib and friends prints a traceback from whatever
     finaliser it lands in. SIGTERM (``kill``) stops the command as Ctrl-C does, so it
-    removes its staging folder and temporary files (exit status 143)."""
+    removes its staging folder and temporary files (exit status 143). An interrupt that
+    lands in a finaliser is sent again (:func:`_unraisable`)."""
     import signal
     signal.signal(signal.SIGTERM, _on_sigterm)
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:  # not if ignored
+        signal.signal(signal.SIGINT, _on_sigint)
+    sys.unraisablehook = _unraisable
+    code = None
     try:
-        return main(argv)
+        code = main(argv)
+        return code
     finally:
+        if code in (130, 128 + 15):  # interrupted: objects it left half built may fail
+            sys.unraisablehook = lambda hook: None  # in their finalisers; nothing to say
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         signal.signal(signal.SIGTERM, signal.SIG_IGN)
 

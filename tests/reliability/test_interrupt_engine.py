@@ -75,3 +75,22 @@ def test_sigint_stops_a_long_batch_run_and_keeps_the_part_computed(backend, T, L
     n, t_end = int(words[2]), float(words[3])
     assert n >= 2 and abs(t_end - (n - 1) * 0.1 * L) < 1e-6 * n  # a whole, uniform part
     assert "interrupted at t = " in out and "long" in out
+
+
+@pytest.mark.parametrize("backend", ["numba", "numpy"])
+def test_ctrl_c_after_the_last_sample_leaves_a_complete_run(backend):
+    """A Ctrl-C that comes once every sample is computed still interrupts the call, but
+    the run it leaves is complete (it was "interrupted at t = T of T", incomplete)."""
+    from unidyn import Scenario
+    from unidyn.batch import simulate_batch
+    from unidyn.runner import SimulationInterrupted
+
+    def progress(done, total):
+        if done >= total:
+            raise KeyboardInterrupt
+    sc = Scenario.paper(3, T=1.0)
+    with pytest.raises(SimulationInterrupted) as err:
+        simulate_batch([sc], backend=backend, progress=progress)
+    r, = err.value.results
+    whole, = simulate_batch([sc], backend=backend)
+    assert r.complete and r.message == "" and r.metrics == whole.metrics
