@@ -306,4 +306,5 @@ def test_sigterm_during_the_swap_is_held_back_then_delivered():
         assert signal.getsignal(signal.SIGTERM) is cli._on_sigterm
     finally:
         signal.signal(signal.SIGTERM, previous)
-        cli._TERMINATED.clear()
+        cli._TERMINATED.clear()  # the command's records of a signal, for the next tests
+        cli._SIGNALLED.clear()
