@@ -291,15 +291,25 @@ def test_sweeps_killed_at_random_rows_resume_byte_identical(tmp_path, engine, T,
     assert not (tmp_path / "cut" / ".unidyn.lock").exists()
 
 
+#: sweep options of the tests that replace one sweep by another
+COMMON = ["--chunk-size", "2", "--no-progress"]
+
+
+def a_sweep_and_another(tmp_path) -> tuple:
+    """A finished sweep in S and the file of a different one: (its file, the other's,
+    S's files)."""
+    f = sweep_file(tmp_path)
+    assert cli(tmp_path, "sweep", f, "--out", "S", *COMMON)[0] == 0
+    g = tmp_path / "other.toml"
+    g.write_text(SWEEP_TOML.format(T=20, gains="[0.5, 1.0, 2.0, 4.0, 8.0, 16.0]"))
+    return f, g, files(tmp_path / "S")
+
+
 @pytest.mark.slow
 def test_a_killed_restart_keeps_the_old_rows_or_writes_all_new_ones(tmp_path):
     rng = random.Random(3)
-    f = sweep_file(tmp_path)
-    common = ["--chunk-size", "2", "--no-progress"]
-    assert cli(tmp_path, "sweep", f, "--out", "S", *common)[0] == 0
-    old = files(tmp_path / "S")
-    g = tmp_path / "other.toml"
-    g.write_text(SWEEP_TOML.format(T=20, gains="[0.5, 1.0, 2.0, 4.0, 8.0, 16.0]"))
+    common = COMMON
+    f, g, old = a_sweep_and_another(tmp_path)
     assert cli(tmp_path, "sweep", g, "--out", "S2", *common)[0] == 0
     new = (tmp_path / "S2" / "metrics.csv").read_bytes()
     # deleting finished rows needs --overwrite, and the refusal names them
@@ -334,13 +344,8 @@ def test_sigterm_stops_a_sweep_like_ctrl_c_and_leaves_no_staging_folder(tmp_path
     """kill (SIGTERM) during a sweep that replaces another: the old rows stay, the
     staging folder and temporary files go, exit status 143 (it was killed outright,
     leaving the staging folder until a later --overwrite)."""
-    f = sweep_file(tmp_path)
-    common = ["--chunk-size", "2", "--no-progress"]
-    assert cli(tmp_path, "sweep", f, "--out", "S", *common)[0] == 0
-    old = files(tmp_path / "S")
-    g = tmp_path / "other.toml"
-    g.write_text(SWEEP_TOML.format(T=20, gains="[0.5, 1.0, 2.0, 4.0, 8.0, 16.0]"))
-    p = start(tmp_path, "sweep", g, "--out", "S", "--overwrite", *common)
+    _, g, old = a_sweep_and_another(tmp_path)
+    p = start(tmp_path, "sweep", g, "--out", "S", "--overwrite", *COMMON)
     t_end = time.monotonic() + 120
     while p.poll() is None and time.monotonic() < t_end and not any(
             rows_in(tmp_path / name / "metrics.csv") >= 2 for name in leftovers(tmp_path, "S")):
