@@ -93,6 +93,73 @@ def test_legend_covers_no_data_point(seed):
     assert not inside.any()
 
 
+def _overlap(a, b):
+    return a.x0 < b.x1 and b.x0 < a.x1 and a.y0 < b.y1 and b.y0 < a.y1
+
+
+@pytest.mark.parametrize("panels", [1, 2])
+def test_a_legend_below_covers_neither_labels_nor_data(panels):
+    """Below the axes means below its tick labels and x label too, alone in its figure
+    or beside other axes."""
+    with figstyle.style():
+        fig, axes = plt.subplots(1, panels, figsize=figstyle.size(1, 0.75), squeeze=False)
+        ax = axes[0, 0]
+        for k in range(4):
+            ax.plot([0, 30], [k, k + 1], label=f"{k}: a rather long description, k = {k}")
+        ax.set_xlabel("$k_x = k_y$ (1/s)")
+        leg = figstyle.legend(ax, outside="below")
+        fig.canvas.draw()
+        box = leg.get_window_extent()
+        hidden = [ax.xaxis.label.get_window_extent(), ax.get_window_extent()] + [
+            t.get_window_extent() for t in ax.get_xticklabels() if t.get_text()]
+    plt.close(fig)
+    assert not [b for b in hidden if _overlap(box, b)]
+    assert box.y1 <= hidden[0].y0 and box.y0 >= 0     # under the x label, in the figure
+
+
+def _spy_saves(monkeypatch):
+    """The figures figstyle.save writes, as (suptitle, legend texts), in order."""
+    seen = []
+    save = figstyle.save
+
+    def spy(fig, *args, **kwargs):
+        legends = fig.legends + [ax.get_legend() for ax in fig.axes if ax.get_legend()]
+        seen.append((fig.get_suptitle(), [t.get_text() for leg in legends
+                                          for t in leg.get_texts()]))
+        return save(fig, *args, **kwargs)
+
+    monkeypatch.setattr(figstyle, "save", spy)
+    return seen
+
+
+def test_saved_run_figures_name_the_run(adaptive_run, tmp_path, monkeypatch):
+    from unidyn.plots import run_title
+    assert run_title(adaptive_run.scenario) == (
+        "paper simulation 4 (adaptive)\nadaptive dynamic compensation\n"
+        "p3dx_laser, kx = ky = 0.1, noise seed 0")
+    sc = unidyn.Scenario(case="compensated", name="cost $x$ (a", noise=None, T=2, kx=0.3)
+    assert run_title(sc) == ("cost \\$x\\$ (a\nexact dynamic compensation\n"
+                             "p3dx_laser, kx = 0.3, ky = 0.1, noise-free")
+    seen = _spy_saves(monkeypatch)
+    # a $ in the name is drawn as written, not parsed as mathtext (which would fail here)
+    written = save_figures(unidyn.simulate_batch([sc])[0], tmp_path)
+    assert len(seen) == len(written) == 4 and {t for t, _ in seen} == {run_title(sc)}
+
+
+def test_a_sweep_legend_says_what_each_variant_sets(tmp_path, monkeypatch):
+    from unidyn.plots import plot_metrics
+    from unidyn.sweep import Sweep, run_sweep
+    s = Sweep(base={"T": 0.3, "noise": "off"}, grid={"kxy": [1.0, 2.0]},
+              variants=[{"label": "a", "case": "uncompensated"},
+                        {"label": "b", "case": "compensated", "theta_hat_scale": 0.9},
+                        {"label": "$c$"}])
+    run = run_sweep(s, tmp_path / "s", progress=False)
+    seen = _spy_saves(monkeypatch)
+    plot_metrics(s, run.rows, tmp_path / "m.png")
+    assert seen[0][1] == ["a: uncompensated", "b: compensated, theta_hat_scale = 0.9",
+                          "\\$c\\$"]
+
+
 def test_error_panel_limits_come_from_the_data(adaptive_run):
     ax = plot_error(adaptive_run)
     lo, hi = ax.get_ylim()

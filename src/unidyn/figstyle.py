@@ -164,8 +164,26 @@ def legend(ax, *, outside=None, fallback="right", **kwargs):
         return ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0, **kwargs)
     if outside == "below":
         ncol = kwargs.pop("ncol", 1)
-        return ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=ncol,
-                         borderaxespad=0, frameon=False, **kwargs)
+        fig = ax.figure
+        if fig.axes == [ax] and fig.get_layout_engine() is not None:
+            # the figure's own legend, which the layout puts under the x label
+            handles, labels = ax.get_legend_handles_labels()
+            return fig.legend(handles, labels, loc="outside lower center", ncol=ncol,
+                              frameon=False, **kwargs)
+        leg = ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=ncol,
+                        borderaxespad=0, frameon=False, **kwargs)
+        try:  # just under the axis' tick labels and x label, once the layout has settled
+            for _ in range(4):
+                fig.draw_without_rendering()
+                under = ax.xaxis.get_tightbbox().transformed(ax.transAxes.inverted()).y0
+                y = min(under, 0.0) - 0.03
+                if abs(y - leg.get_bbox_to_anchor().transformed(
+                        ax.transAxes.inverted()).y0) < 1e-3:
+                    break
+                leg.set_bbox_to_anchor((0.5, y), transform=ax.transAxes)
+        except Exception:  # pragma: no cover - backends without a renderer
+            pass
+        return leg
     leg = ax.legend(loc="upper right", **kwargs)
     fig = ax.figure
     try:

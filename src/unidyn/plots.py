@@ -32,7 +32,8 @@ from .figstyle import REFERENCE, START, label as _unit
 
 __all__ = ["plot_path", "plot_error", "plot_positions", "plot_velocities", "plot_theta_hat",
            "compare_paths", "compare_errors", "save_figures", "reference_period",
-           "reference_once", "equal_limits", "plot_metrics", "plot_fig11"]
+           "reference_once", "equal_limits", "plot_metrics", "plot_fig11", "run_title",
+           "CASE_TITLES"]
 
 #: A true parameter smaller than this fraction of the largest |theta_i| counts as
 #: "near zero": its estimate is not divided by it.
@@ -47,8 +48,33 @@ def _ax(ax, figsize):
     return ax
 
 
+def _plain(label: str, limit: int = 60) -> str:
+    """A user's label as matplotlib text: shown as written (a ``$`` is not mathtext),
+    at most limit characters."""
+    label = label if len(label) <= limit else label[:limit - 3] + "..."
+    return label.replace("$", r"\$")
+
+
 def _label(result):
-    return result.scenario.name or result.scenario.case
+    return _plain(result.scenario.name) or result.scenario.case
+
+
+#: What each case of the loop is, for titles.
+CASE_TITLES = {"kinematic": "kinematic robot (v = v_d)",
+               "uncompensated": "dynamic robot, no compensation",
+               "compensated": "exact dynamic compensation",
+               "adaptive": "adaptive dynamic compensation"}
+
+
+def run_title(scenario) -> str:
+    """A figure title naming a run: its name (if it has one), its case, then its
+    robot, kinematic gains and noise, e.g. ``"adaptive dynamic compensation\n
+    p3dx_laser, kx = ky = 0.1, noise seed 1"``."""
+    s = scenario
+    gains = f"kx = ky = {s.kx:g}" if s.kx == s.ky else f"kx = {s.kx:g}, ky = {s.ky:g}"
+    noise = "noise-free" if s.noise is None else f"noise seed {s.noise.seed}"
+    lines = [_plain(s.name)] if s.name else []
+    return "\n".join(lines + [CASE_TITLES[s.case], f"{_plain(s.robot.name)}, {gains}, {noise}"])
 
 
 def reference_period(trajectory):
@@ -250,7 +276,7 @@ def plot_theta_hat(result, ax=None, relative=True, panels=False):
     for a in axes[-2:]:
         a.set_xlabel(_unit("t", "s"))
     handles, labels = axes[0].get_legend_handles_labels()
-    axes[0].figure.legend(handles, labels, loc="outside upper center", ncol=len(labels),
+    axes[0].figure.legend(handles, labels, loc="outside lower center", ncol=len(labels),
                           frameon=False)
     return axes
 
@@ -280,14 +306,18 @@ def compare_errors(results, ax=None):
 @figstyle.styled
 def save_figures(result, folder, dpi=figstyle.DPI) -> list:
     """Write path.png, error.png, positions.png, velocities.png and (adaptive, with
-    theta_hat logged) theta_hat.png into ``folder``; returns the paths written."""
+    theta_hat logged) theta_hat.png into ``folder``, each titled with the run
+    (:func:`run_title`); returns the paths written."""
     from pathlib import Path
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     written = []
 
+    title = run_title(result.scenario)
+
     def done(fig, name):
+        fig.suptitle(title, fontsize=7)
         written.append(figstyle.save(fig, folder / name, dpi=dpi))
 
     done(plot_path(result).figure, "path.png")
@@ -308,9 +338,20 @@ def _numeric_axis(sweep):
     return None
 
 
+def _variant_legend(sweep, label: str) -> str:
+    """A variant in a legend: its label and what it sets, ``"b: compensated,
+    theta_hat_scale = 0.9"``."""
+    for v in sweep.variants:
+        if text(v["label"]) == label:
+            sets = [text(x) if k == "case" else f"{k} = {text(x)}"
+                    for k, x in v.items() if k != "label"]
+            return _plain(label + (": " + ", ".join(sets) if sets else ""), limit=80)
+    return _plain(label)
+
+
 def plot_metrics(sweep, rows, path, metric: str = "iae"):
     """IAE (or another metric) against the first numeric axis, one line per combination
-    of the other axes (a variant by its label); log scale with plain tick labels when
+    of the other axes (a variant by its label and what it sets); log scale with plain tick labels when
     the values span more than a decade. In unidyn's figure style (:mod:`unidyn.figstyle`)."""
     import matplotlib.pyplot as plt
 
@@ -328,7 +369,7 @@ def plot_metrics(sweep, rows, path, metric: str = "iae"):
         for key, pts in lines.items():
             pts.sort()
             xs, ys = zip(*pts)
-            label = ", ".join(str(k) if a == "variant" else f"{a} = {k}"
+            label = ", ".join(_variant_legend(sweep, k) if a == "variant" else f"{a} = {k}"
                               for a, k in zip(others, key)) or None
             ax.plot(xs, ys, "o-" if len(pts) < 30 else "-", ms=3, label=label)
         vals = np.array([r[metric] for r in rows if r["complete"]], dtype=float)
