@@ -49,8 +49,9 @@ def _ax(ax, figsize):
 
 
 def _plain(label: str, limit: int = 60) -> str:
-    """A user's label as matplotlib text: shown as written (a ``$`` is not mathtext),
-    at most limit characters."""
+    """A user's label as matplotlib text: on one line, shown as written (a ``$`` is not
+    mathtext), at most limit characters."""
+    label = " ".join(label.split())
     label = label if len(label) <= limit else label[:limit - 3] + "..."
     return label.replace("$", r"\$")
 
