@@ -1,11 +1,13 @@
 """numba's on-disk cache never runs equations older than the source.
 
 numba keys its cache on the file of each compiled function, not on the functions
-it calls; the compiled engine inlines :mod:`unidyn.equations`, so without
-:func:`unidyn._jit._invalidate_stale_cache` an edited equation would keep running
-as it was cached. The test edits Eq. (2) in a copy of the package, between two
-real processes, and checks that the compiled engine follows the edit (and agrees
-with the numpy engine on the edited equations).
+it calls; the compiled engine inlines :mod:`unidyn.equations`, so without the
+stamp of the compiled sources in the cache's file names
+(:class:`unidyn._jit._StampedLocator`) an edited equation would keep running as it
+was cached. The tests edit Eq. (2) in a copy of the package, between real
+processes, and check that the compiled engine follows the edit (and agrees with the
+numpy engine on the edited equations), also when a process of the previous version
+writes its cache after the edit.
 """
 
 import os
@@ -39,18 +41,34 @@ def _iae(root, backend):
     return float(out.stdout.split()[-1])
 
 
-def test_an_edited_equation_is_compiled_anew(tmp_path):
-    pkg = tmp_path / "unidyn"
-    shutil.copytree(SRC, pkg, ignore=shutil.ignore_patterns("__pycache__"))
-    before = _iae(tmp_path, "numba")
-    assert _iae(tmp_path, "numba") == before  # from the cache, the same bits
-    assert list(pkg.rglob("*.nbi")), "numba wrote no cache; the test would prove nothing"
+def _edit_eq2(pkg):
     eqs = pkg / "equations.py"
     text = eqs.read_text()
     edited = text.replace("(th3 * w * w - th4 * u + u_ref) / th1",
                           "(th3 * w * w - th4 * u + 0.5 * u_ref) / th1")
     assert edited != text
     eqs.write_text(edited)
+
+
+def _cache_files(pkg):
+    return {p: p.read_bytes() for p in pkg.rglob("__pycache__/*.nb[ic]")}
+
+
+def test_an_edited_equation_is_compiled_anew(tmp_path):
+    pkg = tmp_path / "unidyn"
+    shutil.copytree(SRC, pkg, ignore=shutil.ignore_patterns("__pycache__"))
+    before = _iae(tmp_path, "numba")
+    assert _iae(tmp_path, "numba") == before  # from the cache, the same bits
+    old = _cache_files(pkg)
+    assert [p for p in old if p.suffix == ".nbi"], "numba wrote no cache; the test proves nothing"
+    _edit_eq2(pkg)
     after = _iae(tmp_path, "numba")
     assert after != before
     assert after == pytest.approx(_iae(tmp_path, "numpy"), rel=1e-9)
+    new = _cache_files(pkg)
+    # a process still running the old version writes its cache now (as a notebook
+    # started before the edit would): the new version does not load it
+    for path, data in old.items():
+        path.write_bytes(data)
+    assert _iae(tmp_path, "numba") == after
+    assert not set(old) & set(new)   # each version has files of its own

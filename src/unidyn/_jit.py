@@ -63,36 +63,107 @@ if AVAILABLE:
         return lambda condition, a, b: np.where(condition, a, b)
 
 
-def _invalidate_stale_cache():
-    """Drop numba's cached machine code of this package when the equations changed.
+#: The package's files whose code the compiled functions run: the equations and
+#: elementary functions they inline, the overloads here, and the compiled functions.
+COMPILED_SOURCES = ("equations.py", "_vecmath.py", "_jit.py", "_kernels.py",
+                    "identification/_simulate.py")
+_ROOT = Path(__file__).resolve().parent
 
-    numba's on-disk cache (``cache=True``) is keyed on the source file of each
-    compiled function only, not on the functions it calls: a kernel in
-    ``_kernels.py`` would keep running the equations as they were when it was
-    cached after :mod:`unidyn.equations` was edited. A stamp of the equations'
-    source beside the cache files tells; when it differs, the package's cache files
-    are removed and compiled anew. (An installed release changes every file, and
-    with them numba's own stamps.)"""
-    root = Path(__file__).resolve().parent
-    stamp = hashlib.sha256(b"".join(Path(f).read_bytes() for f in (
-        equations.__file__, __file__, Path(__file__).with_name("_vecmath.py")))).hexdigest()
-    marker = root / "__pycache__" / "equations.numba-stamp"
+
+def sources_stamp() -> str:
+    """A short hash of :data:`COMPILED_SOURCES`: the version of the code compiled."""
+    h = hashlib.sha256()
+    for name in COMPILED_SOURCES:
+        try:
+            h.update((_ROOT / name).read_bytes())
+        except OSError:  # pragma: no cover - a packaging without the file
+            h.update(name.encode())
+    return h.hexdigest()[:12]
+
+
+STAMP = sources_stamp()
+
+
+def _inside_package(path) -> bool:
     try:
-        if marker.read_text() == stamp:
+        return Path(path).resolve().is_relative_to(_ROOT)
+    except (OSError, ValueError):
+        return False
+
+
+if AVAILABLE:
+    from numba.core import caching as _caching
+
+    class _StampedLocator:
+        """Where numba caches this package's compiled functions: where it would anyway
+        (numba's own locators), with :data:`STAMP` in the file names.
+
+        numba keys its on-disk cache (``cache=True``) on the source file of each
+        compiled function only, not on the functions it inlines: a kernel in
+        ``_kernels.py`` would keep running :mod:`unidyn.equations` as it was when it
+        was cached. With the stamp of every file compiled in its name, each version of
+        the code has cache files of its own: an edited equation is compiled anew, and
+        a process still running the previous version (a notebook started before the
+        edit) can write its cache without another process ever loading it."""
+
+        def __init__(self, inner):
+            self._inner = inner
+
+        def ensure_cache_path(self):
+            self._inner.ensure_cache_path()
+
+        def get_cache_path(self):
+            return self._inner.get_cache_path()
+
+        def get_source_stamp(self):
+            return self._inner.get_source_stamp()
+
+        def get_disambiguator(self):
+            return f"{self._inner.get_disambiguator()}-{STAMP}"
+
+        @classmethod
+        def from_function(cls, py_func, py_file):
+            if not _inside_package(py_file):
+                return None
+            for other in _LOCATORS:
+                if other is not cls:
+                    inner = other.from_function(py_func, py_file)
+                    if inner is not None:
+                        return cls(inner)
+            return None
+
+    # numba's locators, tried in order for each function cached (on CacheImpl;
+    # _CacheImpl in older numba); where neither exists, the cache files carry no
+    # stamp, and _remove_other_versions removes them all when the code changes
+    _IMPL = getattr(_caching, "CacheImpl", getattr(_caching, "_CacheImpl", None))
+    _LOCATORS = getattr(_IMPL, "_locator_classes", None)
+    if isinstance(_LOCATORS, list) and _StampedLocator not in _LOCATORS:
+        _LOCATORS.insert(0, _StampedLocator)
+
+
+def _remove_other_versions():
+    """Remove the in-tree cache files of other versions of the compiled code (each
+    edit of :data:`COMPILED_SOURCES` leaves a set), once per version. A process still
+    running one of them compiles it again if it needs it."""
+    marker = _ROOT / "__pycache__" / "compiled.numba-stamp"
+    try:
+        if marker.read_text() == STAMP:
             return
     except OSError:
         pass
     try:
-        for cached in root.rglob("__pycache__/*.nb[ic]"):
-            cached.unlink(missing_ok=True)
+        for cached in _ROOT.rglob("__pycache__/*.nb[ic]"):
+            if f"-{STAMP}." not in cached.name:
+                cached.unlink(missing_ok=True)
+        (marker.parent / "equations.numba-stamp").unlink(missing_ok=True)  # the earlier marker
         marker.parent.mkdir(exist_ok=True)
-        marker.write_text(stamp)
-    except OSError:  # a read-only install: numba caches elsewhere, keyed on its files
+        marker.write_text(STAMP)
+    except OSError:  # a read-only install: numba caches elsewhere
         pass
 
 
 if AVAILABLE:
-    _invalidate_stale_cache()
+    _remove_other_versions()
 
 
 def jit(f=None, *, parallel: bool = False, inline: bool = False):
