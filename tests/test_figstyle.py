@@ -4,6 +4,7 @@ no data, y-limits from the data, per-component theta_hat panels, file modes."""
 import math
 import os
 import sys
+import warnings
 from pathlib import Path
 
 import matplotlib
@@ -132,6 +133,34 @@ def _spy_saves(monkeypatch):
     return seen
 
 
+def test_a_legend_below_under_tight_layout_covers_no_label():
+    """Only constrained layout makes room for a figure legend "outside"; under tight
+    layout the legend stays the axis' own, placed under the x label."""
+    with figstyle.style():
+        fig, ax = plt.subplots(figsize=figstyle.size(1, 0.75), layout="tight")
+        for k in range(3):
+            ax.plot([0, 1], [k, k + 1], label=f"line {k}")
+        ax.set_xlabel("x (m)")
+        leg = figstyle.legend(ax, outside="below")
+        figstyle.legend(ax, outside="below")  # twice: still one legend
+        fig.canvas.draw()
+        box, label = leg.get_window_extent(), ax.xaxis.label.get_window_extent()
+        n = len(fig.legends) + (ax.get_legend() is not None)
+    plt.close(fig)
+    assert n == 1 and box.y1 <= label.y0
+
+
+def test_a_legend_below_placed_twice_is_one_legend():
+    with figstyle.style():
+        fig, ax = plt.subplots(figsize=figstyle.size(1, 0.75))
+        ax.plot([0, 1], [0, 1], label="a")
+        figstyle.legend(ax, outside="below")
+        figstyle.legend(ax, outside="below")
+        n = len(fig.legends) + (ax.get_legend() is not None)
+    plt.close(fig)
+    assert n == 1
+
+
 def test_saved_run_figures_name_the_run(adaptive_run, tmp_path, monkeypatch):
     from unidyn.plots import run_title
     assert run_title(adaptive_run.scenario) == (
@@ -158,6 +187,41 @@ def test_a_sweep_legend_says_what_each_variant_sets(tmp_path, monkeypatch):
     plot_metrics(s, run.rows, tmp_path / "m.png")
     assert seen[0][1] == ["a: uncompensated", "b: compensated, theta_hat_scale = 0.9",
                           "\\$c\\$"]
+
+
+def test_a_sweep_with_long_legends_and_a_dollar_in_its_name_fits_its_figure(tmp_path,
+                                                                             monkeypatch):
+    """Twelve lines whose variants set six fields each: every entry within 64
+    characters, the legend inside the figure, the axes not squeezed away; a name with
+    unbalanced mathtext is drawn as written."""
+    from unidyn.plots import plot_metrics
+    from unidyn.sweep import Sweep, run_sweep
+    sets = {"case": "compensated", "theta_hat_scale": 0.9, "ku": 3.0, "kw": 3.0, "lu": 0.8,
+            "lw": 0.8}
+    s = Sweep(name="price $x_$ test", base={"T": 0.2, "noise": "off"},
+              grid={"kxy": [1.0, 2.0], "a": [0.15, 0.2, 0.25]},
+              variants=[dict(sets, label=f"variant number {k}") for k in range(4)])
+    run = run_sweep(s, tmp_path / "s", progress=False)
+    figures = []
+    save = figstyle.save
+
+    def keep(fig, *args, **kwargs):
+        fig.canvas.draw()
+        legends = fig.legends + [ax.get_legend() for ax in fig.axes if ax.get_legend()]
+        figures.append((fig.bbox, fig.axes[0].get_window_extent(),
+                        [leg.get_window_extent() for leg in legends],
+                        [t.get_text() for leg in legends for t in leg.get_texts()]))
+        return save(fig, *args, **kwargs)
+
+    monkeypatch.setattr(figstyle, "save", keep)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no "axes sizes collapsed to zero"
+        plot_metrics(s, run.rows, tmp_path / "m.png")
+    fig_box, ax_box, boxes, texts = figures[0]
+    assert len(texts) == 12 and max(len(t) for t in texts) <= 64
+    assert all(fig_box.x0 <= b.x0 and b.x1 <= fig_box.x1 and fig_box.y0 <= b.y0
+               for b in boxes)
+    assert ax_box.height > 0.3 * fig_box.height
 
 
 def test_error_panel_limits_come_from_the_data(adaptive_run):

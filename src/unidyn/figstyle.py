@@ -30,11 +30,12 @@ import functools
 import math
 import os
 import tempfile
+import warnings
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["STYLE", "COLUMN", "PAGE", "DPI", "style", "styled", "size", "label", "legend",
+__all__ = ["STYLE", "COLUMN", "PAGE", "DPI", "style", "styled", "size", "label", "as_text", "legend",
            "emptiest_corner", "ylim_from_data", "plain_log_axis", "save", "REFERENCE",
            "START"]
 
@@ -152,6 +153,14 @@ def emptiest_corner(ax, box=(0.4, 0.3)):
     return best, best_n
 
 
+def as_text(text: str, limit: int = 60) -> str:
+    """A user's label (a scenario's name, a variant's label) as matplotlib text: on one
+    line, shown as written (a ``$`` starts no mathtext), at most ``limit`` characters."""
+    text = " ".join(str(text).split())
+    text = text if len(text) <= limit else text[:limit - 3] + "..."
+    return text.replace("$", r"\$")
+
+
 def legend(ax, *, outside=None, fallback="right", **kwargs):
     """Place the legend of ``ax`` where it hides no data.
 
@@ -165,11 +174,31 @@ def legend(ax, *, outside=None, fallback="right", **kwargs):
     if outside == "below":
         ncol = kwargs.pop("ncol", 1)
         fig = ax.figure
-        if fig.axes == [ax] and fig.get_layout_engine() is not None:
-            # the figure's own legend, which the layout puts under the x label
+        from matplotlib.layout_engine import ConstrainedLayoutEngine
+        if fig.axes == [ax] and isinstance(fig.get_layout_engine(), ConstrainedLayoutEngine):
+            # the figure's own legend, which constrained layout puts under the x label
+            # (standing for the axis' legend: one placed here before is replaced)
+            for old in [g for g in fig.legends if getattr(g, "_unidyn_below", False)]:
+                old.remove()
+            if ax.get_legend() is not None:
+                ax.get_legend().remove()
             handles, labels = ax.get_legend_handles_labels()
-            return fig.legend(handles, labels, loc="outside lower center", ncol=ncol,
-                              frameon=False, **kwargs)
+            leg = fig.legend(handles, labels, loc="outside lower center", ncol=ncol,
+                             frameon=False, **kwargs)
+            try:  # wider than the figure: smaller type, down to 5 pt
+                with warnings.catch_warnings():
+                    warnings.filterwarnings("ignore", "constrained_layout not applied")
+                    fig.draw_without_rendering()
+                width = leg.get_window_extent().width
+                if width > 0.98 * fig.bbox.width and "fontsize" not in kwargs:
+                    size = leg.get_texts()[0].get_fontsize() * 0.94 * fig.bbox.width / width
+                    leg.remove()
+                    leg = fig.legend(handles, labels, loc="outside lower center", ncol=ncol,
+                                     frameon=False, fontsize=max(size, 5.0), **kwargs)
+            except Exception:  # pragma: no cover - backends without a renderer
+                pass
+            leg._unidyn_below = True
+            return leg
         leg = ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=ncol,
                         borderaxespad=0, frameon=False, **kwargs)
         try:  # just under the axis' tick labels and x label, once the layout has settled
@@ -188,14 +217,18 @@ def legend(ax, *, outside=None, fallback="right", **kwargs):
     fig = ax.figure
     try:
         renderer = fig.canvas.get_renderer()
-        fig.draw_without_rendering()
+        with warnings.catch_warnings():
+            # a legend wider than the axes, only measured here, can leave the layout
+            # no room for a moment
+            warnings.filterwarnings("ignore", "constrained_layout not applied")
+            fig.draw_without_rendering()
         lb = leg.get_window_extent(renderer).transformed(ax.transAxes.inverted())
         box = (lb.width + 0.03, lb.height + 0.03)
     except Exception:  # pragma: no cover - backends without a renderer
         box = (0.4, 0.3)
     loc, n = emptiest_corner(ax, box)
     leg.remove()
-    if n > 0:
+    if n > 0 or box[0] > 0.75 or box[1] > 0.75:  # no free corner, or no room beside it
         return legend(ax, outside=fallback, **kwargs)
     return ax.legend(loc=loc, **kwargs)
 

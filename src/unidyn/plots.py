@@ -48,12 +48,7 @@ def _ax(ax, figsize):
     return ax
 
 
-def _plain(label: str, limit: int = 60) -> str:
-    """A user's label as matplotlib text: on one line, shown as written (a ``$`` is not
-    mathtext), at most limit characters."""
-    label = " ".join(label.split())
-    label = label if len(label) <= limit else label[:limit - 3] + "..."
-    return label.replace("$", r"\$")
+_plain = figstyle.as_text
 
 
 def _label(result):
@@ -75,7 +70,8 @@ def run_title(scenario) -> str:
     gains = f"kx = ky = {s.kx:g}" if s.kx == s.ky else f"kx = {s.kx:g}, ky = {s.ky:g}"
     noise = "noise-free" if s.noise is None else f"noise seed {s.noise.seed}"
     lines = [_plain(s.name)] if s.name else []
-    return "\n".join(lines + [CASE_TITLES[s.case], f"{_plain(s.robot.name)}, {gains}, {noise}"])
+    return "\n".join(lines + [CASE_TITLES[s.case],
+                              f"{_plain(s.robot.name, limit=24)}, {gains}, {noise}"])
 
 
 def reference_period(trajectory):
@@ -339,15 +335,21 @@ def _numeric_axis(sweep):
     return None
 
 
-def _variant_legend(sweep, label: str) -> str:
-    """A variant in a legend: its label and what it sets, ``"b: compensated,
-    theta_hat_scale = 0.9"``."""
-    for v in sweep.variants:
-        if text(v["label"]) == label:
-            sets = [text(x) if k == "case" else f"{k} = {text(x)}"
-                    for k, x in v.items() if k != "label"]
-            return _plain(label + (": " + ", ".join(sets) if sets else ""), limit=80)
-    return _plain(label)
+def _legend_entry(sweep, axes, key) -> str:
+    """A line of a sweep's figure in its legend: what tells it from the others first
+    (its variant's label, the other axes' values), then what its variant sets:
+    ``"b: compensated, theta_hat_scale = 0.9"``, ``"b, a = 0.15: compensated, ..."``."""
+    parts, sets = [], []
+    for a, k in zip(axes, key):
+        if a != "variant":
+            parts.append(f"{a} = {k}")
+            continue
+        parts.append(k)
+        for v in sweep.variants:
+            if text(v["label"]) == k:
+                sets = [text(x) if f == "case" else f"{f} = {text(x)}"
+                        for f, x in v.items() if f != "label"]
+    return ", ".join(parts) + (": " + ", ".join(sets) if sets else "")
 
 
 def plot_metrics(sweep, rows, path, metric: str = "iae"):
@@ -359,19 +361,20 @@ def plot_metrics(sweep, rows, path, metric: str = "iae"):
     choice("metric", metric, METRICS)
     x_axis = _numeric_axis(sweep)
     others = [a for a in sweep.axes if a != x_axis]
+    lines = {}
+    for r in rows:
+        key = tuple(text(r[a]) for a in others)
+        x = r[x_axis] if x_axis else r["index"]
+        y = r[metric] if r["complete"] else math.nan
+        lines.setdefault(key, []).append((x, y))
+    legend = 1 < len(lines) <= 12
     with figstyle.style():
-        fig, ax = plt.subplots(figsize=figstyle.size(1, 0.75))
-        lines = {}
-        for r in rows:
-            key = tuple(text(r[a]) for a in others)
-            x = r[x_axis] if x_axis else r["index"]
-            y = r[metric] if r["complete"] else math.nan
-            lines.setdefault(key, []).append((x, y))
+        # taller by the legend's lines, which go below the axes if no corner is free
+        fig, ax = plt.subplots(figsize=figstyle.size(1, 0.75 + 0.05 * len(lines) * legend))
         for key, pts in lines.items():
             pts.sort()
             xs, ys = zip(*pts)
-            label = ", ".join(_variant_legend(sweep, k) if a == "variant" else f"{a} = {k}"
-                              for a, k in zip(others, key)) or None
+            label = _plain(_legend_entry(sweep, others, key), limit=64) or None
             ax.plot(xs, ys, "o-" if len(pts) < 30 else "-", ms=3, label=label)
         vals = np.array([r[metric] for r in rows if r["complete"]], dtype=float)
         vals = vals[np.isfinite(vals)]
@@ -381,9 +384,9 @@ def plot_metrics(sweep, rows, path, metric: str = "iae"):
             figstyle.ylim_from_data(ax, floor=0 if vals.min() >= 0 else None)
         ax.set_xlabel(_AXIS_LABELS.get(x_axis, x_axis) if x_axis else "point index")
         ax.set_ylabel(_METRIC_LABELS[metric])
-        ax.set_title(sweep.name or "sweep")
+        ax.set_title(_plain(sweep.name) or "sweep")
         ax.grid(True, which="major")
-        if 1 < len(lines) <= 12:
+        if legend:
             figstyle.legend(ax, fallback="below")
         return figstyle.save(fig, path)
 
