@@ -13,13 +13,7 @@ from numbers import Real
 
 import numpy as np
 
-
-class ValidationError(ValueError):
-    """A parameter is missing, of the wrong kind or outside its allowed range."""
-
-
-class NonFiniteSignalError(FloatingPointError):
-    """A block received or produced NaN or infinity; the message says where and when."""
+from ._errors import NonFiniteSignalError, ValidationError  # noqa: F401  (defined there)
 
 
 def real(name: str, value, *, low: float | None = None, high: float | None = None,

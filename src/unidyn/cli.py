@@ -11,7 +11,10 @@ identify parameters from a log.
     unidyn identify log.csv --columns t=time,u=v_meas,w=omega_meas --out out/ident
 
 Errors in the input (a bad value, malformed TOML, a missing file) print one line
-``unidyn: error: ...`` on stderr and exit with status 2; an interrupt exits with 130.
+``unidyn: error: ...`` on stderr and exit with status 2. Ctrl-C (SIGINT) and ``kill``
+(SIGTERM) stop a command cleanly (it says what it kept), after which the process
+ends by that signal, as a shell expects of a command it can stop: the shell's status
+is 130 or 143, and a script or loop that ran the command stops with it.
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ import sys
 import time
 from pathlib import Path
 
-from ._validate import ValidationError
+from ._errors import MissingDependency, ValidationError
 
 __all__ = ["main"]
 
@@ -195,7 +198,6 @@ def _check_out(out: Path, overwrite: bool, names=_RESULT_FILES, artefacts=_RUN_A
 
 
 def _import_animation():
-    from .files import MissingDependency
     import importlib
     try:
         animation = importlib.import_module(".animation", __package__)
@@ -701,7 +703,6 @@ def _parser() -> argparse.ArgumentParser:
 
 def main(argv=None) -> int:
     """Run the ``unidyn`` command line; returns the exit status."""
-    from .files import MissingDependency
     try:
         args = _parser().parse_args(argv)
         return int(args.func(args) or 0)
@@ -806,9 +807,20 @@ def entry(argv=None) -> int:
     status stands; without this, a Ctrl-C in the second or so that the interpreter takes
     to tear down numba, matplotlib and friends prints a traceback from whatever
     finaliser it lands in. SIGTERM (``kill``) stops the command as Ctrl-C does, so it
-    removes its staging folder and temporary files (exit status 143). An interrupt that
-    lands in a finaliser is sent again (:func:`_unraisable`)."""
+    removes its staging folder and temporary files. An interrupt that lands in a
+    finaliser is sent again (:func:`_unraisable`).
+
+    A command stopped by SIGINT or SIGTERM ends the process by that same signal, once
+    Python has run its exit handlers (:func:`_end_by_signal`). A shell then sees
+    status 130 or 143 and, unlike for a plain ``exit(130)``, stops the loop or script
+    that ran the command (bash takes a plain exit as "the command handled Ctrl-C" and
+    goes on). It also makes the outcome the same however Python was started: under
+    ``python -m``, CPython ends the process by SIGINT, whatever status was asked for,
+    once a KeyboardInterrupt has passed through any ``exec``/``eval`` of a string
+    (dataclasses and named tuples make their methods so), even if it was then caught."""
+    import atexit
     import signal
+    atexit.register(_end_by_signal)  # registered first, so run after the others
     signal.signal(signal.SIGTERM, _on_sigterm)
     if signal.getsignal(signal.SIGINT) is signal.default_int_handler:  # not if ignored
         signal.signal(signal.SIGINT, _on_sigint)
@@ -820,8 +832,31 @@ def entry(argv=None) -> int:
     finally:
         if code in (130, 128 + 15):  # interrupted: objects it left half built may fail
             sys.unraisablehook = lambda hook: None  # in their finalisers; nothing to say
+            _END_BY.append(signal.SIGTERM if code == 128 + 15 else signal.SIGINT)
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         signal.signal(signal.SIGTERM, signal.SIG_IGN)
+
+
+#: The signal that stopped the command (the console script only), by which the
+#: process ends after Python's exit handlers.
+_END_BY = []
+
+
+def _end_by_signal() -> None:
+    """Exit handler of the console script: end the process by the signal that stopped
+    the command (see :func:`entry`), its output flushed. Not on Windows, which has no
+    death by signal to report: the exit status (130 or 143) says it there."""
+    import os
+    import signal
+    if not _END_BY or os.name == "nt":
+        return
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (AttributeError, OSError, ValueError):  # closed, or None
+            pass
+    signal.signal(_END_BY[-1], signal.SIG_DFL)
+    signal.raise_signal(_END_BY[-1])
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ._errors import MissingDependency
 from ._validate import ValidationError, integer, positive, real
 from .result import json_ready, write_atomic
 
@@ -44,10 +45,6 @@ METRICS = ("iae", "ise", "itae", "energy", "error_final")
 MAX_POINTS = 1_000_000
 
 _CONFLICTS = {"kxy": ("kx", "ky"), "theta_hat_scale": ("theta_hat0",)}
-
-
-class MissingDependency(ImportError):
-    """An optional dependency needed for the requested feature is not installed."""
 
 
 # --------------------------------------------------------------------------- TOML

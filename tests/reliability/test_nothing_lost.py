@@ -15,6 +15,7 @@ import csv
 import json
 import os
 import random
+import shlex
 import signal
 import subprocess
 import sys
@@ -36,6 +37,11 @@ noise = {{position_std = 0.01, velocity_std = 0.0141, seed = 0}}
 kxy = {gains}
 seed = [0, 1]
 """
+
+
+#: How a command stopped by Ctrl-C ends: by SIGINT, once it has cleaned up and said
+#: what it kept (a shell shows status 130 and stops the script that ran it)
+INTERRUPTED = -signal.SIGINT
 
 
 def _no_sigint_ignore():  # a shell's background job may inherit SIGINT ignored
@@ -130,7 +136,7 @@ def test_an_interrupted_overwrite_keeps_the_old_run_or_writes_the_new(tmp_path):
         now = files(tmp_path / "X")
         if now == old:
             outcomes.append("old")
-            if sig == signal.SIGINT and code == 130:
+            if sig == signal.SIGINT and code == INTERRUPTED:
                 assert "X is as it was before this run" in err
         else:
             assert complete_run(tmp_path / "X", 3.0), (code, err, sorted(now))
@@ -138,8 +144,7 @@ def test_an_interrupted_overwrite_keeps_the_old_run_or_writes_the_new(tmp_path):
             old = now
             assert cli(tmp_path, "run", "--set", "T=2", "--overwrite", "--out", "X")[0] == 0
             old = files(tmp_path / "X")
-        # -SIGINT: Ctrl-C as Python was shutting down, after the command had finished
-        assert code in (0, 130, -signal.SIGINT, -signal.SIGKILL), (code, err)
+        assert code in (0, INTERRUPTED, -signal.SIGKILL), (code, err)
         assert "Traceback" not in err
     # whatever a kill left beside X is cleaned up by the next command writing there
     assert cli(tmp_path, "run", "--set", "T=1", "--overwrite", "--out", "X")[0] == 0
@@ -189,7 +194,7 @@ def test_ctrl_c_during_a_long_bdsim_run_stops_quickly_and_keeps_the_old_results(
     p.send_signal(signal.SIGINT)
     code, out, err = finish(p)
     assert time.monotonic() - t0 < 5.0
-    assert code == 130, err
+    assert code == INTERRUPTED, err
     assert "Traceback" not in err and "IAE" not in out
     assert files(tmp_path / "Y") == old and leftovers(tmp_path, "Y") == []
     # what the diagram had computed is kept beside the old results, marked incomplete
@@ -211,7 +216,7 @@ def test_ctrl_c_during_a_long_batch_run_writes_the_part_computed(tmp_path):
     p.send_signal(signal.SIGINT)
     code, out, err = finish(p)
     assert time.monotonic() - t0 < 3.0, err
-    assert code == 130 and "interrupted at t = " in err and "Traceback" not in err, err
+    assert code == INTERRUPTED and "interrupted at t = " in err and "Traceback" not in err, err
     summary = json.loads((tmp_path / "L" / "summary.json").read_text())
     assert summary["complete"] is False and summary["metrics"]["iae"] is None
     assert 0 < summary["t_end"] < 400000
@@ -237,13 +242,18 @@ def rows_in(path: Path) -> int:
 
 
 def kill_after_rows(p, path: Path, rows: int, sig, timeout=120) -> tuple:
-    """Send ``sig`` once metrics.csv holds at least ``rows`` rows (or the sweep ended)."""
+    """Send ``sig`` once metrics.csv holds at least ``rows`` rows (or the sweep ended),
+    but not before the command has said it started: a folder that holds them already
+    (a kill that came too late) would otherwise have the signal land while Python
+    starts, which is another test's subject."""
+    first = p.stdout.readline()  # "sweep: ...", or "" if it ended without a word
     t_end = time.monotonic() + timeout
     while p.poll() is None and rows_in(path) < rows and time.monotonic() < t_end:
         time.sleep(0.005)
     if p.poll() is None:
         p.send_signal(sig)
-    return finish(p)
+    code, out, err = finish(p)
+    return code, first + out, err
 
 
 @pytest.mark.parametrize("engine, T, gains, chunk", [
@@ -277,7 +287,7 @@ def test_sweeps_killed_at_random_rows_resume_byte_identical(tmp_path, engine, T,
         kept = rows_in(tmp_path / "cut" / "metrics.csv")
         cuts += kept < n
         if sig == signal.SIGINT:
-            assert code in (0, 130), err
+            assert code in (0, INTERRUPTED), err
             # what is left is said (unless Ctrl-C came as the sweep was wrapping up)
             assert code == 0 or "again to resume" in err or err.strip() == \
                 "unidyn: interrupted", err
@@ -289,6 +299,33 @@ def test_sweeps_killed_at_random_rows_resume_byte_identical(tmp_path, engine, T,
     assert (tmp_path / "cut" / "metrics.csv").read_bytes() == whole
     assert cuts >= 1  # at least one kill landed mid-sweep
     assert not (tmp_path / "cut" / ".unidyn.lock").exists()
+
+
+@pytest.mark.parametrize("launch", [["-m", "unidyn"], ["-c", "import sys; from unidyn.cli "
+                                                    "import entry; sys.exit(entry())"]],
+                         ids=["python -m unidyn", "console script"])
+def test_ctrl_c_stops_the_shell_script_that_ran_the_command(tmp_path, launch):
+    """Ctrl-C in a terminal signals the shell and the command alike. bash waits for
+    the command and goes on with its script if the command merely exited (status
+    130: "it handled Ctrl-C"), and stops only if the command ended by SIGINT. A loop of
+    sweeps must stop at Ctrl-C, and the rows kept are said."""
+    f = sweep_file(tmp_path, T=100000, gains="[0.5, 1.0]")
+    env = dict(os.environ, MPLBACKEND="Agg", PYTHONUNBUFFERED="1",
+               **without_numba(tmp_path))  # numpy backend: nothing to compile first
+    cmd = " ".join(map(shlex.quote, [sys.executable, *launch, "sweep", str(f), "--out", "S",
+                                     "--engine", "batch", "--no-progress"]))
+    p = subprocess.Popen(["bash", "-c", f"{cmd}; echo went on: $?"], cwd=tmp_path, env=env,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         preexec_fn=_no_sigint_ignore, start_new_session=True)
+    first = p.stdout.readline()
+    assert first.startswith("sweep: "), first + p.communicate()[1]
+    time.sleep(random.Random(2).uniform(0.5, 1.5))
+    os.killpg(p.pid, signal.SIGINT)  # as a terminal does: the whole foreground group
+    code, out, err = finish(p)
+    assert "went on" not in out, (out, err)
+    assert code == INTERRUPTED, (code, err)
+    assert "Traceback" not in err and "unidyn: interrupted" in err, err
+    assert "no point had finished; nothing was written" in err, err
 
 
 #: sweep options of the tests that replace one sweep by another
@@ -324,7 +361,7 @@ def test_a_killed_restart_keeps_the_old_rows_or_writes_all_new_ones(tmp_path):
         code, _, err = kill_at_random(p, rng, 0.5, 6.0, sig)
         assert "Traceback" not in err or loading(code, err), err
         got = files(tmp_path / "S")
-        if sig == signal.SIGINT and code == 130:  # the rows kept are said
+        if sig == signal.SIGINT and code == INTERRUPTED:  # the rows kept are said
             assert "S is as it was (12 finished row(s)" in err or err.strip() == \
                 "unidyn: interrupted", err
         if got == old:
@@ -342,8 +379,9 @@ def test_a_killed_restart_keeps_the_old_rows_or_writes_all_new_ones(tmp_path):
 @pytest.mark.slow
 def test_sigterm_stops_a_sweep_like_ctrl_c_and_leaves_no_staging_folder(tmp_path):
     """kill (SIGTERM) during a sweep that replaces another: the old rows stay, the
-    staging folder and temporary files go, exit status 143 (it was killed outright,
-    leaving the staging folder until a later --overwrite)."""
+    staging folder and temporary files go (SIGTERM used to kill it outright, leaving the
+    staging folder until a later --overwrite), then the process ends by SIGTERM (the
+    shell's status 143)."""
     _, g, old = a_sweep_and_another(tmp_path)
     p = start(tmp_path, "sweep", g, "--out", "S", "--overwrite", *COMMON)
     t_end = time.monotonic() + 120
@@ -353,7 +391,7 @@ def test_sigterm_stops_a_sweep_like_ctrl_c_and_leaves_no_staging_folder(tmp_path
     assert p.poll() is None, "the sweep ended before it could be killed"
     p.send_signal(signal.SIGTERM)
     code, _, err = finish(p)
-    assert code == 143 and "unidyn: terminated: S is as it was (12 finished row(s)" in err, err
+    assert code == -signal.SIGTERM and "unidyn: terminated: S is as it was (12 finished row(s)" in err, err
     assert "Traceback" not in err, err
     assert files(tmp_path / "S") == old
     assert leftovers(tmp_path, "S") == [] and not (tmp_path / "S" / ".unidyn.lock").exists()
@@ -465,7 +503,7 @@ def test_ctrl_c_during_the_default_job_stops_its_workers_and_keeps_the_old_resul
     p.send_signal(signal.SIGINT)
     code, out_text, err = finish(p, timeout=60)
     assert time.monotonic() - t0 < 10.0
-    assert code == 130 and "Traceback" not in err, err
+    assert code == INTERRUPTED and "Traceback" not in err, err
     assert "interrupted" in err
     assert files(out) == old and leftovers(tmp_path, "S") == []
     time.sleep(0.5)
