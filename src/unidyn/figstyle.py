@@ -161,6 +161,15 @@ def as_text(text: str, limit: int = 60) -> str:
     return text.replace("$", r"\$")
 
 
+def _measure(fig) -> None:
+    """Lay ``fig`` out for measuring its artists, without rendering. A legend wider
+    than its axes, drawn only to be measured, can leave constrained layout no room for
+    a moment; its warning is not the user's concern."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", "constrained_layout not applied")
+        fig.draw_without_rendering()
+
+
 def legend(ax, *, outside=None, fallback="right", **kwargs):
     """Place the legend of ``ax`` where it hides no data.
 
@@ -186,9 +195,7 @@ def legend(ax, *, outside=None, fallback="right", **kwargs):
             leg = fig.legend(handles, labels, loc="outside lower center", ncol=ncol,
                              frameon=False, **kwargs)
             try:  # wider than the figure: smaller type, down to 5 pt
-                with warnings.catch_warnings():
-                    warnings.filterwarnings("ignore", "constrained_layout not applied")
-                    fig.draw_without_rendering()
+                _measure(fig)
                 width = leg.get_window_extent().width
                 if width > 0.98 * fig.bbox.width and "fontsize" not in kwargs:
                     size = leg.get_texts()[0].get_fontsize() * 0.94 * fig.bbox.width / width
@@ -203,7 +210,7 @@ def legend(ax, *, outside=None, fallback="right", **kwargs):
                         borderaxespad=0, frameon=False, **kwargs)
         try:  # just under the axis' tick labels and x label, once the layout has settled
             for _ in range(4):
-                fig.draw_without_rendering()
+                _measure(fig)
                 under = ax.xaxis.get_tightbbox().transformed(ax.transAxes.inverted()).y0
                 y = min(under, 0.0) - 0.03
                 if abs(y - leg.get_bbox_to_anchor().transformed(
@@ -217,11 +224,7 @@ def legend(ax, *, outside=None, fallback="right", **kwargs):
     fig = ax.figure
     try:
         renderer = fig.canvas.get_renderer()
-        with warnings.catch_warnings():
-            # a legend wider than the axes, only measured here, can leave the layout
-            # no room for a moment
-            warnings.filterwarnings("ignore", "constrained_layout not applied")
-            fig.draw_without_rendering()
+        _measure(fig)
         lb = leg.get_window_extent(renderer).transformed(ax.transAxes.inverted())
         box = (lb.width + 0.03, lb.height + 0.03)
     except Exception:  # pragma: no cover - backends without a renderer
