@@ -94,6 +94,7 @@ def test_beyond_the_exact_reduction_sin_and_cos_are_nan_not_wrong():
     np.testing.assert_array_equal(t, np.sign(x))
 
 
+@pytest.mark.slow  # compiles the lane loop afresh (about 18 s)
 def test_the_engine_uses_them_and_its_lane_loop_calls_no_maths_library():
     """The lane loop (_kernels._stage) is one vectorised body: a call to sin, cos or
     tanh of the C library would be made lane by lane, and cost more than the rest of
