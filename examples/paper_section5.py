@@ -195,6 +195,8 @@ if __name__ == "__main__":
     if code == 130 and os.name != "nt":
         # end by Ctrl-C's own signal, so that a shell script or loop running this stops
         # too (a shell takes a plain exit as "handled"; its status is 130 either way)
+        sys.stdout.flush()
+        sys.stderr.flush()
         signal.signal(signal.SIGINT, signal.SIG_DFL)
         signal.raise_signal(signal.SIGINT)
     sys.exit(code)

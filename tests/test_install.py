@@ -111,6 +111,24 @@ def test_core_does_not_import_bdsim():
     assert r.returncode == 0 and r.stdout.strip() == "False", r.stdout + r.stderr
 
 
+def test_import_is_light_and_the_core_is_reached_from_it():
+    """``import unidyn`` loads no numpy (so the command's Ctrl-C handling is in place
+    at once); what it used to load eagerly is still reached as an attribute."""
+    r = _run("""
+        import sys, unidyn
+        print('numpy' in sys.modules)
+        for name in ("model", "control", "trajectories", "robots", "parameters", "noise",
+                     "equations", "RobotParameters", "Limits", "NoiseSpec", "NO_LIMITS",
+                     "PAPER_LIMITS", "ValidationError", *unidyn.__all__):
+            getattr(unidyn, name)
+        from unidyn import *
+        print(unidyn.parameters.RobotParameters is RobotParameters, issubclass(
+              ValidationError, ValueError), sorted(set(unidyn.__all__) - set(dir(unidyn))))
+    """)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert r.stdout.split("\n")[:2] == ["False", "True True []"], r.stdout
+
+
 @pytest.mark.slow
 def test_regular_install_finds_blocks_with_no_extra_step(tmp_path):
     """Build the wheel, install it (no deps) into a site dir and check that a

@@ -36,6 +36,8 @@ _LAZY = {
     "PAPER_LIMITS": ("model", "PAPER_LIMITS"),
     "NoiseSpec": ("noise", "NoiseSpec"),
     "robots": ("robots", None),
+    "parameters": ("parameters", None),
+    "noise": ("noise", None),
     "model": ("model", None),
     "control": ("control", None),
     "trajectories": ("trajectories", None),

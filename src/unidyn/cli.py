@@ -802,62 +802,88 @@ _on_sigterm.unidyn_done_is_done = True
 
 
 def entry(argv=None) -> int:
-    """The ``unidyn`` console script and ``python -m unidyn``: :func:`main`, then
-    Ctrl-C is ignored while Python shuts down. The command's work is done and its exit
-    status stands; without this, a Ctrl-C in the second or so that the interpreter takes
-    to tear down numba, matplotlib and friends prints a traceback from whatever
-    finaliser it lands in. SIGTERM (``kill``) stops the command as Ctrl-C does, so it
-    removes its staging folder and temporary files. An interrupt that lands in a
-    finaliser is sent again (:func:`_unraisable`).
-
-    A command stopped by SIGINT or SIGTERM ends the process by that same signal, once
-    Python has run its exit handlers (:func:`_end_by_signal`). A shell then sees
-    status 130 or 143 and, unlike for a plain ``exit(130)``, stops the loop or script
-    that ran the command (bash takes a plain exit as "the command handled Ctrl-C" and
-    goes on). It also makes the outcome the same however Python was started: under
-    ``python -m``, CPython ends the process by SIGINT, whatever status was asked for,
-    once a KeyboardInterrupt has passed through any ``exec``/``eval`` of a string
-    (dataclasses and named tuples make their methods so), even if it was then caught."""
-    import atexit
+    """Run the command line in this process as the ``unidyn`` command does, and return
+    its exit status: :func:`main` with the command's signal handling. SIGTERM
+    (``kill``) stops the command as Ctrl-C does, so it removes its staging folder and
+    temporary files (status 143); an interrupt that lands in a finaliser is sent again
+    (:func:`_unraisable`). The signal handlers and the unraisable hook it found are
+    restored on return, so that a script or a notebook can call it; only the ``unidyn``
+    command itself (:func:`script`) ends the process."""
     import signal
-    atexit.register(_end_by_signal)  # registered first, so run after the others
+    import threading
+    if threading.current_thread() is not threading.main_thread():
+        return main(argv)  # signal handlers can only be set in the main thread
+    del _TERMINATED[:], _SIGNALLED[:]
+    found = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    hook = sys.unraisablehook
     signal.signal(signal.SIGTERM, _on_sigterm)
-    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:  # not if ignored
+    if found[signal.SIGINT] is signal.default_int_handler:  # not if ignored
         signal.signal(signal.SIGINT, _on_sigint)
     sys.unraisablehook = _unraisable
-    code = None
     try:
-        code = main(argv)
-        return code
+        return main(argv)
     finally:
-        if code in (130, 128 + 15):  # interrupted: objects it left half built may fail
-            sys.unraisablehook = lambda hook: None  # in their finalisers; nothing to say
-            _END_BY.append(signal.SIGTERM if code == 128 + 15 else signal.SIGINT)
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
-        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        for sig, handler in found.items():  # None: set outside Python; the default then
+            signal.signal(sig, signal.SIG_DFL if handler is None else handler)
+        sys.unraisablehook = hook
 
 
-#: The signal that stopped the command (the console script only), by which the
-#: process ends after Python's exit handlers.
-_END_BY = []
+def script(argv=None) -> None:
+    """The ``unidyn`` console script and ``python -m unidyn``: :func:`entry`, then the
+    process ends with the command's status.
+
+    Ctrl-C is ignored while Python shuts down: the command's work is done and its
+    status stands (a Ctrl-C in the second or so that the interpreter takes to tear down
+    numba, matplotlib and friends would print a traceback from whatever finaliser it
+    lands in).
+
+    A command stopped by SIGINT or SIGTERM ends the process by that same signal, once
+    its output is flushed and Python's exit handlers have run. A shell then sees status
+    130 or 143 and, unlike for a plain ``exit(130)``, stops the loop or script that ran
+    the command (bash takes a plain exit as "the command handled Ctrl-C" and goes on).
+    This also makes the outcome the same however Python was started: under ``python
+    -m``, CPython ends the process by SIGINT, whatever status was asked for, once a
+    KeyboardInterrupt has passed through any ``exec``/``eval`` of a string (dataclasses
+    and named tuples make their methods so), even if it was then caught. Not on
+    Windows, which has no death by signal to report: the status says it there."""
+    import signal
+    try:
+        code = entry(argv)
+    except KeyboardInterrupt:  # in the moment between the command's end and the next line
+        code = 128 + 15 if _TERMINATED else 130
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    if code in (130, 128 + 15):
+        # objects the command left half built may fail in their finalisers: nothing to say
+        sys.unraisablehook = lambda hook: None
+        _end_by(signal.SIGTERM if code == 128 + 15 else signal.SIGINT)
+    sys.exit(code)
 
 
-def _end_by_signal() -> None:
-    """Exit handler of the console script: end the process by the signal that stopped
-    the command (see :func:`entry`), its output flushed. Not on Windows, which has no
-    death by signal to report: the exit status (130 or 143) says it there."""
+def _end_by(sig) -> None:
+    """End the process by ``sig`` as Python would end it, but for the status: output
+    flushed, exit handlers run (returns on Windows)."""
+    import atexit
     import os
     import signal
-    if not _END_BY or os.name == "nt":
+    if os.name == "nt":
         return
-    for stream in (sys.stdout, sys.stderr):
-        try:
-            stream.flush()
-        except (AttributeError, OSError, ValueError):  # closed, or None
-            pass
-    signal.signal(_END_BY[-1], signal.SIG_DFL)
-    signal.raise_signal(_END_BY[-1])
+
+    def flush():
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (AttributeError, OSError, ValueError):  # None, or closed
+                pass
+    flush()
+    try:
+        atexit._run_exitfuncs()  # what Python runs at exit, in its order (and clears)
+    except Exception:  # pragma: no cover - a failing handler has said so already
+        pass
+    flush()
+    signal.signal(sig, signal.SIG_DFL)
+    signal.raise_signal(sig)
 
 
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(entry())
+    script()

@@ -156,19 +156,43 @@ def test_ctrl_c_after_the_command_finished_keeps_its_status_and_prints_no_traceb
     """Ctrl-C in the second that Python takes to shut down after a finished command
     (numba's, matplotlib's and bdsim's finalisers run then): the results are whole,
     the exit status is the command's own, and no finaliser prints a traceback. The
-    signal is sent by the process itself, after ``entry`` returned, so the moment is
-    not left to chance; the modules loaded are those of a real run."""
-    child = ("import os, signal, sys\n"
-             "from unidyn.cli import entry\n"
-             "code = entry(['run', '--set', 'T=1', '--out', 'R'])\n"
-             "os.kill(os.getpid(), signal.SIGINT)\n"
-             "sys.exit(code)\n")
+    signal is sent by the process itself from an exit handler, so it lands during the
+    shut-down, not by chance; the modules loaded are those of a real run."""
+    child = ("import atexit, os, signal\n"
+             "from unidyn.cli import script\n"
+             "atexit.register(os.kill, os.getpid(), signal.SIGINT)\n"
+             "script(['run', '--set', 'T=1', '--out', 'R'])\n")
     env = dict(os.environ, MPLBACKEND="Agg")
     p = subprocess.run([sys.executable, "-c", child], cwd=tmp_path, env=env, text=True,
                        capture_output=True, timeout=180, preexec_fn=_no_sigint_ignore)
     assert p.returncode == 0, (p.returncode, p.stderr)
     assert "Traceback" not in p.stderr and "KeyboardInterrupt" not in p.stderr, p.stderr
     assert complete_run(tmp_path / "R", 1.0)
+
+
+def test_an_interrupted_command_run_in_process_returns_130_and_leaves_the_caller_alone(
+        tmp_path):
+    """``entry`` called by a script (or a notebook): a Ctrl-C'd command returns 130; the
+    caller's signal handling is as it was, its exit handlers run, and it exits with the
+    status it chooses. Only the ``unidyn`` command ends its process by the signal."""
+    child = ("import atexit, os, signal, subprocess, sys, threading\n"
+             "import unidyn.cli as c\n"
+             "atexit.register(print, 'handler ran', flush=True)\n"
+             "def cmd(args):\n"
+             "    os.kill(os.getpid(), signal.SIGINT)\n"
+             "    threading.Event().wait(10)\n"
+             "c._cmd_robots = cmd\n"
+             "before = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)\n"
+             "print('status', c.entry(['robots']), flush=True)\n"
+             "after = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)\n"
+             "print('handlers', 'restored' if after == before else after, flush=True)\n"
+             "sys.exit(0)\n")
+    p = subprocess.run([sys.executable, "-c", child], cwd=tmp_path, text=True,
+                       capture_output=True, timeout=60, preexec_fn=_no_sigint_ignore)
+    assert p.returncode == 0, (p.returncode, p.stdout, p.stderr)
+    assert p.stdout.split("\n")[:3] == ["status 130", "handlers restored", "handler ran"], \
+        p.stdout
+    assert p.stderr.strip() == "unidyn: interrupted", p.stderr
 
 
 def test_an_interrupted_first_run_leaves_nothing_or_everything(tmp_path):
@@ -301,9 +325,15 @@ def test_sweeps_killed_at_random_rows_resume_byte_identical(tmp_path, engine, T,
     assert not (tmp_path / "cut" / ".unidyn.lock").exists()
 
 
-@pytest.mark.parametrize("launch", [["-m", "unidyn"], ["-c", "import sys; from unidyn.cli "
-                                                    "import entry; sys.exit(entry())"]],
-                         ids=["python -m unidyn", "console script"])
+#: the ``unidyn`` console script of the environment running the tests
+CONSOLE_SCRIPT = Path(sys.executable).with_name("unidyn")
+
+
+@pytest.mark.parametrize("launch", [
+    [sys.executable, "-m", "unidyn"],
+    pytest.param([str(CONSOLE_SCRIPT)], marks=pytest.mark.skipif(
+        not CONSOLE_SCRIPT.exists(), reason="no unidyn console script beside Python"))],
+    ids=["python -m unidyn", "console script"])
 def test_ctrl_c_stops_the_shell_script_that_ran_the_command(tmp_path, launch):
     """Ctrl-C in a terminal signals the shell and the command alike. bash waits for
     the command and goes on with its script if the command merely exited (status
@@ -312,7 +342,7 @@ def test_ctrl_c_stops_the_shell_script_that_ran_the_command(tmp_path, launch):
     f = sweep_file(tmp_path, T=100000, gains="[0.5, 1.0]")
     env = dict(os.environ, MPLBACKEND="Agg", PYTHONUNBUFFERED="1",
                **without_numba(tmp_path))  # numpy backend: nothing to compile first
-    cmd = " ".join(map(shlex.quote, [sys.executable, *launch, "sweep", str(f), "--out", "S",
+    cmd = " ".join(map(shlex.quote, [*launch, "sweep", str(f), "--out", "S",
                                      "--engine", "batch", "--no-progress"]))
     p = subprocess.Popen(["bash", "-c", f"{cmd}; echo went on: $?"], cwd=tmp_path, env=env,
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
