@@ -69,9 +69,11 @@ def test_import_after_bdsim_still_registers():
     assert r.returncode == 0 and "DynamicUnicycle" in r.stdout, r.stdout + r.stderr
 
 
-def test_import_changes_only_bdsimpath_in_this_process():
+def test_import_changes_only_bdsimpath_in_this_process(tmp_path):
     """import unidyn leaves sys.path and the temp folder as they were; it adds
-    unidyn to BDSIMPATH (documented) and nothing else to the environment."""
+    unidyn to BDSIMPATH (documented) and nothing else to the environment. The temp
+    folder is the process' own (TMPDIR): the system's gets other processes' files
+    meanwhile, such as this module's other tests' working folders."""
     r = _run("""
         import os, sys, tempfile
         before_path, before_env = list(sys.path), dict(os.environ)
@@ -80,12 +82,13 @@ def test_import_changes_only_bdsimpath_in_this_process():
         new_tmp = set(os.listdir(tempfile.gettempdir())) - before_tmp
         changed = {k for k in set(os.environ) | set(before_env)
                    if os.environ.get(k) != before_env.get(k)}
+        assert tempfile.gettempdir() == os.environ['TMPDIR']
         assert sys.path == before_path, (before_path, sys.path)
         assert not [n for n in new_tmp if 'unidyn' in n], new_tmp
         assert changed == {'BDSIMPATH'}, changed
         assert os.environ['BDSIMPATH'].split(':')[-1] == 'unidyn'
         print('ok')
-    """, env={"BDSIMPATH": ""})
+    """, env={"BDSIMPATH": "", "TMPDIR": str(tmp_path)})
     assert r.returncode == 0 and "ok" in r.stdout, r.stdout + r.stderr
 
 
