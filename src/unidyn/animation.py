@@ -91,7 +91,8 @@ class Motion:
         a = getattr(sc, "a", 0.0) if sc is not None else 0.0
         if label is None:  # the scenario's name as written (a $ in it starts no mathtext)
             from .figstyle import as_text
-            label = as_text(getattr(sc, "name", "") or getattr(sc, "case", "")) if sc is not None else ""
+            label = (as_text(getattr(sc, "name", "") or getattr(sc, "case", ""))
+                     if sc is not None else "")
         return cls(result.t, result.pose, getattr(result, "reference", None), a, label)
 
     def at(self, times) -> tuple[np.ndarray, np.ndarray | None]:

@@ -192,16 +192,18 @@ def legend(ax, *, outside=None, fallback="right", **kwargs):
             if ax.get_legend() is not None:
                 ax.get_legend().remove()
             handles, labels = ax.get_legend_handles_labels()
-            leg = fig.legend(handles, labels, loc="outside lower center", ncol=ncol,
-                             frameon=False, **kwargs)
+
+            def below(**extra):
+                return fig.legend(handles, labels, loc="outside lower center", ncol=ncol,
+                                  frameon=False, **kwargs, **extra)
+            leg = below()
             try:  # wider than the figure: smaller type, down to 5 pt
                 _measure(fig)
                 width = leg.get_window_extent().width
                 if width > 0.98 * fig.bbox.width and "fontsize" not in kwargs:
                     size = leg.get_texts()[0].get_fontsize() * 0.94 * fig.bbox.width / width
                     leg.remove()
-                    leg = fig.legend(handles, labels, loc="outside lower center", ncol=ncol,
-                                     frameon=False, fontsize=max(size, 5.0), **kwargs)
+                    leg = below(fontsize=max(size, 5.0))
             except Exception:  # pragma: no cover - backends without a renderer
                 pass
             leg._unidyn_below = True

@@ -48,11 +48,8 @@ def _ax(ax, figsize):
     return ax
 
 
-_plain = figstyle.as_text
-
-
 def _label(result):
-    return _plain(result.scenario.name) or result.scenario.case
+    return figstyle.as_text(result.scenario.name) or result.scenario.case
 
 
 #: What each case of the loop is, for titles.
@@ -69,9 +66,9 @@ def run_title(scenario) -> str:
     s = scenario
     gains = f"kx = ky = {s.kx:g}" if s.kx == s.ky else f"kx = {s.kx:g}, ky = {s.ky:g}"
     noise = "noise-free" if s.noise is None else f"noise seed {s.noise.seed}"
-    lines = [_plain(s.name)] if s.name else []
+    lines = [figstyle.as_text(s.name)] if s.name else []
     return "\n".join(lines + [CASE_TITLES[s.case],
-                              f"{_plain(s.robot.name, limit=24)}, {gains}, {noise}"])
+                              f"{figstyle.as_text(s.robot.name, limit=24)}, {gains}, {noise}"])
 
 
 def reference_period(trajectory):
@@ -374,7 +371,7 @@ def plot_metrics(sweep, rows, path, metric: str = "iae"):
         for key, pts in lines.items():
             pts.sort()
             xs, ys = zip(*pts)
-            label = _plain(_legend_entry(sweep, others, key), limit=64) or None
+            label = figstyle.as_text(_legend_entry(sweep, others, key), limit=64) or None
             ax.plot(xs, ys, "o-" if len(pts) < 30 else "-", ms=3, label=label)
         vals = np.array([r[metric] for r in rows if r["complete"]], dtype=float)
         vals = vals[np.isfinite(vals)]
@@ -384,7 +381,7 @@ def plot_metrics(sweep, rows, path, metric: str = "iae"):
             figstyle.ylim_from_data(ax, floor=0 if vals.min() >= 0 else None)
         ax.set_xlabel(_AXIS_LABELS.get(x_axis, x_axis) if x_axis else "point index")
         ax.set_ylabel(_METRIC_LABELS[metric])
-        ax.set_title(_plain(sweep.name) or "sweep")
+        ax.set_title(figstyle.as_text(sweep.name) or "sweep")
         ax.grid(True, which="major")
         if legend:
             figstyle.legend(ax, fallback="below")
