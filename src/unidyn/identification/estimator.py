@@ -75,7 +75,7 @@ from .._validate import ValidationError, choice, integer, nonnegative, positive
 from ..model import regressor
 from ..parameters import RobotParameters
 from ._simulate import COMMAND_CONVENTIONS, simulate_held, step_length
-from .logs import COLUMNS, MIN_SEGMENT, IdentificationWarning, _short, join_logs
+from .logs import COLUMNS, TIME_UNITS, IdentificationWarning, _short, join_logs
 from .validation import ValidationReport, validation_report
 
 #: The ways of handling the velocity derivatives (see the module docstring).
@@ -99,6 +99,10 @@ _LAG_WINDOWS = 1.0
 TAU_MIN_SAMPLES = 0.05
 # automatic filter window = _AUTO_BAND / (the commands' 95 % band, Hz)
 _AUTO_BAND = 1.2
+#: theta1, theta2 or a velocity time constant above this (s) is flagged as
+#: implausible for a wheeled robot (a log whose time is not in seconds)
+MAX_TIME_CONSTANT = 60.0
+_UNIT_NAMES = {"ms": "milliseconds", "us": "microseconds", "ns": "nanoseconds"}
 
 
 def _emit(res):
@@ -514,7 +518,8 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
              method: str = "output-error", smoothing: str = "filter",
              window: float | None = None, order: int = 3, noise_std=None, columns=None,
              name: str = "identified", rel_stderr_max: float = 0.25, validate: bool = True,
-             gap: float | None = None, check_commands: bool = True) -> IdentificationResult:
+             gap: float | None = None, check_commands: bool = True,
+             time_unit: str | None = None) -> IdentificationResult:
     r"""Estimate theta1..theta6 of Eq. (2) from one or more logs of one robot.
 
     The default ``method="output-error"`` simulates Eq. (2) over every piece of
@@ -562,7 +567,11 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
         whose held commands are unknown; a longer one a gap)
     :param check_commands: also fit the other command convention and warn when
         it fits the log clearly better
-    :raises ValidationError: for a bad log (see :func:`load_log`), constant
+    :param time_unit: the unit of the logs' time column, ``"s"``, ``"ms"``,
+        ``"us"`` or ``"ns"`` (see :func:`load_log`); default seconds, refusing
+        a median time step over 1 s as almost surely another unit
+    :raises ValidationError: for a bad log (see :func:`load_log`; every row it
+        drops or skips is reported in ``warnings``), constant
         commands or no motion (nothing to identify), a window that does not fit the
         log, or a non-positive theta1, theta2, theta4 or theta6 (no physical robot
         has one; the message lists the likely causes)
@@ -583,7 +592,7 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
         if not isinstance(v, (bool, np.bool_)):
             raise ValidationError(f"{flag} must be True or False, got {_short(v)}")
     logs = (log,) + more_logs
-    D, segs, dropped, sources = join_logs(logs, columns, gap)
+    D, segs, _, sources = join_logs(logs, columns, gap, time_unit)
     t, u_ref, w_ref, u, w = (D[k] for k in COLUMNS)
     _check_excitation(u_ref, w_ref)
     dt_med = float(np.median(np.concatenate([np.diff(t[a:b]) for a, b in segs])))
@@ -611,9 +620,7 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
         warns.append(f"{n_gaps} gap(s) in the log(s) (time steps over 5 times the median "
                      f"step): the log is split there into pieces, each with its own initial "
                      f"state")
-    if dropped:
-        warns.append(f"{dropped} piece(s) of the log(s) between gaps or missing rows held "
-                     f"fewer than {MIN_SEGMENT} samples and were not used")
+    warns += D["notes"]     # rows dropped or skipped, short pieces not used
     linear = commands == "linear"
     n_used = sum(b - a for a, b in segs)
     desc = (f"identified from {n_used} samples in {len(segs)} piece(s) of {len(logs)} log(s), "
@@ -1290,6 +1297,15 @@ def _warnings(theta, stderr, conds, u, w, dt, rel_max) -> list:
                        f"than two sampling intervals (2 x {dt:g} s): the log barely resolves "
                        f"it, so {_NAMES[i]} rests on the command convention and delay being "
                        f"right; log faster if you can")
+    for i, j in ((0, 3), (1, 5)):
+        tau = max(theta[i], theta[i] / theta[j] if theta[j] > 0 else 0.0)
+        if tau > MAX_TIME_CONSTANT:
+            unit = next((u for u in ("ms", "us", "ns") if tau * TIME_UNITS[u] <= 10.0), "ns")
+            out.append(f"{_NAMES[i]} = {theta[i]:.4g} s and {_NAMES[i]}/{_NAMES[j]} = "
+                       f"{theta[i] / theta[j]:.4g} s: a time constant over "
+                       f"{MAX_TIME_CONSTANT:g} s is implausible for a wheeled robot (tenths of a "
+                       f"second to seconds); is t in {_UNIT_NAMES[unit]}? pass "
+                       f"time_unit='{unit}'")
     for i in (0, 1):
         if theta[i] > 0 and 2 * stderr[i] > theta[i]:
             out.append(f"{_NAMES[i]} = {theta[i]:.3g} s has a standard error of "

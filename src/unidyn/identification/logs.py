@@ -28,6 +28,12 @@ _GAP_FACTOR = 5.0
 _MISSING_FACTOR = 1.4
 # pieces between gaps or missing rows with fewer samples are not used
 MIN_SEGMENT = 3
+#: The units the time column may be in, and their length in seconds.
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+# a median time step longer than this (s) is not a wheeled robot's log: its
+# velocity time constants are tenths of a second (Section 5), so a log this
+# sparse cannot show them; it is almost always t in ms, us or ns read as seconds
+MAX_STEP = 1.0
 
 
 class IdentificationWarning(UserWarning):
@@ -136,9 +142,11 @@ def _read_csv(path: Path, wanted=None) -> tuple[dict, list, list]:
     it). Numbers may use a decimal comma (with ';' or tab separators, or
     quoted). A data row may end in one empty field the header lacks (a
     trailing separator). One row of non-numbers right after the header (units
-    such as ``s,m/s,rad/s``) is skipped with an :class:`IdentificationWarning`.
-    Columns not wanted are never parsed.
-    Returns (columns found, every header name, the file line of each row).
+    such as ``s,m/s,rad/s``) is skipped, and so are comment lines among the
+    data rows; both are reported in the notes. Columns not wanted are never
+    parsed.
+    Returns (columns found, every header name, the file line of each row,
+    notes: one line per kind of row skipped).
     """
     try:
         raw = path.read_bytes()
@@ -169,9 +177,16 @@ def _read_csv(path: Path, wanted=None) -> tuple[dict, list, list]:
     cols = [(h, index[h]) for h in want]
     need = max((i for _, i in cols), default=-1) + 1
     data = {h: [] for h in want}
-    rowlines = []
+    rowlines, notes = [], []
     body = [(n, line) for n, line in enumerate(lines[lineno:], start=lineno + 1)
             if line.strip() and not line.lstrip().startswith("#")]
+    # comment lines after the first data row: a logger's remarks, or rows commented out
+    first = body[0][0] if body else len(lines) + 1
+    inner = [n for n, line in enumerate(lines[first:], start=first + 1)
+             if line.lstrip().startswith("#")]
+    if inner:
+        notes.append(f"log: {path}: skipped {len(inner)} comment line(s) among the data rows "
+                     f"(first at line {inner[0]}: {_short(lines[inner[0] - 1].strip())})")
     rows = csv.reader((line for _, line in body), delimiter=delim)
     for j, ((n, _), row) in enumerate(zip(body, rows)):
         if len(row) == len(header) + 1 and not row[-1].strip():
@@ -187,9 +202,8 @@ def _read_csv(path: Path, wanted=None) -> tuple[dict, list, list]:
         vals = [_number(row[i].strip()) for _, i in cols]
         if j == 0 and vals and all(v is None for v in vals) and \
                 all(_number(c.strip()) is None for c in row):
-            warnings.warn(f"log: {path} line {n}: skipped a row of non-numbers right after the "
-                          f"header (units?): {_short(delim.join(row))}",
-                          IdentificationWarning, stacklevel=4)
+            notes.append(f"log: {path} line {n}: skipped a row of non-numbers right after "
+                         f"the header (units?): {_short(delim.join(row))}")
             continue
         for (h, i), v in zip(cols, vals):
             if v is None:
@@ -204,30 +218,36 @@ def _read_csv(path: Path, wanted=None) -> tuple[dict, list, list]:
                                       f"not a number{hint}")
             data[h].append(v)
         rowlines.append(n)
-    return data, header, rowlines
+    return data, header, rowlines, notes
 
 
-def _get_columns(log, wanted) -> tuple[dict | None, object, str, list, list | None]:
+def _get_columns(log, wanted) -> tuple:
     """(mapping or None, object, description, available names, file line of each
-    row or None) of a log's raw columns."""
+    row or None, notes on rows skipped) of a log's raw columns."""
     if isinstance(log, (str, os.PathLike)):
         path = Path(log)
-        data, header, rowlines = _read_csv(path, wanted)
-        return data, None, str(path), header, rowlines
+        data, header, rowlines, notes = _read_csv(path, wanted)
+        return data, None, str(path), header, rowlines, notes
     if isinstance(log, np.ndarray):
         if log.dtype.names is None:
             raise ValidationError("log: a numpy array must be a structured array with named "
                                   f"fields ({', '.join(COLUMNS)}), got dtype {log.dtype}")
         return {n: log[n] for n in log.dtype.names}, None, "structured array", \
-            list(log.dtype.names), None
+            list(log.dtype.names), None, []
     if isinstance(log, Mapping) or (hasattr(log, "keys") and hasattr(log, "__getitem__")):
         keys = list(log.keys())
-        return {k: log[k] for k in keys}, None, "mapping", keys, None
-    return None, log, type(log).__name__, [k for k in dir(log) if not k.startswith("_")], None
+        return {k: log[k] for k in keys}, None, "mapping", keys, None, []
+    return None, log, type(log).__name__, [k for k in dir(log) if not k.startswith("_")], \
+        None, []
 
 
-def load_log(log, columns=None) -> dict:
+def load_log(log, columns=None, time_unit: str | None = None) -> dict:
     """Read and check a log; return a dict of 1-D float arrays t, u_ref, w_ref, u, w.
+
+    Rows read other than as written (exact duplicates dropped, a units row or
+    comment lines among the data skipped) are reported as one
+    :class:`IdentificationWarning` each; :func:`identify` puts the same lines
+    in its result's ``warnings``.
 
     :param log: a mapping (dict, pandas DataFrame, npz file) or an object with
         attributes, holding arrays t (s), u_ref (m/s), w_ref (rad/s), u (m/s) and
@@ -239,14 +259,35 @@ def load_log(log, columns=None) -> dict:
         parsed).
     :param columns: optional mapping from the names above to the log's own
         column names, e.g. ``{"u": "v_meas", "w": "omega_meas"}``
+    :param time_unit: the unit of the time column: ``"s"``, ``"ms"``, ``"us"``
+        or ``"ns"``; the returned t is in seconds. Default (None) seconds, and a
+        median time step over 1 s is refused as almost surely another unit
+        (the message names the likely one); pass ``"s"`` to accept it
     :raises ValidationError: for a missing column (all are named;
         :class:`MissingColumnsError`), undecodable bytes or a cell that is not a
         number (file, line and column named), columns of different lengths, NaN
-        or inf, time that is not strictly increasing (repeated or going back), or
-        fewer than 20 samples
+        or inf, time that is not strictly increasing (repeated or going back),
+        fewer than 20 samples, or (``time_unit=None``) a median time step over 1 s
     """
+    out, notes = _load(log, columns, time_unit)
+    for note in notes:
+        warnings.warn(note, IdentificationWarning, stacklevel=2)
+    return out
+
+
+def _time_unit(time_unit):
+    if time_unit is not None and time_unit not in TIME_UNITS:
+        raise ValidationError(f"time_unit must be one of {', '.join(TIME_UNITS)} (the unit of "
+                              f"the log's time column), got {_short(time_unit)}")
+    return time_unit
+
+
+def _load(log, columns, time_unit=None) -> tuple[dict, list]:
+    """:func:`load_log` returning (arrays, notes: one line per kind of row read
+    other than as written) instead of warning."""
     cmap = _column_map(columns)
-    data, obj, what, available, rowlines = _get_columns(log, [cmap[k] for k in COLUMNS])
+    time_unit = _time_unit(time_unit)
+    data, obj, what, available, rowlines, notes = _get_columns(log, [cmap[k] for k in COLUMNS])
 
     def where(k):
         """Sample k of the log, with its file line when it came from a file."""
@@ -299,9 +340,8 @@ def load_log(log, columns=None) -> dict:
         keep = np.ones(n, bool)
         keep[same + 1] = False
         out = {k: v[keep] for k, v in out.items()}
-        warnings.warn(f"log {what}: {same.size} exact duplicate row(s) dropped (first at "
-                      f"{where(int(same[0]) + 1)}, t = {float(out['t'][same[0]])!r})",
-                      IdentificationWarning, stacklevel=3)
+        notes.append(f"log {what}: {same.size} exact duplicate row(s) dropped (first at "
+                     f"{where(int(same[0]) + 1)}, t = {float(out['t'][same[0]])!r})")
         rowlines = [ln for ln, kp in zip(rowlines, keep) if kp] if rowlines else None
         n = out["t"].size
         dt = np.diff(out["t"])
@@ -315,7 +355,24 @@ def load_log(log, columns=None) -> dict:
         raise ValidationError(f"log {what}: time 't' must be strictly increasing; it is going "
                               f"back at {where(k + 1)}: t = {float(out['t'][k])!r} then "
                               f"{float(out['t'][k + 1])!r}")
-    return out
+    out["t"] = out["t"] * TIME_UNITS[time_unit or "s"]
+    step = float(np.median(dt)) * TIME_UNITS[time_unit or "s"]
+    if time_unit is None and step > MAX_STEP:
+        raise ValidationError(f"log {what}: the median time step is {step:.4g} s, too long for "
+                              f"a wheeled robot's log (at most {MAX_STEP:g} s); "
+                              f"{_unit_hint(step)}")
+    return out, notes
+
+
+def _unit_hint(step: float) -> str:
+    """What a median time step of ``step`` (read as seconds) most likely is."""
+    names = {"ms": "milliseconds", "us": "microseconds", "ns": "nanoseconds"}
+    for unit in ("ms", "us", "ns"):
+        if step * TIME_UNITS[unit] <= MAX_STEP:
+            return (f"is t in {names[unit]}? pass time_unit='{unit}' (a step of "
+                    f"{step * TIME_UNITS[unit]:.3g} s), or time_unit='s' if it really is "
+                    f"seconds")
+    return "pass time_unit= with the unit of the time column"
 
 
 def segments(t, gap: float = None) -> list:
@@ -350,12 +407,14 @@ def missing_rows(t, gap: float = None) -> tuple[int, int]:
     return int(np.sum(np.round(dt[short] / med) - 1)), int(np.sum(split & ~short))
 
 
-def split_log(log, t_split: float, columns=None) -> tuple[dict, dict]:
+def split_log(log, t_split: float, columns=None,
+              time_unit: str | None = None) -> tuple[dict, dict]:
     """Split a log at time ``t_split``: (samples with t < t_split, samples with t >= t_split).
 
     Use the first part to identify and the second, held out, to :func:`validate`.
+    ``t_split`` is in seconds; the parts' t too (see ``time_unit`` of :func:`load_log`).
     """
-    d = load_log(log, columns)
+    d = load_log(log, columns, time_unit)
     t_split = real("t_split", t_split, low=d["t"][0], high=d["t"][-1], low_open=True,
                    high_open=True)
     m = d["t"] < t_split
@@ -366,7 +425,11 @@ def split_log(log, t_split: float, columns=None) -> tuple[dict, dict]:
     return first, second
 
 
-def join_logs(logs, columns=None, gap=None):
+def _first_short(t, gap):
+    return next(float(t[a]) for a, b in segments(t, gap) if b - a < MIN_SEGMENT)
+
+
+def join_logs(logs, columns=None, gap=None, time_unit=None):
     """Read several logs of one robot and join them as :func:`identify` does.
 
     Each log is read by :func:`load_log` and split at gaps by :func:`segments`;
@@ -379,18 +442,22 @@ def join_logs(logs, columns=None, gap=None):
     :param columns: mapping from t, u_ref, w_ref, u, w to the logs' own names
     :param gap: a time step longer than this (s) splits a log; default 1.4
         times its median step (see :func:`segments`)
+    :param time_unit: the unit of the logs' time column (see :func:`load_log`)
     :raises ValidationError: for a bad log (prefixed "log N:" when several logs
         are given and the log is not a file) or when no piece is long enough
     :return: (dict of the joined arrays t, u_ref, w_ref, u, w; list of
         (start, stop) pieces; number of pieces dropped as too short; a
         description of each log). The numbers of missing rows and of gaps
-        found are in the dict's ``"missing"`` entry (a pair).
+        found are in the dict's ``"missing"`` entry (a pair), and the rows the
+        logs held that were dropped or skipped, one line per kind and log, in
+        its ``"notes"`` entry (see :func:`load_log`; not issued as warnings).
     """
-    parts, segs, dropped, offset, sources = [], [], 0, 0, []
+    parts, segs, dropped, offset, sources, notes = [], [], 0, 0, [], []
     n_missing, n_gaps = 0, 0
     for i, lg in enumerate(logs):
         try:
-            d = load_log(lg, columns)
+            d, more = _load(lg, columns, time_unit)
+            notes += more
         except ValidationError as err:
             if len(logs) == 1 or isinstance(lg, (str, os.PathLike)):
                 raise
@@ -399,15 +466,22 @@ def join_logs(logs, columns=None, gap=None):
         sources.append(str(lg) if isinstance(lg, (str, os.PathLike)) else type(lg).__name__)
         m_, g_ = missing_rows(d["t"], gap)
         n_missing, n_gaps = n_missing + m_, n_gaps + g_
+        short = []
         for a, b in segments(d["t"], gap):
             if b - a >= MIN_SEGMENT:
                 segs.append((a + offset, b + offset))
             else:
-                dropped += 1
+                short.append(b - a)
+        if short:
+            dropped += len(short)
+            notes.append(f"log {sources[-1]}: {sum(short)} row(s) not used: {len(short)} "
+                         f"piece(s) between gaps or missing rows held fewer than "
+                         f"{MIN_SEGMENT} samples (first at t = {_first_short(d['t'], gap):g} s)")
         offset += d["t"].size
     if not segs:
         raise ValidationError(f"every piece of the log(s) between gaps holds fewer than "
                               f"{MIN_SEGMENT} samples: nothing to identify from")
     D = {k: np.concatenate([p[k] for p in parts]) for k in COLUMNS}
     D["missing"] = (n_missing, n_gaps)
+    D["notes"] = notes
     return D, segs, dropped, sources
