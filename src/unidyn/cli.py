@@ -478,7 +478,8 @@ def _cli_words(text: str) -> str:
                      ("delay must be <= a third", "--delay must be <= a third"),
                      ("method='output-error'", "--method output-error"),
                      ("use a longer log or a shorter window", "use a longer log or a "
-                                                             "smaller --window")):
+                                                             "smaller --window"),
+                     *((f"time_unit='{u}'", f"--time-unit {u}") for u in ("s", "ms", "us", "ns"))):
         text = text.replace(lib, cli)
     return text
 
@@ -512,7 +513,7 @@ def _cmd_identify(args) -> int:
                                   f"or auto, got {text[:40]!r}")
     kwargs = {"columns": columns, "commands": args.commands, "delay": delay,
               "method": args.method, "validate": False}
-    for k in ("smoothing", "window", "name", "gap"):
+    for k in ("smoothing", "window", "name", "gap", "time_unit"):
         if getattr(args, k) is not None:
             kwargs[k] = getattr(args, k)
     out = Path(args.out)
@@ -542,9 +543,18 @@ def _cmd_identify(args) -> int:
         path = res.save(stage.path)
         print(_cli_words(res.summary()))
         if not args.no_validate:
-            report = ident.validate(res, str(vlog), columns=columns) if vlog else \
-                ident.validation_report(res.theta, *_joined(ident, logs, columns), res.commands,
-                                        res.delay)
+            with warnings.catch_warnings(record=True) as seen:  # rows the held-out log
+                warnings.simplefilter("always", ident.IdentificationWarning)  # skipped
+                report = ident.validate(res, str(vlog), columns=columns,
+                                        time_unit=args.time_unit) if vlog else \
+                    ident.validation_report(res.theta, *_joined(ident, logs, columns,
+                                                                args.time_unit),
+                                            res.commands, res.delay)
+            for w in seen:
+                if issubclass(w.category, ident.IdentificationWarning):
+                    print(f"warning: {_cli_words(str(w.message))}")
+                else:
+                    warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
             what = "held-out log" if vlog else "the same log(s) (in-sample)"
             print(f"validation on {what}: NRMSE fit "
                   + ", ".join(f"{k} {v:.1f} %" for k, v in report.fit.items()))
@@ -564,9 +574,9 @@ def _cmd_identify(args) -> int:
     return 0
 
 
-def _joined(ident, logs, columns):
+def _joined(ident, logs, columns, time_unit=None):
     """The logs read and joined as identify() joins them: (arrays, pieces)."""
-    D, segs, _, _ = ident.join_logs([str(p) for p in logs], columns)
+    D, segs, _, _ = ident.join_logs([str(p) for p in logs], columns, time_unit=time_unit)
     return D, segs
 
 
@@ -684,6 +694,9 @@ def _parser() -> argparse.ArgumentParser:
     i.add_argument("--gap", type=float, metavar="SECONDS",
                    help="a time step longer than this splits a log into pieces, each with "
                         "its own initial state (default: 1.4 times the median step)")
+    i.add_argument("--time-unit", choices=("s", "ms", "us", "ns"),
+                   help="unit of the logs' time column (default s; a median step over 1 s "
+                        "is refused unless --time-unit s is given)")
     i.add_argument("--method", choices=("output-error", "equation-error"),
                    default="output-error",
                    help="output-error (default): fit simulated velocities to the measured "

@@ -102,6 +102,11 @@ _AUTO_BAND = 1.2
 #: theta1, theta2 or a velocity time constant above this (s) is flagged as
 #: implausible for a wheeled robot (a log whose time is not in seconds)
 MAX_TIME_CONSTANT = 60.0
+# time stamps jittering by more than this fraction of the median step (std) widen
+# the intervals (see _jitter_widening); rounding to microseconds stays below it
+_JITTER_MIN = 1e-3
+# fits repeated with added jitter to measure its effect
+_JITTER_REPS = 4
 _UNIT_NAMES = {"ms": "milliseconds", "us": "microseconds", "ns": "nanoseconds"}
 
 
@@ -669,6 +674,10 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
     cov = oe["cov"]
     stderr = np.sqrt(np.clip(np.diag(cov)[:6], 0.0, None))
     _check_physical(theta, stderr)
+    jitter = _stamp_jitter(t, segs)
+    if jitter > _JITTER_MIN * dt_med:
+        stderr, note = _jitter_widening(D, segs, oe, theta, stderr, linear, dt_med, jitter)
+        warns.append(note)
     idx = oe["rows"]
     for i in oe["dead"]:
         warns.append(f"{_NAMES[i]} is not identifiable from this log: the simulated velocities "
@@ -714,6 +723,57 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
     if validate:
         res = _with_validation(res, D, segs)
     return _emit(res)
+
+
+def _stamp_jitter(t, segs) -> float:
+    """The std of the error in the time stamps, s, if the samples were taken on
+    a regular clock: each stamp against the mean of its neighbours (median-based,
+    as :func:`_noise_std`), pooled over the pieces."""
+    var, n = 0.0, 0
+    for a, b in segs:
+        if b - a >= 5:
+            var += _noise_std(np.arange(b - a, dtype=float), t[a:b] - t[a]) ** 2 * (b - a)
+            n += b - a
+    return float(math.sqrt(var / n)) if n else 0.0
+
+
+def _jitter_widening(D, segs, oe, theta, stderr, linear, dt_med, jitter):
+    """Standard errors that allow for time stamps in error by ``jitter`` (std, s),
+    and the warning saying so.
+
+    An error in a time stamp misplaces both the measured velocity and the moment
+    the command changed, an error in the regressor that biases theta (most for
+    time constants of about a sample) and that the residuals do not reveal.
+    Its effect is measured by simulation-extrapolation: the fit is repeated
+    ``_JITTER_REPS`` times with every stamp moved by a further random error of
+    the measured std (seeded). Adding as much jitter again moves the estimate by
+    about the bias the log's own jitter caused (the bias grows with the jitter's
+    variance), and the repeats scatter by about the spread it adds; both are
+    added to the standard errors: stderr^2 + shift^2 + scatter^2.
+    """
+    t = D["t"]
+    rng = np.random.default_rng(0)
+    reps = []
+    for _ in range(_JITTER_REPS):
+        tk = t.copy()
+        for a, b in segs:
+            tk[a:b] = np.sort(t[a:b] + jitter * rng.standard_normal(b - a))
+        fk = _oe_fit({**D, "t": tk}, segs, theta, oe["sig"], linear, oe["delay"], False,
+                     dt_med, v0=oe["v0"], covariance=False)
+        reps.append(fk["theta"])
+    reps = np.array(reps)
+    shift = reps.mean(axis=0) - theta
+    wide = np.sqrt(stderr ** 2 + shift ** 2 + reps.var(axis=0, ddof=1))
+    wide = np.where(np.isfinite(stderr), wide, stderr)
+    grown = [f"{_NAMES[i]} x{wide[i] / stderr[i]:.2g}" for i in range(6)
+             if stderr[i] > 0 and wide[i] > 1.1 * stderr[i]]
+    note = (f"the time stamps jitter by about {1e3 * jitter:.3g} ms (std; "
+            f"{100 * jitter / dt_med:.2g} % of the {dt_med:.4g} s step), as when a logger stamps "
+            f"samples when it writes them: timing errors bias theta. The intervals allow for "
+            f"it (refitted {_JITTER_REPS} times with as much jitter again; standard errors "
+            + (f"widened: {', '.join(grown)})" if grown else "barely changed)")
+            + "; stamp the samples when they are taken if you can")
+    return wide, note
 
 
 def _ci(theta, stderr):
