@@ -23,6 +23,7 @@ The noise-free response of each log is simulated once and the noise seeds vary.
 from __future__ import annotations
 
 import functools
+import warnings
 
 import numpy as np
 import pytest
@@ -42,6 +43,18 @@ ROBOTS = {
         Ie=0.0027, kPT=100.0, kDT=16.0, kPR=100.0, kDR=16.0, name="cart"),
 }
 POSITIVE = [0, 1, 3, 5]
+
+
+def identify(*logs, **kwargs):
+    """``ident.identify``, asserting that the warnings it issues are exactly its
+    result's ``warnings`` (which the tests check where they matter) instead of
+    letting them print in the test summary."""
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always", ident.IdentificationWarning)
+        res = ident.identify(*logs, **kwargs)
+    issued = [str(w.message) for w in seen if issubclass(w.category, ident.IdentificationWarning)]
+    assert issued == res.warnings
+    return res
 
 
 def reference_velocities(theta, t, u_ref, w_ref, v0=(0.0, 0.0), delay=0.0, linear=False):
@@ -122,8 +135,8 @@ def test_held_commands_identified_within_the_targets(dt, tol):
     """10 Hz: theta1, 2, 4, 6 within 4 % on average over seeds; 20 and 50 Hz: 2 %."""
     errs, zs = [], []
     for seed in range(3):
-        res = ident.identify(noisy(clean_log("hauler", dt), seed), validate=False,
-                             check_commands=False)
+        res = identify(noisy(clean_log("hauler", dt), seed), validate=False,
+                       check_commands=False)
         errs.append(rel_err(res, "hauler"))
         zs.append((res.theta.theta - ROBOTS["hauler"].theta) / res.stderr)
         assert res.commands == "held" and res.delay == 0.0
@@ -135,16 +148,18 @@ def test_held_commands_identified_within_the_targets(dt, tol):
 
 
 def test_fast_time_constant_at_10_hz_is_warned_but_estimated():
-    res = ident.identify(noisy(clean_log("hauler", 0.1), 0), validate=False,
-                         check_commands=False)
+    with pytest.warns(ident.IdentificationWarning, match="shorter than two sampling"):
+        res = ident.identify(noisy(clean_log("hauler", 0.1), 0), validate=False,
+                             check_commands=False)
     text = " ".join(res.warnings)
     assert "theta1/theta4" in text and "shorter than two sampling intervals" in text
     assert np.all(np.abs(rel_err(res, "hauler"))[POSITIVE] < 0.06)
 
 
 def test_unidentifiable_coupling_terms_are_flagged():
-    res = ident.identify(noisy(clean_log("cart", 0.1), 0), validate=False,
-                         check_commands=False)
+    with pytest.warns(ident.IdentificationWarning, match="theta[35] is unidentified"):
+        res = ident.identify(noisy(clean_log("cart", 0.1), 0), validate=False,
+                             check_commands=False)
     text = " ".join(res.warnings)
     assert "theta3 is unidentified" in text and "theta5 is unidentified" in text
     assert np.all(np.abs(rel_err(res, "cart"))[POSITIVE] < 0.04)
@@ -154,37 +169,37 @@ def test_unidentifiable_coupling_terms_are_flagged():
 
 def test_wrong_convention_is_biased_and_warned():
     log = noisy(clean_log("hauler", 0.1), 0)
-    right = ident.identify(log, validate=False)
-    wrong = ident.identify(log, commands="linear", validate=False)
+    right = identify(log, validate=False)
+    wrong = identify(log, commands="linear", validate=False)
     # the old estimator's mistake: held commands read as smooth lag half a sample,
     # which adds about theta4 dt / 2 to theta1 (+40 % here)
     bias = 1.220 * 0.05 / 0.146
     assert rel_err(wrong, "hauler")[0] == pytest.approx(bias, rel=0.35)
     assert any("commands='held'" in w for w in wrong.warnings), wrong.warnings
     assert not any("commands='linear'" in w for w in right.warnings), right.warnings
-    ee = ident.identify(log, method="equation-error", validate=False)
+    ee = identify(log, method="equation-error", validate=False)
     assert any("method='output-error'" in w for w in ee.warnings)
 
 
 def test_linear_commands_identified_with_the_linear_convention():
     log = noisy(clean_log("cart", 0.05, linear=True), 1)
-    res = ident.identify(log, commands="linear", validate=False)
+    res = identify(log, commands="linear", validate=False)
     assert np.all(np.abs(rel_err(res, "cart"))[POSITIVE] < 0.02)
-    held = ident.identify(log, validate=False)
+    held = identify(log, validate=False)
     assert any("commands='linear'" in w for w in held.warnings), held.warnings
 
 
 def test_input_delay_is_estimated():
     log = noisy(clean_log("cart", 0.05, delay=0.05), 2)     # one sample late
-    res = ident.identify(log, delay="auto", validate=False, check_commands=False)
+    res = identify(log, delay="auto", validate=False, check_commands=False)
     assert res.delay == pytest.approx(0.05, abs=0.01)
     assert 0 < res.delay_stderr < 0.01
     assert np.all(np.abs(rel_err(res, "cart"))[POSITIVE] < 0.02)
-    given = ident.identify(log, delay="1 samples", validate=False, check_commands=False)
+    given = identify(log, delay="1 samples", validate=False, check_commands=False)
     assert given.delay == pytest.approx(0.05, rel=1e-9)
     np.testing.assert_allclose(given.theta.theta[POSITIVE], res.theta.theta[POSITIVE], rtol=0.02)
     # ignoring the delay leaves coloured errors, which is said
-    late = ident.identify(log, validate=False)
+    late = identify(log, validate=False)
     assert any("not white" in w for w in late.warnings), late.warnings
 
 
@@ -194,11 +209,11 @@ def test_a_gap_splits_the_log_and_does_not_bias():
     log = noisy(clean_log("hauler", 0.05), 3)
     keep = (log["t"] < 50.0) | (log["t"] >= 60.0)          # 10 s without samples
     cut = {k: v[keep] for k, v in log.items()}
-    res = ident.identify(cut, validate=False, check_commands=False)
+    res = identify(cut, validate=False, check_commands=False)
     assert res.segments == 2
     assert np.all(np.abs(rel_err(res, "hauler"))[POSITIVE] < 0.03)
     # integrating across the gap as if it were one sample interval is what biased it
-    one = ident.identify(cut, gap=20.0, validate=False, check_commands=False)
+    one = identify(cut, gap=20.0, validate=False, check_commands=False)
     assert one.segments == 1
     assert np.max(np.abs(rel_err(one, "hauler"))[POSITIVE]) > \
         2 * np.max(np.abs(rel_err(res, "hauler"))[POSITIVE])
@@ -208,14 +223,14 @@ def test_several_logs_are_identified_together(tmp_path):
     a = noisy(clean_log("cart", 0.1), 4)
     b = noisy(clean_log("cart", 0.1, seed=1, T=60.0), 5)
     b = {**b, "t": b["t"] + 1000.0}
-    one = ident.identify(a, validate=False, check_commands=False)
-    both = ident.identify(a, b, validate=False, check_commands=False)
+    one = identify(a, validate=False, check_commands=False)
+    both = identify(a, b, validate=False, check_commands=False)
     assert both.n_logs == 2 and both.segments == 2 and both.n_samples == a["t"].size + \
         b["t"].size
     assert np.all(np.abs(rel_err(both, "cart"))[POSITIVE] < 0.04)
     assert np.all(both.stderr[POSITIVE] < one.stderr[POSITIVE])
     # the order of the logs does not matter; files work as well as arrays
-    rev = ident.identify(b, a, validate=False, check_commands=False)
+    rev = identify(b, a, validate=False, check_commands=False)
     np.testing.assert_allclose(rev.theta.theta, both.theta.theta, rtol=1e-5, atol=1e-7)
     paths = []
     for i, lg in enumerate((a, b)):
@@ -223,8 +238,8 @@ def test_several_logs_are_identified_together(tmp_path):
         np.savetxt(p, np.column_stack([lg[k] for k in ident.COLUMNS]), delimiter=",",
                    header=",".join(ident.COLUMNS), comments="", fmt="%.17g")
         paths.append(str(p))
-    np.testing.assert_allclose(ident.identify(*paths, validate=False,
-                                              check_commands=False).theta.theta,
+    np.testing.assert_allclose(identify(*paths, validate=False,
+                                        check_commands=False).theta.theta,
                                both.theta.theta, rtol=1e-9)
 
 
@@ -263,8 +278,8 @@ def test_encodings_separators_comments_and_extra_columns(tmp_path, short_log, en
 def test_bom_header_identifies_without_options(tmp_path, short_log):
     p = _write(tmp_path / "log.csv", short_log, encoding="utf-8-sig")
     assert p.read_bytes().startswith(b"\xef\xbb\xbft,")
-    res = ident.identify(str(p), validate=False, check_commands=False)
-    np.testing.assert_allclose(res.theta.theta, ident.identify(
+    res = identify(str(p), validate=False, check_commands=False)
+    np.testing.assert_allclose(res.theta.theta, identify(
         short_log, validate=False, check_commands=False).theta.theta, rtol=1e-12)
 
 
@@ -311,9 +326,9 @@ def test_missing_column_error_names_what_the_log_has(tmp_path, short_log):
 # ------------------------------------------------------------------ validation
 
 def test_validate_false_skips_it_and_validation_is_the_model_response(short_log):
-    res = ident.identify(short_log, validate=False, check_commands=False)
+    res = identify(short_log, validate=False, check_commands=False)
     assert res.validation is None
-    res = ident.identify(short_log, check_commands=False)
+    res = identify(short_log, check_commands=False)
     rep = res.validation
     clean = {k: v[:400] for k, v in clean_log("cart", 0.1).items()}
     ref = reference_velocities(res.theta.theta, clean["t"], clean["u_ref"], clean["w_ref"],
@@ -339,7 +354,7 @@ def test_bad_arguments_name_the_parameter(short_log):
                         ({"delay": "soon"}, "delay"), ({"method": "x"}, "method"),
                         ({"validate": "no"}, "validate"), ({"gap": 0}, "gap")):
         with pytest.raises(ValidationError, match=msg):
-            ident.identify(short_log, **kwargs)
+            identify(short_log, **kwargs)
 
 
 # ------------------------------------------------------------------ coverage (slow tier)
@@ -351,8 +366,8 @@ def test_95_percent_intervals_cover_the_truth_at_least_85_percent_of_the_time(dt
     truth = ROBOTS["hauler"].theta
     covered, z = [], []
     for seed in range(40):
-        res = ident.identify(noisy(clean_log("hauler", dt), 100 + seed), validate=False,
-                             check_commands=False)
+        res = identify(noisy(clean_log("hauler", dt), 100 + seed), validate=False,
+                       check_commands=False)
         assert not any("unidentified" in w for w in res.warnings), res.warnings
         covered.append((res.ci95[:, 0] <= truth) & (truth <= res.ci95[:, 1]))
         z.append((res.theta.theta - truth) / res.stderr)
