@@ -524,7 +524,8 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
              window: float | None = None, order: int = 3, noise_std=None, columns=None,
              name: str = "identified", rel_stderr_max: float = 0.25, validate: bool = True,
              gap: float | None = None, check_commands: bool = True,
-             time_unit: str | None = None) -> IdentificationResult:
+             time_unit: str | None = None,
+             stamp_jitter: float | None = None) -> IdentificationResult:
     r"""Estimate theta1..theta6 of Eq. (2) from one or more logs of one robot.
 
     The default ``method="output-error"`` simulates Eq. (2) over every piece of
@@ -575,6 +576,14 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
     :param time_unit: the unit of the logs' time column, ``"s"``, ``"ms"``,
         ``"us"`` or ``"ns"`` (see :func:`load_log`); default seconds, refusing
         a median time step over 1 s as almost surely another unit
+    :param stamp_jitter: the std of the error of the time stamps, s, when known
+        (0: the stamps are exact, as when the samples are irregular but stamped
+        when taken). Default None: measured from the stamps as if the samples
+        were taken on a regular clock. Above a thousandth of the median step,
+        the output-error intervals are widened for it (stamp errors bias the
+        fit: it is repeated with as much jitter again added to the stamps, and
+        the shift and scatter of the estimates are added to the standard
+        errors) and a warning says by how much
     :raises ValidationError: for a bad log (see :func:`load_log`; every row it
         drops or skips is reported in ``warnings``), constant
         commands or no motion (nothing to identify), a window that does not fit the
@@ -593,6 +602,8 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
         raise ValidationError(f"name must be a string, got {_short(name)}")
     if gap is not None:
         gap = positive("gap", gap)
+    if stamp_jitter is not None:
+        stamp_jitter = nonnegative("stamp_jitter", stamp_jitter)
     for flag, v in (("validate", validate), ("check_commands", check_commands)):
         if not isinstance(v, (bool, np.bool_)):
             raise ValidationError(f"{flag} must be True or False, got {_short(v)}")
@@ -674,7 +685,7 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
     cov = oe["cov"]
     stderr = np.sqrt(np.clip(np.diag(cov)[:6], 0.0, None))
     _check_physical(theta, stderr)
-    jitter = _stamp_jitter(t, segs)
+    jitter = _stamp_jitter(t, segs) if stamp_jitter is None else stamp_jitter
     if jitter > _JITTER_MIN * dt_med:
         stderr, note = _jitter_widening(D, segs, oe, theta, stderr, linear, dt_med, jitter)
         warns.append(note)
