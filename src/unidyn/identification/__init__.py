@@ -26,7 +26,12 @@ never cross a change of command, compiled by numba when it is installed. Gaps
 in the time stamps split a log into pieces, each with its own initial state;
 several logs are fitted together. Standard errors come from the Jacobian of the
 fit and the residual variance, with a Newey-West correction when the residuals
-are not white. The equation-error estimator (``method="equation-error"``: Eq. (11) through a
+are not white, widened when the time stamps jitter (errors in the stamps bias
+the fit; ``stamp_jitter=``). Time is in seconds: a log whose median step is over
+a second (t in ms, us or ns) is refused with the likely unit, ``time_unit=``
+reads it, and identified time constants over a minute are flagged. Every row
+dropped or skipped while reading (exact duplicates, a units row, comment lines,
+pieces too short) is listed in the result's warnings. The equation-error estimator (``method="equation-error"``: Eq. (11) through a
 state-variable filter, see :mod:`unidyn.identification.estimator`) gives the
 first estimate for smooth commands.
 
@@ -60,10 +65,12 @@ from ._simulate import COMMAND_CONVENTIONS, FAST
 from .design import excitation, simulate_log
 from .estimator import (METHODS, SMOOTHING_METHODS, IdentificationResult,
                         IdentificationWarning, identify)
-from .logs import COLUMNS, MissingColumnsError, join_logs, load_log, segments, split_log
+from .logs import (COLUMNS, TIME_UNITS, MissingColumnsError, join_logs, load_log, segments,
+                   split_log)
 from .validation import ValidationReport, nrmse_fit, plot_validation, validate, validation_report
 
 __all__ = ["IdentificationResult", "ValidationReport", "MissingColumnsError",
            "IdentificationWarning", "identify",
            "load_log", "segments", "excitation", "simulate_log", "split_log", "validate",
-           "plot_validation", "COLUMNS", "SMOOTHING_METHODS", "COMMAND_CONVENTIONS", "METHODS"]
+           "plot_validation", "COLUMNS", "TIME_UNITS", "SMOOTHING_METHODS", "COMMAND_CONVENTIONS",
+           "METHODS"]

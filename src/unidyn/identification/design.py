@@ -297,7 +297,8 @@ def simulate_log(robot, excitation, noise_std: float = 0.0, seed: int = 0, x0=No
                               f"excitation()), got {have}")
     n = int(np.size(excitation["t"]))
     try:
-        d = load_log({**{k: excitation[k] for k in need}, "u": np.zeros(n), "w": np.zeros(n)})
+        d = load_log({**{k: excitation[k] for k in need}, "u": np.zeros(n), "w": np.zeros(n)},
+                     time_unit="s")          # designed commands: t is in seconds
     except ValidationError as err:
         raise ValidationError(f"excitation: {err}") from None
     x0 = np.zeros(5) if x0 is None else vector("x0", x0, 5)
