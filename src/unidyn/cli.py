@@ -491,14 +491,19 @@ def _cmd_identify(args) -> int:
     for p in logs:
         if not p.exists():
             raise FileNotFoundError(f"log {p} does not exist")
-        if p.is_dir():
-            raise ValidationError(f"log {p} is a folder, not a CSV file")
+    bags = _read_bags(ident, logs, args)   # ROS recordings read as logs; CSV paths kept
     if args.validate and args.no_validate:
         raise _UsageError("--validate and --no-validate exclude each other")
     vlog = Path(args.validate) if args.validate else None
     if vlog is not None and not vlog.exists():
         raise FileNotFoundError(f"validation log {vlog} does not exist")
     columns = _parse_columns(args.columns) if args.columns is not None else None
+    if columns is not None and bags:
+        raise _UsageError("--columns applies to CSV logs, not to bags (--cmd and --odom "
+                          "choose their topics)")
+    from .identification.bags import is_bag
+    if vlog is not None and is_bag(vlog):
+        vlog = _read_bags(ident, [vlog], args)[0]
     delay = 0.0
     if args.delay is not None:
         text = args.delay.strip()
@@ -515,6 +520,9 @@ def _cmd_identify(args) -> int:
     for k in ("smoothing", "window", "name", "gap"):
         if getattr(args, k) is not None:
             kwargs[k] = getattr(args, k)
+    if args.gap is None and bags and len(bags) == len(logs):  # only recording gaps split
+        kwargs["gap"] = max(b["gap"] for b in bags)
+    logs = [bags.pop(0) if is_bag(p) else p for p in logs]
     out = Path(args.out)
     staging = staged_output(out, overwrite=args.overwrite, results=("theta.json",),
                             what="identification results",
@@ -529,7 +537,8 @@ def _cmd_identify(args) -> int:
         try:
             with warnings.catch_warnings():   # the summary prints them
                 warnings.simplefilter("ignore", ident.IdentificationWarning)
-                res = ident.identify(*(str(p) for p in logs), **kwargs)
+                res = ident.identify(*(p if isinstance(p, dict) else str(p) for p in logs),
+                                     **kwargs)
         except ident.MissingColumnsError as err:
             have = ", ".join(repr(a[:40]) for a in err.available[:12]) or "no columns"
             want = ",".join(f"{k}=..." for k in err.missing)
@@ -540,17 +549,23 @@ def _cmd_identify(args) -> int:
         except ValidationError as err:
             raise ValidationError(_cli_words(str(err))) from None
         path = res.save(stage.path)
+        _record_topics(path, logs)
+        for b in logs:
+            if isinstance(b, dict):
+                print(f"bag        {b['source']}: commands {b['cmd_topic']} ({b['cmd_type']}), "
+                      f"odometry {b['odom_topic']}")
         print(_cli_words(res.summary()))
         if not args.no_validate:
-            report = ident.validate(res, str(vlog), columns=columns) if vlog else \
-                ident.validation_report(res.theta, *_joined(ident, logs, columns), res.commands,
-                                        res.delay)
+            report = ident.validate(res, vlog if isinstance(vlog, dict) else str(vlog),
+                                    columns=columns) if vlog else \
+                ident.validation_report(res.theta, *_joined(ident, logs, columns, kwargs.get(
+                    "gap")), res.commands, res.delay)
             what = "held-out log" if vlog else "the same log(s) (in-sample)"
             print(f"validation on {what}: NRMSE fit "
                   + ", ".join(f"{k} {v:.1f} %" for k, v in report.fit.items()))
             (stage.path / "validation.json").write_text(
-                json.dumps({**report.as_dict(), "log": [str(vlog)] if vlog else
-                            [str(p) for p in logs], "in_sample": vlog is None},
+                json.dumps({**report.as_dict(), "log": [_source(vlog)] if vlog else
+                            [_source(p) for p in logs], "in_sample": vlog is None},
                            indent=2, allow_nan=False) + "\n")
             from .figstyle import save
             axes = ident.plot_validation(report)
@@ -564,10 +579,41 @@ def _cmd_identify(args) -> int:
     return 0
 
 
-def _joined(ident, logs, columns):
+def _joined(ident, logs, columns, gap=None):
     """The logs read and joined as identify() joins them: (arrays, pieces)."""
-    D, segs, _, _ = ident.join_logs([str(p) for p in logs], columns)
+    D, segs, _, _ = ident.join_logs([p if isinstance(p, dict) else str(p) for p in logs],
+                                    columns, gap)
     return D, segs
+
+
+def _read_bags(ident, paths, args) -> list:
+    """The ROS recordings among ``paths`` read as logs (read_bag), in order; with
+    --cmd, --odom or --cmd-timeout every path must be one."""
+    from .identification.bags import is_bag
+    flags = [f for f, v in (("--cmd", args.cmd), ("--odom", args.odom),
+                            ("--cmd-timeout", args.cmd_timeout)) if v is not None]
+    csv = [p for p in paths if not is_bag(p)]
+    if flags and csv:
+        raise _UsageError(f"{flags[0]} applies to ROS bags; {csv[0]} is a CSV log")
+    if args.cmd_timeout is not None and not args.cmd_timeout > 0:
+        raise ValidationError(f"--cmd-timeout must be > 0 seconds, got {args.cmd_timeout:g}")
+    return [ident.read_bag(p, cmd=args.cmd, odom=args.odom, cmd_timeout=args.cmd_timeout)
+            for p in paths if is_bag(p)]
+
+
+def _source(log) -> str:
+    return log["source"] if isinstance(log, dict) else str(log)
+
+
+def _record_topics(theta_json: Path, logs) -> None:
+    """Add the bags' chosen topics to theta.json (a "bags" list), when there are bags."""
+    bags = [{"path": b["source"], "cmd_topic": b["cmd_topic"], "cmd_type": b["cmd_type"],
+             "odom_topic": b["odom_topic"], "cmd_timeout": b["cmd_timeout"]}
+            for b in logs if isinstance(b, dict)]
+    if bags:
+        d = json.loads(theta_json.read_text())
+        d["bags"] = bags
+        theta_json.write_text(json.dumps(d, indent=2, allow_nan=False) + "\n")
 
 
 # ------------------------------------------------------------------------ parser
@@ -659,17 +705,31 @@ def _parser() -> argparse.ArgumentParser:
     pr.set_defaults(func=_cmd_properties)
 
     i = sub.add_parser("identify", help="identify theta1..theta6 from one or more logs",
-                       description="Identify theta1..theta6 of Eq. (2) from CSV logs of one "
-                       "robot with columns t, u_ref, w_ref, u, w (other columns are ignored; "
-                       "--columns maps other names). Commands are taken as held from their "
+                       description="Identify theta1..theta6 of Eq. (2) from logs of one "
+                       "robot: CSV files with columns t, u_ref, w_ref, u, w (other columns are "
+                       "ignored; --columns maps other names), or ROS recordings (a ROS 2 bag "
+                       "folder, an .mcap file or a ROS 1 .bag) with Twist or TwistStamped "
+                       "commands and nav_msgs/Odometry; bags need pip install "
+                       "\"unidyn[ros]\". Commands are taken as held from their "
                        "time stamp to the next (--commands linear for smooth ones); gaps in "
                        "the time stamps split a log. Writes theta.json, validation.json and "
                        "validation.png into --out.",
                        formatter_class=_Formatter, epilog=_examples(
                            "unidyn identify examples/log.csv --out out/id",
+                           "unidyn identify examples/courier.mcap --out out/id-ros",
+                           "unidyn identify run1.bag run2/ --cmd /cmd_vel --odom /odom "
+                           "--cmd-timeout 0.5 --out out/id-bags",
                            "unidyn identify examples/log.csv --delay auto --no-validate "
                            "--out out/id-delay"))
-    i.add_argument("log", nargs="+", metavar="LOG.csv", help="one or more logs of one robot")
+    i.add_argument("log", nargs="+", metavar="LOG",
+                   help="one or more logs of one robot: CSV files or ROS bags")
+    i.add_argument("--cmd", metavar="TOPIC",
+                   help="bags: the command topic (default: the one Twist or TwistStamped topic)")
+    i.add_argument("--odom", metavar="TOPIC",
+                   help="bags: the odometry topic (default: the one nav_msgs/Odometry topic)")
+    i.add_argument("--cmd-timeout", type=float, metavar="SECONDS",
+                   help="bags: the robot's driver stops it (command zero) this long after "
+                        "the last command (default: each command held until the next)")
     i.add_argument("--columns", metavar="NAME=COLUMN,...",
                    help="map t, u_ref, w_ref, u, w to the log's column names, "
                         "e.g. t=time,u=v_meas,w=omega_meas")
@@ -692,8 +752,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="equation-error derivative handling")
     i.add_argument("--window", type=float, help="equation-error filter / fit window, s")
     i.add_argument("--name", help="name of the identified parameter set")
-    i.add_argument("--validate", metavar="HELDOUT.csv",
-                   help="validate on this log (default: the identification logs, in-sample)")
+    i.add_argument("--validate", metavar="HELDOUT",
+                   help="validate on this log, CSV or bag (default: the identification "
+                        "logs, in-sample)")
     i.add_argument("--no-validate", action="store_true",
                    help="skip the validation simulation and figure")
     i.add_argument("--overwrite", action="store_true", help="replace a theta.json in DIR")
