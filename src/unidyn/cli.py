@@ -228,6 +228,7 @@ def _cmd_run(args) -> int:
         engine = "batch" if sc.control == "continuous" else "bdsim"
     out = Path(args.out)
     animation = _import_animation() if args.animate else None
+    bag = _bag_target(args)
     # the new results are written beside `out` and swapped in only once complete; an
     # error or an interrupt leaves `out` as it was
     # (staged_output also holds the folder's lock: one writer at a time)
@@ -239,7 +240,24 @@ def _cmd_run(args) -> int:
         raise
     except KeyboardInterrupt:
         raise _Interrupted(f"{out} is as it was before this run") from None
-    return _run_summary(sc, out, stage, result, wall, replaced, animation)
+    status = _run_summary(sc, out, stage, result, wall, replaced, animation)
+    if bag is not None:
+        _write_bag(result, bag)
+    return status
+
+
+def _bag_target(args):
+    """--bag FILE.mcap checked before the run (None without --bag)."""
+    if args.bag is None:
+        return None
+    from .rosbag_writer import check_bag_target
+    return check_bag_target(args.bag, args.overwrite)
+
+
+def _write_bag(result, bag) -> None:
+    from .rosbag_writer import write_run_bag
+    write_run_bag(result, bag)
+    print(f"written    {bag} (/cmd_vel, /odom, /reference)")
 
 
 def _run_staged(staging, sc, engine, out, animation):
@@ -654,6 +672,10 @@ def _parser() -> argparse.ArgumentParser:
                         "diagram for sampled control; bdsim: always the diagram")
     r.add_argument("--overwrite", action="store_true", help="replace results already in DIR")
     r.add_argument("--animate", action="store_true", help="also write DIR/animation.gif")
+    r.add_argument("--bag", metavar="FILE.mcap",
+                   help="also write the run as a ROS 2 bag (MCAP): Twist commands on /cmd_vel, "
+                        "nav_msgs/Odometry on /odom, the reference on /reference; needs "
+                        "pip install \"unidyn[ros]\"")
     r.set_defaults(func=_cmd_run)
 
     s = sub.add_parser("sweep", help="run a parameter sweep (resumable)",

@@ -70,7 +70,7 @@ GAP_PERIODS = 5.0
 # the recorder's and the header stamps' clocks are taken as different clocks when
 # odometry is received more than this long (s, median) after its stamp
 _CLOCK_OFFSET = 1.0
-# at least this many odometry rows with known commands (load_log needs 20)
+# at least this many commands, and odometry rows with known commands (load_log needs 20)
 _MIN_ROWS = 20
 _INSTALL = 'pip install "unidyn[ros]"'
 
@@ -297,12 +297,12 @@ def _log_from_messages(path, tc, uc, wc, to, tr, uo, wo, stamped, cmd_timeout, m
         first = c_t[j] if j < c_t.size else math.inf
         usable &= ~((o_t >= end) & (o_t < first))
     t, u, w = o_t[usable], uo[usable], wo[usable]
-    if t.size < _MIN_ROWS:
+    if t.size < _MIN_ROWS or c_t.size < _MIN_ROWS:
         raise ValidationError(
-            f"bag {path}: too short to identify: {t.size} odometry message(s) on {odom_name} "
-            f"while commands on {cmd_name} were known (from {c_t[0]:g} s to {c_t[-1]:g} s); "
-            f"at least {_MIN_ROWS} are needed, and an accurate estimate needs a minute or more "
-            f"of varied commands")
+            f"bag {path}: too short to identify: {c_t.size} command(s) on {cmd_name} over "
+            f"{c_t[-1] - c_t[0]:.3g} s and {t.size} odometry message(s) on {odom_name} while "
+            f"commands were known; at least {_MIN_ROWS} of each are needed, and an accurate "
+            f"estimate needs a minute or more of varied commands")
     u_ref = _held_mean(c_t, uc, t, cmd_timeout)
     w_ref = _held_mean(c_t, wc, t, cmd_timeout)
     return {"t": t, "u_ref": u_ref, "w_ref": w_ref, "u": u, "w": w, "gap": gap,
