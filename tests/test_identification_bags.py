@@ -412,3 +412,19 @@ def test_run_written_as_a_bag_identifies_the_robot_that_ran(tmp_path):
     assert 2 * np.arctan2(m.pose.pose.orientation.z, m.pose.pose.orientation.w) == \
         pytest.approx(np.angle(np.exp(1j * ts["psi"][k])))
     assert m.twist.twist.linear.x == pytest.approx(ts["u"][k])
+
+
+def test_the_sample_bag_identifies_its_robot():
+    """examples/courier.mcap (tools/make_sample_bag.py: theta 0.38, 0.22, 0.01, 1.04,
+    0.03, 1.06, commands at 10 Hz, odometry at 30 Hz, a 3 s hole): small, and
+    theta1, theta2, theta4, theta6 within 3 % with intervals holding them."""
+    bag = Path(__file__).resolve().parents[1] / "examples" / "courier.mcap"
+    assert bag.stat().st_size < 300_000
+    truth = np.array([0.38, 0.22, 0.01, 1.04, 0.03, 1.06])
+    log = ident.read_bag(bag)
+    res = ident.identify(log, gap=log["gap"], validate=False)
+    err = (res.theta.theta - truth) / truth
+    assert np.all(np.abs(err[list(POSITIVE)]) < 0.03), err
+    for i in POSITIVE:
+        assert res.ci95[i, 0] <= truth[i] <= res.ci95[i, 1]
+    assert res.segments == 2

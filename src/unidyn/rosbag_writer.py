@@ -64,7 +64,7 @@ def write_run_bag(result, path) -> Path:
     """Write a run (a :class:`unidyn.result.Result`) to ``path`` (``.mcap``), replacing
     it only once the new file is complete; returns the path."""
     try:
-        from rosbags.rosbag2 import StoragePlugin, Writer
+        from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
         from rosbags.typesys import Stores, get_typestore
     except ImportError:
         raise MissingDependency(f"writing a ROS bag needs the rosbags package "
@@ -94,7 +94,10 @@ def write_run_bag(result, path) -> Path:
     tmp = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}."))
     try:
         folder = tmp / path.stem
-        with Writer(folder, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        w = Writer(folder, version=9, storage_plugin=StoragePlugin.MCAP)
+        # zstd-compressed chunks, as ros2 bag record -s mcap writes by default
+        w.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+        with w:
             c_cmd = w.add_connection("/cmd_vel", Twist.__msgtype__, typestore=ts)
             c_odom = w.add_connection("/odom", Odometry.__msgtype__, typestore=ts)
             c_ref = w.add_connection("/reference", PoseStamped.__msgtype__, typestore=ts)
