@@ -15,6 +15,7 @@ from __future__ import annotations
 import functools
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -92,10 +93,12 @@ def _ns(seconds):
 
 
 def write_bag(path, rec, kind="mcap", stamped=False, cmd_topic="/cmd_vel",
-              odom_topic="/odom", extra=()):
+              odom_topic="/odom", extra=(), clock=0.0):
     """Write a recording with rosbags' writers: kind "ros1" (a .bag file), "sqlite3"
     or "mcap" (ROS 2 bag folders). ``extra``: more (topic, msgtype) connections left
-    empty. Messages in receive order, as a recorder writes them."""
+    empty; ``cmd_topic`` None: no command topic; ``clock``: the header stamps are
+    this many seconds behind the recorder's clock (a simulator's clock). Messages
+    in receive order, as a recorder writes them."""
     (tc, uc, wc), (to, tr, uo, wo) = rec
     ros1 = kind == "ros1"
     ts = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
@@ -110,7 +113,7 @@ def write_bag(path, rec, kind="mcap", stamped=False, cmd_topic="/cmd_vel",
     PC, TC = T_["geometry_msgs/msg/PoseWithCovariance"], T_["geometry_msgs/msg/TwistWithCovariance"]
 
     def stamp(s):
-        ns = _ns(s)
+        ns = _ns(s) - int(round(clock * 1e9))
         return Time(sec=ns // 10**9, nanosec=ns % 10**9)
 
     def header(s):
@@ -125,11 +128,11 @@ def write_bag(path, rec, kind="mcap", stamped=False, cmd_topic="/cmd_vel",
         w = Writer2(path, version=9, storage_plugin=StoragePlugin.MCAP if kind == "mcap"
                     else StoragePlugin.SQLITE3)
     with w:
-        cc = w.add_connection(cmd_topic, ctype, typestore=ts)
+        cc = w.add_connection(cmd_topic, ctype, typestore=ts) if cmd_topic else None
         co = w.add_connection(odom_topic, Odom.__msgtype__, typestore=ts)
         for topic, typ in extra:
             w.add_connection(topic, typ, typestore=ts)
-        events = [(_ns(t), 0, i) for i, t in enumerate(tc)] + \
+        events = [(_ns(t), 0, i) for i, t in enumerate(tc) if cc is not None] + \
                  [(_ns(t), 1, i) for i, t in enumerate(tr)]
         for t_ns, which, i in sorted(events):
             if which == 0:
@@ -292,19 +295,22 @@ def test_several_topics_are_listed_with_type_count_and_rate(tmp_path):
         ident.read_bag(bag, cmd="/joy_vel")
 
 
-@pytest.mark.parametrize("what", ["no_twist", "no_odom"])
-def test_missing_topic_names_file_and_topics(tmp_path, what):
+def test_missing_topics_name_the_file_and_what_it_has(tmp_path):
     rec = recording(seed=1, T=30.0, gap=None)
-    kw = {"cmd_topic": "/cmd_vel"} if what == "no_odom" else {}
-    if what == "no_twist":   # commands recorded as another type
-        bag = tmp_path / "b.bag"
-        write_bag(bag, rec, "ros1")
-        with pytest.raises(ValidationError, match=r"no topic /nope \(--cmd\)"):
-            ident.read_bag(bag, cmd="/nope")
-        with pytest.raises(ValidationError, match=r"--odom /cmd_vel is of type "
-                                                  r"geometry_msgs/msg/Twist, not nav_msgs"):
-            ident.read_bag(bag, odom="/cmd_vel")
-        return
+    bag = write_bag(tmp_path / "odom_only.bag", rec, "ros1", cmd_topic=None)
+    p = run_cli("identify", bag, "--out", tmp_path / "o", check=2)
+    assert p.stderr.count("\n") == 1 and str(bag) in p.stderr
+    assert "has no geometry_msgs/Twist or geometry_msgs/TwistStamped topic (the commands)" \
+        in p.stderr
+    n = rec[1][0].size
+    assert re.search(rf"it has /odom \(nav_msgs/msg/Odometry, {n} messages, (29\.\d|30\.\d) Hz\)",
+                     p.stderr), p.stderr
+    bag = write_bag(tmp_path / "b.bag", rec, "ros1")
+    with pytest.raises(ValidationError, match=r"no topic /nope \(--cmd\)"):
+        ident.read_bag(bag, cmd="/nope")
+    with pytest.raises(ValidationError, match=r"--odom /cmd_vel is of type "
+                                              r"geometry_msgs/msg/Twist, not nav_msgs"):
+        ident.read_bag(bag, odom="/cmd_vel")
     # a bag with commands only
     ts = get_typestore(Stores.ROS2_HUMBLE)
     bag = tmp_path / "cmds"
@@ -316,7 +322,33 @@ def test_missing_topic_names_file_and_topics(tmp_path, what):
                     angular=V3(x=0.0, y=0.0, z=0.0)), "geometry_msgs/msg/Twist"))
     p = run_cli("identify", bag, "--out", tmp_path / "o", check=2)
     assert p.stderr.count("\n") == 1 and "has no nav_msgs/Odometry topic" in p.stderr
-    assert "/cmd_vel (geometry_msgs/msg/Twist, 50 messages" in p.stderr, kw
+    assert "/cmd_vel (geometry_msgs/msg/Twist, 50 messages" in p.stderr
+
+
+def test_options_that_do_not_apply_are_refused(tmp_path, bags):
+    csv = tmp_path / "log.csv"
+    csv.write_text("t,u_ref,w_ref,u,w\n" + "".join(f"{k * 0.1},0,0,0,0\n" for k in range(30)))
+    p = run_cli("identify", csv, "--cmd", "/cmd_vel", "--out", tmp_path / "o", check=2)
+    assert "--cmd applies to ROS bags" in p.stderr and str(csv) in p.stderr
+    p = run_cli("identify", bags["ros1"], "--columns", "t=time", "--out", tmp_path / "o",
+                check=2)
+    assert "--columns applies to CSV logs" in p.stderr
+    p = run_cli("identify", bags["ros1"], "--cmd-timeout", "0", "--out", tmp_path / "o",
+                check=2)
+    assert "--cmd-timeout must be > 0" in p.stderr
+    assert not (tmp_path / "o").exists()
+
+
+def test_simulation_clock_in_the_stamps_is_told_and_handled(tmp_path, bags):
+    """Odometry stamped by a simulator's clock (1000 s behind the recorder's wall
+    clock), unstamped Twist commands: they are moved onto the stamps' clock (by the
+    odometry's median delay, 1-6 ms off) with a warning, and the robot identified."""
+    bag = write_bag(tmp_path / "sim", recording(), "mcap", clock=1000.0)
+    with pytest.warns(ident.IdentificationWarning, match="another clock"):
+        log = ident.read_bag(bag)
+    res = ident.identify(log, gap=log["gap"], validate=False)
+    err = (res.theta.theta - ROBOT.theta) / ROBOT.theta
+    assert np.all(np.abs(err[list(POSITIVE)]) < 0.03), err
 
 
 def test_bad_files_give_one_line_naming_them(tmp_path, bags):
