@@ -203,8 +203,8 @@ def test_held_commands_are_the_exact_mean_over_each_row():
     fine = np.linspace(0.0, 31.0, 3_100_001)
     held = uc[np.searchsorted(tc, fine, "right") - 1]
     for timeout in (None, 0.12):
-        from unidyn.identification.bags import _held_mean
-        got = _held_mean(tc, uc, t, timeout)
+        from unidyn.identification.bags import held_mean
+        got = held_mean(tc, uc, t, timeout)
         sig = held.copy()
         if timeout is not None:
             since = fine - tc[np.searchsorted(tc, fine, "right") - 1]
@@ -214,7 +214,7 @@ def test_held_commands_are_the_exact_mean_over_each_row():
         # the quadrature's own error: a command jump times the grid step, 0.3e-5
         np.testing.assert_allclose(got[:-1] * np.diff(t), want, rtol=0, atol=1e-5)
         in_force = (uc[np.searchsorted(tc, t, "right") - 1] if timeout is None else
-                    _held_mean(tc, uc, t, None))
+                    held_mean(tc, uc, t, None))
         assert np.max(np.abs(in_force[:-1] * np.diff(t) - want)) > 1e-3
 
 

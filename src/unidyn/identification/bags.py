@@ -59,7 +59,7 @@ from .._errors import MissingDependency
 from .._validate import ValidationError, positive
 from .logs import IdentificationWarning
 
-__all__ = ["read_bag", "is_bag", "COMMAND_TYPES", "ODOMETRY_TYPE", "GAP_PERIODS"]
+__all__ = ["read_bag", "is_bag", "held_mean", "COMMAND_TYPES", "ODOMETRY_TYPE", "GAP_PERIODS"]
 
 #: Message types read as commands (u_ref = linear.x, w_ref = angular.z).
 COMMAND_TYPES = ("geometry_msgs/msg/Twist", "geometry_msgs/msg/TwistStamped")
@@ -303,16 +303,24 @@ def _log_from_messages(path, tc, uc, wc, to, tr, uo, wo, stamped, cmd_timeout, m
             f"{c_t[-1] - c_t[0]:.3g} s and {t.size} odometry message(s) on {odom_name} while "
             f"commands were known; at least {_MIN_ROWS} of each are needed, and an accurate "
             f"estimate needs a minute or more of varied commands")
-    u_ref = _held_mean(c_t, uc, t, cmd_timeout)
-    w_ref = _held_mean(c_t, wc, t, cmd_timeout)
+    u_ref = held_mean(c_t, uc, t, cmd_timeout)
+    w_ref = held_mean(c_t, wc, t, cmd_timeout)
     return {"t": t, "u_ref": u_ref, "w_ref": w_ref, "u": u, "w": w, "gap": gap,
             "source": str(path), **meta, "cmd_timeout": cmd_timeout, "t0": t0}
 
 
-def _held_mean(c_t, c, t, timeout) -> np.ndarray:
-    """For each interval [t[k], t[k+1]): the mean of the command signal that holds
-    c[j] from c_t[j] until c_t[j+1] (or until c_t[j] + timeout, zero after);
-    for the last row the command in force at t[-1]. ``t`` starts at or after c_t[0]."""
+def held_mean(c_t, c, t, timeout=None) -> np.ndarray:
+    """The commands a robot applied, as held values over the intervals of other
+    sample times: for each [t[k], t[k+1]) the mean of the command signal that
+    holds c[j] from c_t[j] until c_t[j+1] (until c_t[j] + ``timeout`` with a
+    timeout, zero after), computed exactly from its piecewise-linear integral;
+    for the last sample the command in force at t[-1].
+
+    :param c_t: command times, s, increasing
+    :param c: the commands (one of u_ref, m/s, or w_ref, rad/s), same length
+    :param t: sample times, s, increasing, none before c_t[0]
+    :param timeout: seconds after a command at which it stops acting, or None
+    """
     span = np.diff(c_t)
     if timeout is not None:
         span = np.minimum(span, timeout)
