@@ -51,6 +51,7 @@ from __future__ import annotations
 import math
 import os
 import warnings
+from array import array
 from pathlib import Path
 
 import numpy as np
@@ -154,7 +155,9 @@ def _read_messages(path, reader, cmd_name, odom_name):
     """Stream the two topics: (command times ns, u_ref, w_ref, odometry stamps ns,
     odometry receive times ns, u, w, whether the commands carry stamps)."""
     conns = [c for c in reader.connections if c.topic in (cmd_name, odom_name)]
-    tc, uc, wc, to, tr, uo, wo = [], [], [], [], [], [], []
+    # compact growing arrays: 8 bytes a number, not a Python float's 24 or more
+    tc, to, tr = array("q"), array("q"), array("q")
+    uc, wc, uo, wo = array("d"), array("d"), array("d"), array("d")
     stamped = False
     for conn, t_ns, raw in reader.messages(connections=conns):
         msg = reader.deserialize(raw, conn.msgtype)
@@ -172,9 +175,9 @@ def _read_messages(path, reader, cmd_name, odom_name):
             tr.append(t_ns)
             uo.append(float(msg.twist.twist.linear.x))
             wo.append(float(msg.twist.twist.angular.z))
-    as_int = lambda x: np.asarray(x, dtype=np.int64)  # noqa: E731
-    return (as_int(tc), np.asarray(uc), np.asarray(wc), as_int(to), as_int(tr),
-            np.asarray(uo), np.asarray(wo), stamped)
+    return (np.frombuffer(tc, np.int64), np.frombuffer(uc), np.frombuffer(wc),
+            np.frombuffer(to, np.int64), np.frombuffer(tr, np.int64), np.frombuffer(uo),
+            np.frombuffer(wo), stamped)
 
 
 def read_bag(path, cmd: str | None = None, odom: str | None = None,
