@@ -615,8 +615,14 @@ def _read_bags(ident, paths, args) -> list:
         raise _UsageError(f"{flags[0]} applies to ROS bags; {csv[0]} is a CSV log")
     if args.cmd_timeout is not None and not args.cmd_timeout > 0:
         raise ValidationError(f"--cmd-timeout must be > 0 seconds, got {args.cmd_timeout:g}")
-    return [ident.read_bag(p, cmd=args.cmd, odom=args.odom, cmd_timeout=args.cmd_timeout)
-            for p in paths if is_bag(p)]
+    import warnings
+    with warnings.catch_warnings(record=True) as caught:   # told as one line each
+        warnings.simplefilter("always", ident.IdentificationWarning)
+        logs = [ident.read_bag(p, cmd=args.cmd, odom=args.odom, cmd_timeout=args.cmd_timeout)
+                for p in paths if is_bag(p)]
+    for w in caught:
+        print(f"unidyn: warning: {w.message}", file=sys.stderr)
+    return logs
 
 
 def _source(log) -> str:
