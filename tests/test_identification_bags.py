@@ -412,6 +412,11 @@ def test_without_rosbags_one_line_names_the_extra(tmp_path, bags):
                         "--out", str(tmp_path / "o")], capture_output=True, text=True, env=env)
     assert p.returncode == 2 and p.stderr.count("\n") == 1
     assert 'pip install "unidyn[ros]"' in p.stderr
+    p = subprocess.run([sys.executable, "-m", "unidyn", "run", "--T", "1", "--out",
+                        str(tmp_path / "r"), "--bag", str(tmp_path / "r.mcap")],
+                       capture_output=True, text=True, env=env)
+    assert p.returncode == 2 and p.stderr.count("\n") == 1
+    assert 'pip install "unidyn[ros]"' in p.stderr and not (tmp_path / "r").exists()
 
 
 

@@ -9,6 +9,7 @@ identify parameters from a log.
     unidyn robots
     unidyn properties p3dx --u-max 1.2
     unidyn identify log.csv --columns t=time,u=v_meas,w=omega_meas --out out/ident
+    unidyn identify rosbag2_2026_11_25/ --cmd /cmd_vel --out out/ident-ros
 
 Errors in the input (a bad value, malformed TOML, a missing file) print one line
 ``unidyn: error: ...`` on stderr and exit with status 2. Ctrl-C (SIGINT) and ``kill``
