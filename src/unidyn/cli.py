@@ -9,6 +9,7 @@ identify parameters from a log.
     unidyn robots
     unidyn properties p3dx --u-max 1.2
     unidyn identify log.csv --columns t=time,u=v_meas,w=omega_meas --out out/ident
+    unidyn identify rosbag2_2026_11_25/ --cmd /cmd_vel --out out/ident-ros
 
 Errors in the input (a bad value, malformed TOML, a missing file) print one line
 ``unidyn: error: ...`` on stderr and exit with status 2. Ctrl-C (SIGINT) and ``kill``
@@ -228,6 +229,7 @@ def _cmd_run(args) -> int:
         engine = "batch" if sc.control == "continuous" else "bdsim"
     out = Path(args.out)
     animation = _import_animation() if args.animate else None
+    bag = _bag_target(args)
     # the new results are written beside `out` and swapped in only once complete; an
     # error or an interrupt leaves `out` as it was
     # (staged_output also holds the folder's lock: one writer at a time)
@@ -239,7 +241,24 @@ def _cmd_run(args) -> int:
         raise
     except KeyboardInterrupt:
         raise _Interrupted(f"{out} is as it was before this run") from None
-    return _run_summary(sc, out, stage, result, wall, replaced, animation)
+    status = _run_summary(sc, out, stage, result, wall, replaced, animation)
+    if bag is not None:
+        _write_bag(result, bag)
+    return status
+
+
+def _bag_target(args):
+    """--bag FILE.mcap checked before the run (None without --bag)."""
+    if args.bag is None:
+        return None
+    from .rosbag_writer import check_bag_target
+    return check_bag_target(args.bag, args.overwrite)
+
+
+def _write_bag(result, bag) -> None:
+    from .rosbag_writer import write_run_bag
+    write_run_bag(result, bag)
+    print(f"written    {bag} (/cmd_vel, /odom, /reference)")
 
 
 def _run_staged(staging, sc, engine, out, animation):
@@ -492,14 +511,22 @@ def _cmd_identify(args) -> int:
     for p in logs:
         if not p.exists():
             raise FileNotFoundError(f"log {p} does not exist")
-        if p.is_dir():
-            raise ValidationError(f"log {p} is a folder, not a CSV file")
+    bags = _read_bags(ident, logs, args)   # ROS recordings read as logs; CSV paths kept
     if args.validate and args.no_validate:
         raise _UsageError("--validate and --no-validate exclude each other")
     vlog = Path(args.validate) if args.validate else None
     if vlog is not None and not vlog.exists():
         raise FileNotFoundError(f"validation log {vlog} does not exist")
     columns = _parse_columns(args.columns) if args.columns is not None else None
+    if columns is not None and bags:
+        raise _UsageError("--columns applies to CSV logs, not to bags (--cmd and --odom "
+                          "choose their topics)")
+    if args.time_unit is not None and bags:
+        raise _UsageError("--time-unit applies to CSV logs, not to bags (a bag's stamps are "
+                          "read in seconds)")
+    from .identification.bags import is_bag
+    if vlog is not None and is_bag(vlog):
+        vlog = _read_bags(ident, [vlog], args)[0]
     delay = 0.0
     if args.delay is not None:
         text = args.delay.strip()
@@ -516,6 +543,9 @@ def _cmd_identify(args) -> int:
     for k in ("smoothing", "window", "name", "gap", "time_unit"):
         if getattr(args, k) is not None:
             kwargs[k] = getattr(args, k)
+    if args.gap is None and bags and len(bags) == len(logs):  # only recording gaps split
+        kwargs["gap"] = max(b["gap"] for b in bags)
+    logs = [bags.pop(0) if is_bag(p) else p for p in logs]
     out = Path(args.out)
     staging = staged_output(out, overwrite=args.overwrite, results=("theta.json",),
                             what="identification results",
@@ -530,7 +560,8 @@ def _cmd_identify(args) -> int:
         try:
             with warnings.catch_warnings():   # the summary prints them
                 warnings.simplefilter("ignore", ident.IdentificationWarning)
-                res = ident.identify(*(str(p) for p in logs), **kwargs)
+                res = ident.identify(*(p if isinstance(p, dict) else str(p) for p in logs),
+                                     **kwargs)
         except ident.MissingColumnsError as err:
             have = ", ".join(repr(a[:40]) for a in err.available[:12]) or "no columns"
             want = ",".join(f"{k}=..." for k in err.missing)
@@ -541,14 +572,19 @@ def _cmd_identify(args) -> int:
         except ValidationError as err:
             raise ValidationError(_cli_words(str(err))) from None
         path = res.save(stage.path)
+        _record_topics(path, logs)
+        for b in logs:
+            if isinstance(b, dict):
+                print(f"bag        {b['source']}: commands {b['cmd_topic']} ({b['cmd_type']}), "
+                      f"odometry {b['odom_topic']}")
         print(_cli_words(res.summary()))
         if not args.no_validate:
             with warnings.catch_warnings(record=True) as seen:  # rows the held-out log
                 warnings.simplefilter("always", ident.IdentificationWarning)  # skipped
-                report = ident.validate(res, str(vlog), columns=columns,
-                                        time_unit=args.time_unit) if vlog else \
+                report = ident.validate(res, vlog if isinstance(vlog, dict) else str(vlog),
+                                        columns=columns, time_unit=args.time_unit) if vlog else \
                     ident.validation_report(res.theta, *_joined(ident, logs, columns,
-                                                                args.time_unit),
+                                                                kwargs.get("gap"), args.time_unit),
                                             res.commands, res.delay)
             for w in seen:
                 if issubclass(w.category, ident.IdentificationWarning):
@@ -559,8 +595,8 @@ def _cmd_identify(args) -> int:
             print(f"validation on {what}: NRMSE fit "
                   + ", ".join(f"{k} {v:.1f} %" for k, v in report.fit.items()))
             (stage.path / "validation.json").write_text(
-                json.dumps({**report.as_dict(), "log": [str(vlog)] if vlog else
-                            [str(p) for p in logs], "in_sample": vlog is None},
+                json.dumps({**report.as_dict(), "log": [_source(vlog)] if vlog else
+                            [_source(p) for p in logs], "in_sample": vlog is None},
                            indent=2, allow_nan=False) + "\n")
             from .figstyle import save
             axes = ident.plot_validation(report)
@@ -574,10 +610,47 @@ def _cmd_identify(args) -> int:
     return 0
 
 
-def _joined(ident, logs, columns, time_unit=None):
+def _joined(ident, logs, columns, gap=None, time_unit=None):
     """The logs read and joined as identify() joins them: (arrays, pieces)."""
-    D, segs, _, _ = ident.join_logs([str(p) for p in logs], columns, time_unit=time_unit)
+    D, segs, _, _ = ident.join_logs([p if isinstance(p, dict) else str(p) for p in logs],
+                                    columns, gap, time_unit=time_unit)
     return D, segs
+
+
+def _read_bags(ident, paths, args) -> list:
+    """The ROS recordings among ``paths`` read as logs (read_bag), in order; with
+    --cmd, --odom or --cmd-timeout every path must be one."""
+    from .identification.bags import is_bag
+    flags = [f for f, v in (("--cmd", args.cmd), ("--odom", args.odom),
+                            ("--cmd-timeout", args.cmd_timeout)) if v is not None]
+    csv = [p for p in paths if not is_bag(p)]
+    if flags and csv:
+        raise _UsageError(f"{flags[0]} applies to ROS bags; {csv[0]} is a CSV log")
+    if args.cmd_timeout is not None and not args.cmd_timeout > 0:
+        raise ValidationError(f"--cmd-timeout must be > 0 seconds, got {args.cmd_timeout:g}")
+    import warnings
+    with warnings.catch_warnings(record=True) as caught:   # told as one line each
+        warnings.simplefilter("always", ident.IdentificationWarning)
+        logs = [ident.read_bag(p, cmd=args.cmd, odom=args.odom, cmd_timeout=args.cmd_timeout)
+                for p in paths if is_bag(p)]
+    for w in caught:
+        print(f"unidyn: warning: {w.message}", file=sys.stderr)
+    return logs
+
+
+def _source(log) -> str:
+    return log["source"] if isinstance(log, dict) else str(log)
+
+
+def _record_topics(theta_json: Path, logs) -> None:
+    """Add the bags' chosen topics to theta.json (a "bags" list), when there are bags."""
+    bags = [{"path": b["source"], "cmd_topic": b["cmd_topic"], "cmd_type": b["cmd_type"],
+             "odom_topic": b["odom_topic"], "cmd_timeout": b["cmd_timeout"]}
+            for b in logs if isinstance(b, dict)]
+    if bags:
+        d = json.loads(theta_json.read_text())
+        d["bags"] = bags
+        theta_json.write_text(json.dumps(d, indent=2, allow_nan=False) + "\n")
 
 
 # ------------------------------------------------------------------------ parser
@@ -618,6 +691,10 @@ def _parser() -> argparse.ArgumentParser:
                         "diagram for sampled control; bdsim: always the diagram")
     r.add_argument("--overwrite", action="store_true", help="replace results already in DIR")
     r.add_argument("--animate", action="store_true", help="also write DIR/animation.gif")
+    r.add_argument("--bag", metavar="FILE.mcap",
+                   help="also write the run as a ROS 2 bag (MCAP): Twist commands on /cmd_vel, "
+                        "nav_msgs/Odometry on /odom, the reference on /reference; needs "
+                        "pip install \"unidyn[ros]\"")
     r.set_defaults(func=_cmd_run)
 
     s = sub.add_parser("sweep", help="run a parameter sweep (resumable)",
@@ -669,17 +746,31 @@ def _parser() -> argparse.ArgumentParser:
     pr.set_defaults(func=_cmd_properties)
 
     i = sub.add_parser("identify", help="identify theta1..theta6 from one or more logs",
-                       description="Identify theta1..theta6 of Eq. (2) from CSV logs of one "
-                       "robot with columns t, u_ref, w_ref, u, w (other columns are ignored; "
-                       "--columns maps other names). Commands are taken as held from their "
+                       description="Identify theta1..theta6 of Eq. (2) from logs of one "
+                       "robot: CSV files with columns t, u_ref, w_ref, u, w (other columns are "
+                       "ignored; --columns maps other names), or ROS recordings (a ROS 2 bag "
+                       "folder, an .mcap file or a ROS 1 .bag) with Twist or TwistStamped "
+                       "commands and nav_msgs/Odometry; bags need pip install "
+                       "\"unidyn[ros]\". Commands are taken as held from their "
                        "time stamp to the next (--commands linear for smooth ones); gaps in "
                        "the time stamps split a log. Writes theta.json, validation.json and "
                        "validation.png into --out.",
                        formatter_class=_Formatter, epilog=_examples(
                            "unidyn identify examples/log.csv --out out/id",
+                           "unidyn identify examples/courier.mcap --out out/id-ros",
+                           "unidyn identify run1.bag run2/ --cmd /cmd_vel --odom /odom "
+                           "--cmd-timeout 0.5 --out out/id-bags",
                            "unidyn identify examples/log.csv --delay auto --no-validate "
                            "--out out/id-delay"))
-    i.add_argument("log", nargs="+", metavar="LOG.csv", help="one or more logs of one robot")
+    i.add_argument("log", nargs="+", metavar="LOG",
+                   help="one or more logs of one robot: CSV files or ROS bags")
+    i.add_argument("--cmd", metavar="TOPIC",
+                   help="bags: the command topic (default: the one Twist or TwistStamped topic)")
+    i.add_argument("--odom", metavar="TOPIC",
+                   help="bags: the odometry topic (default: the one nav_msgs/Odometry topic)")
+    i.add_argument("--cmd-timeout", type=float, metavar="SECONDS",
+                   help="bags: the robot's driver stops it (command zero) this long after "
+                        "the last command (default: each command held until the next)")
     i.add_argument("--columns", metavar="NAME=COLUMN,...",
                    help="map t, u_ref, w_ref, u, w to the log's column names, "
                         "e.g. t=time,u=v_meas,w=omega_meas")
@@ -705,8 +796,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="equation-error derivative handling")
     i.add_argument("--window", type=float, help="equation-error filter / fit window, s")
     i.add_argument("--name", help="name of the identified parameter set")
-    i.add_argument("--validate", metavar="HELDOUT.csv",
-                   help="validate on this log (default: the identification logs, in-sample)")
+    i.add_argument("--validate", metavar="HELDOUT",
+                   help="validate on this log, CSV or bag (default: the identification "
+                        "logs, in-sample)")
     i.add_argument("--no-validate", action="store_true",
                    help="skip the validation simulation and figure")
     i.add_argument("--overwrite", action="store_true", help="replace a theta.json in DIR")

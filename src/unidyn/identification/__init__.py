@@ -55,13 +55,16 @@ The package is split by job: :mod:`~unidyn.identification.logs` reads and
 checks logs, :mod:`~unidyn.identification.estimator` holds the output-error and
 equation-error fits (its docstring explains how the equation-error estimate
 handles the velocity derivatives), :mod:`~unidyn.identification.design`
-designs commands and simulates logs, and :mod:`~unidyn.identification.validation`
+designs commands and simulates logs, :mod:`~unidyn.identification.bags` reads
+ROS recordings (``read_bag``: commands held as the robot applied them, odometry at
+its stamps), and :mod:`~unidyn.identification.validation`
 compares a model with a log.
 """
 
 from __future__ import annotations
 
 from ._simulate import COMMAND_CONVENTIONS, FAST
+from .bags import read_bag
 from .design import excitation, simulate_log
 from .estimator import (METHODS, SMOOTHING_METHODS, IdentificationResult,
                         IdentificationWarning, identify)
@@ -71,6 +74,6 @@ from .validation import ValidationReport, nrmse_fit, plot_validation, validate, 
 
 __all__ = ["IdentificationResult", "ValidationReport", "MissingColumnsError",
            "IdentificationWarning", "identify",
-           "load_log", "segments", "excitation", "simulate_log", "split_log", "validate",
-           "plot_validation", "COLUMNS", "TIME_UNITS", "SMOOTHING_METHODS", "COMMAND_CONVENTIONS",
-           "METHODS"]
+           "load_log", "read_bag", "segments", "excitation", "simulate_log", "split_log",
+           "validate", "plot_validation", "COLUMNS", "TIME_UNITS", "SMOOTHING_METHODS",
+           "COMMAND_CONVENTIONS", "METHODS"]

@@ -1,0 +1,339 @@
+"""Reading a robot's ROS recordings as identification logs.
+
+A robot driven through ROS receives its commands as ``geometry_msgs/Twist`` (or
+``TwistStamped``) on a topic such as ``/cmd_vel`` and reports its velocities in
+``nav_msgs/Odometry`` on ``/odom``. ``rosbag record`` (ROS 1, a ``.bag`` file)
+or ``ros2 bag record`` (ROS 2, a folder holding ``metadata.yaml`` and sqlite3
+``.db3`` or MCAP ``.mcap`` files; a lone ``.mcap`` file is read too) stores
+both. :func:`read_bag` turns such a recording into the log that
+:func:`~unidyn.identification.identify` takes (the dict that
+:func:`~unidyn.identification.load_log` returns: t, u_ref, w_ref, u, w).
+
+Time as the robot saw it
+------------------------
+The commands arrive at 10-20 Hz and the firmware holds each one until the next;
+odometry arrives at 20-50 Hz with jitter, and neither clock is a multiple of the
+other. Resampling both onto one grid would shift every command change by up to
+a grid step, which biases theta1 and theta2 like a delay (by about theta4 dt / 2
+and theta6 dt / 2). Instead:
+
+- each command acts from its time (the header stamp of a ``TwistStamped``, the
+  time the recorder received a ``Twist``) until the next command, or until
+  ``cmd_timeout`` seconds have passed without one, after which the robot's
+  driver stops it (command zero);
+- the rows of the log are the odometry messages at their header stamps (u =
+  ``twist.twist.linear.x``, w = ``twist.twist.angular.z``), never interpolated;
+- the command of row k, which :func:`identify` holds from t[k] to t[k+1], is the
+  mean over that interval of the commands as the robot applied them (the exact
+  integral of the piecewise-constant command). Over an interval dt short against
+  the time constant tau = theta1 / theta4 of Eq. (2), a held input with the same
+  integral gives the same velocity at t[k+1] to within (dt / tau)^2 / 8 of a
+  command step (0.2 % at 40 Hz odometry and tau = 0.2 s), where taking the
+  command in force at t[k] would be off by up to dt / tau (12 %).
+
+Messages are read one at a time (a large bag is streamed, never loaded whole);
+only the two topics' stamps and velocities are kept.
+
+Recording gaps
+--------------
+Where no message of either topic was recorded for ``GAP_PERIODS`` command
+periods, the recording has a gap: the commands sent meanwhile are unknown. The
+log keeps the odometry on both sides; the rows after the gap start with the
+first odometry following the first command after it. :func:`identify` splits
+the log there into pieces, each with its own initial state, as it does at the
+gaps of a CSV log; the dict's ``"gap"`` entry is the threshold (s) to pass as
+``identify(log, gap=log["gap"])`` so that only such gaps split it (and not a
+single late odometry message, across which the commands are still known).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import warnings
+from array import array
+from pathlib import Path
+
+import numpy as np
+
+from .._errors import MissingDependency
+from .._validate import ValidationError, positive
+from .logs import IdentificationWarning
+
+__all__ = ["read_bag", "is_bag", "held_mean", "COMMAND_TYPES", "ODOMETRY_TYPE", "GAP_PERIODS"]
+
+#: Message types read as commands (u_ref = linear.x, w_ref = angular.z).
+COMMAND_TYPES = ("geometry_msgs/msg/Twist", "geometry_msgs/msg/TwistStamped")
+#: Message type read as the measured velocities (twist.twist.linear.x, angular.z).
+ODOMETRY_TYPE = "nav_msgs/msg/Odometry"
+#: No message of either topic for this many median command periods is a recording gap.
+GAP_PERIODS = 5.0
+# the recorder's and the header stamps' clocks are taken as different clocks when
+# odometry is received more than this long (s, median) after its stamp
+_CLOCK_OFFSET = 1.0
+# at least this many commands, and odometry rows with known commands (load_log needs 20)
+_MIN_ROWS = 20
+_INSTALL = 'pip install "unidyn[ros]"'
+
+
+def is_bag(path) -> bool:
+    """Whether ``path`` names a ROS recording rather than a CSV log: a folder (a
+    ROS 2 bag), or a ``.bag``, ``.mcap`` or ``.db3`` file."""
+    p = Path(path)
+    return p.is_dir() or p.suffix.lower() in (".bag", ".mcap", ".db3")
+
+
+def _rosbags():
+    try:
+        from rosbags.highlevel import AnyReader
+        from rosbags.typesys import Stores, get_typestore
+    except ImportError:
+        raise MissingDependency(f"reading ROS bags needs the rosbags package "
+                                f"({_INSTALL})") from None
+    return AnyReader, get_typestore(Stores.LATEST)
+
+
+def _check_path(path: Path) -> None:
+    if not path.exists():
+        raise ValidationError(f"bag {path} does not exist")
+    if path.is_dir():
+        if not (path / "metadata.yaml").is_file():
+            raise ValidationError(
+                f"bag {path} is a folder without metadata.yaml: a ROS 2 bag is the folder "
+                f"'ros2 bag record' writes (metadata.yaml with .db3 or .mcap files); give "
+                f"an .mcap file or a ROS 1 .bag file directly")
+        return
+    if path.suffix.lower() not in (".bag", ".mcap", ".db3"):
+        raise ValidationError(f"bag {path}: not a ROS recording; expected a ROS 2 bag folder, "
+                              f"an .mcap or .db3 file or a ROS 1 .bag file")
+    if path.stat().st_size == 0:
+        raise ValidationError(f"bag {path} is empty (0 bytes)")
+
+
+def _describe(name, info, duration) -> str:
+    rate = f", {info.msgcount / duration:.3g} Hz" if duration > 0 and info.msgcount > 1 else ""
+    return f"{name} ({info.msgtype}, {info.msgcount} messages{rate})"
+
+
+def _choose(path, topics, wanted, types, what, flag, duration) -> str:
+    """The topic to read ``what`` from: ``wanted`` if given, else the one topic of
+    one of ``types``; one line listing the candidates otherwise."""
+    cands = {n: i for n, i in topics.items() if i.msgtype in types}
+    typename = " or ".join(t.replace("/msg/", "/") for t in types)
+    if wanted is not None:
+        if wanted not in topics:
+            have = "; ".join(_describe(n, i, duration) for n, i in cands.items()) or "none"
+            raise ValidationError(f"bag {path} has no topic {wanted} ({flag}); its {typename} "
+                                  f"topics: {have}")
+        if topics[wanted].msgtype not in types:
+            raise ValidationError(f"bag {path}: {flag} {wanted} is of type "
+                                  f"{topics[wanted].msgtype}, not {typename}")
+        name = wanted
+    elif len(cands) == 1:
+        name = next(iter(cands))
+    elif not cands:
+        have = "; ".join(_describe(n, i, duration) for n, i in topics.items()) or "no topics"
+        raise ValidationError(f"bag {path} has no {typename} topic ({what}); it has {have}")
+    else:
+        listing = "; ".join(_describe(n, i, duration) for n, i in cands.items())
+        raise ValidationError(f"bag {path} has {len(cands)} {typename} topics ({what}): "
+                              f"{listing}; choose one with {flag} TOPIC")
+    if topics[name].msgcount == 0:
+        raise ValidationError(f"bag {path}: topic {name} ({topics[name].msgtype}) holds no "
+                              f"messages")
+    return name
+
+
+def _stamp(msg, received_ns: int) -> int:
+    """A header stamp in ns, or the receive time where the stamp was left at zero."""
+    st = msg.header.stamp
+    ns = int(st.sec) * 1_000_000_000 + int(st.nanosec)
+    return ns if ns > 0 else received_ns
+
+
+def _read_messages(path, reader, cmd_name, odom_name):
+    """Stream the two topics: (command times ns, u_ref, w_ref, odometry stamps ns,
+    odometry receive times ns, u, w, whether the commands carry stamps)."""
+    conns = [c for c in reader.connections if c.topic in (cmd_name, odom_name)]
+    # compact growing arrays: 8 bytes a number, not a Python float's 24 or more
+    tc, to, tr = array("q"), array("q"), array("q")
+    uc, wc, uo, wo = array("d"), array("d"), array("d"), array("d")
+    stamped = False
+    for conn, t_ns, raw in reader.messages(connections=conns):
+        msg = reader.deserialize(raw, conn.msgtype)
+        if conn.topic == cmd_name:
+            if conn.msgtype.endswith("TwistStamped"):
+                stamped = True
+                tc.append(_stamp(msg, t_ns))
+                msg = msg.twist
+            else:
+                tc.append(t_ns)
+            uc.append(float(msg.linear.x))
+            wc.append(float(msg.angular.z))
+        else:
+            to.append(_stamp(msg, t_ns))
+            tr.append(t_ns)
+            uo.append(float(msg.twist.twist.linear.x))
+            wo.append(float(msg.twist.twist.angular.z))
+    return (np.frombuffer(tc, np.int64), np.frombuffer(uc), np.frombuffer(wc),
+            np.frombuffer(to, np.int64), np.frombuffer(tr, np.int64), np.frombuffer(uo),
+            np.frombuffer(wo), stamped)
+
+
+def read_bag(path, cmd: str | None = None, odom: str | None = None,
+             cmd_timeout: float | None = None) -> dict:
+    """Read a ROS recording of a robot as an identification log.
+
+    :param path: a ROS 2 bag folder (sqlite3 or MCAP), a single ``.mcap`` (or
+        ``.db3``) file, or a ROS 1 ``.bag`` file
+    :param cmd: the command topic; default the bag's one topic of type
+        ``geometry_msgs/Twist`` or ``TwistStamped``
+    :param odom: the odometry topic; default the bag's one ``nav_msgs/Odometry``
+        topic
+    :param cmd_timeout: seconds after the last command at which the robot's
+        driver stops it (command zero until the next one), > 0; default None:
+        each command is held until the next
+    :raises MissingDependency: without the rosbags package (``pip install
+        "unidyn[ros]"``)
+    :raises ValidationError: one line naming the file and what is wrong: not a
+        bag, unreadable (truncated or corrupt), no command or odometry topic (or
+        several, listed with type, message count and rate), an empty topic, or
+        too short to identify
+    :return: a dict of float arrays t (s, from the first command), u_ref, w_ref
+        (m/s, rad/s: the commands as held over each row's interval, see the
+        module's notes), u, w (m/s, rad/s: the odometry), as
+        :func:`~unidyn.identification.load_log` returns, plus ``"gap"`` (s, the
+        recording-gap threshold to pass to ``identify(..., gap=)``), ``"source"``
+        (the path), ``"cmd_topic"``, ``"cmd_type"``, ``"odom_topic"``,
+        ``"cmd_timeout"`` and ``"t0"`` (the first command's time, ns since the
+        epoch)
+
+    Example::
+
+        >>> log = read_bag("run1/")                          # doctest: +SKIP
+        >>> res = identify(log, gap=log["gap"])              # doctest: +SKIP
+    """
+    path = Path(os.fspath(path))
+    if cmd_timeout is not None:
+        cmd_timeout = positive("cmd_timeout", cmd_timeout)
+    for flag, v in (("cmd", cmd), ("odom", odom)):
+        if v is not None and (not isinstance(v, str) or not v.strip()):
+            raise ValidationError(f"{flag} must be a topic name such as /cmd_vel, got {v!r}")
+    _check_path(path)
+    AnyReader, typestore = _rosbags()
+    try:
+        with AnyReader([path], default_typestore=typestore) as reader:
+            topics = reader.topics
+            duration = reader.duration * 1e-9 if reader.message_count else 0.0
+            cmd_name = _choose(path, topics, cmd, COMMAND_TYPES, "the commands", "--cmd",
+                               duration)
+            odom_name = _choose(path, topics, odom, (ODOMETRY_TYPE,), "the measured velocities",
+                                "--odom", duration)
+            cmd_type = topics[cmd_name].msgtype
+            data = _read_messages(path, reader, cmd_name, odom_name)
+    except (ValidationError, MissingDependency, KeyboardInterrupt, MemoryError):
+        raise
+    except Exception as err:  # noqa: BLE001 - a damaged file fails in many ways
+        reason = " ".join(str(err).split()) or type(err).__name__
+        hint = " (a ROS 1 bag cut short needs 'rosbag reindex')" \
+            if path.suffix.lower() == ".bag" else ""
+        raise ValidationError(f"bag {path} cannot be read, truncated or corrupt?{hint}: "
+                              f"{reason[:200]}") from None
+    tc, uc, wc, to, tr, uo, wo, stamped = data
+    return _log_from_messages(path, tc, uc, wc, to, tr, uo, wo, stamped, cmd_timeout,
+                              {"cmd_topic": cmd_name, "cmd_type": cmd_type,
+                               "odom_topic": odom_name})
+
+
+def _log_from_messages(path, tc, uc, wc, to, tr, uo, wo, stamped, cmd_timeout, meta) -> dict:
+    """The log of the commands (times tc ns) and odometry (stamps to ns, received
+    tr ns): see :func:`read_bag`."""
+    cmd_name, odom_name = meta["cmd_topic"], meta["odom_topic"]
+    for name, arr in ((cmd_name, tc), (odom_name, to)):
+        if arr.size < 2:
+            raise ValidationError(f"bag {path}: topic {name} holds {arr.size} message(s); "
+                                  f"too short to identify")
+    # the recorder's clock against the odometry's stamps (a simulator's clock in the
+    # stamps, the wall clock in the bag): unstamped commands moved onto the stamps' clock
+    offset = int(np.median(tr - to))
+    if not stamped and abs(offset) > _CLOCK_OFFSET * 1e9:
+        warnings.warn(f"bag {path}: the odometry's stamps are {offset * 1e-9:.3g} s from the "
+                      f"times it was recorded (another clock, e.g. simulation time); the "
+                      f"unstamped commands of {cmd_name} are moved onto the stamps' clock "
+                      f"by that much", IdentificationWarning, stacklevel=3)
+        tc = tc - offset
+    # time order; a later message with the same stamp replaces an earlier command and
+    # repeats an odometry sample
+    oc = np.argsort(tc, kind="stable")
+    tc, uc, wc = tc[oc], uc[oc], wc[oc]
+    keep = np.append(tc[1:] != tc[:-1], True)
+    tc, uc, wc = tc[keep], uc[keep], wc[keep]
+    oo = np.argsort(to, kind="stable")
+    to, uo, wo = to[oo], uo[oo], wo[oo]
+    keep = np.insert(to[1:] != to[:-1], 0, True)
+    to, uo, wo = to[keep], uo[keep], wo[keep]
+    bad = ~(np.isfinite(uc) & np.isfinite(wc))
+    if bad.any():
+        raise ValidationError(f"bag {path}: {int(bad.sum())} command(s) on {cmd_name} are "
+                              f"NaN or inf")
+    bad = ~(np.isfinite(uo) & np.isfinite(wo))
+    if bad.any():
+        raise ValidationError(f"bag {path}: {int(bad.sum())} odometry message(s) on "
+                              f"{odom_name} hold NaN or inf velocities")
+    t0 = int(tc[0])
+    c_t = (tc - t0) * 1e-9
+    o_t = (to - t0) * 1e-9
+    if c_t.size < 2:
+        raise ValidationError(f"bag {path}: topic {cmd_name} holds one distinct command; too "
+                              f"short to identify")
+    period = float(np.median(np.diff(c_t)))
+    gap = GAP_PERIODS * period
+    # recording gaps: no message of either topic for GAP_PERIODS command periods
+    every = np.union1d(c_t, o_t)
+    steps = np.diff(every)
+    gaps = [(float(every[i]), float(every[i + 1])) for i in np.flatnonzero(steps > gap)]
+    # odometry rows are usable once a command is in force: after the first command,
+    # and after each gap from the first command following it
+    usable = o_t >= c_t[0]
+    for _, end in gaps:
+        j = np.searchsorted(c_t, end, "left")
+        first = c_t[j] if j < c_t.size else math.inf
+        usable &= ~((o_t >= end) & (o_t < first))
+    t, u, w = o_t[usable], uo[usable], wo[usable]
+    if t.size < _MIN_ROWS or c_t.size < _MIN_ROWS:
+        raise ValidationError(
+            f"bag {path}: too short to identify: {c_t.size} command(s) on {cmd_name} over "
+            f"{c_t[-1] - c_t[0]:.3g} s and {t.size} odometry message(s) on {odom_name} while "
+            f"commands were known; at least {_MIN_ROWS} of each are needed, and an accurate "
+            f"estimate needs a minute or more of varied commands")
+    u_ref = held_mean(c_t, uc, t, cmd_timeout)
+    w_ref = held_mean(c_t, wc, t, cmd_timeout)
+    return {"t": t, "u_ref": u_ref, "w_ref": w_ref, "u": u, "w": w, "gap": gap,
+            "source": str(path), **meta, "cmd_timeout": cmd_timeout, "t0": t0}
+
+
+def held_mean(c_t, c, t, timeout=None) -> np.ndarray:
+    """The commands a robot applied, as held values over the intervals of other
+    sample times: for each [t[k], t[k+1]) the mean of the command signal that
+    holds c[j] from c_t[j] until c_t[j+1] (until c_t[j] + ``timeout`` with a
+    timeout, zero after), computed exactly from its piecewise-linear integral;
+    for the last sample the command in force at t[-1].
+
+    :param c_t: command times, s, increasing
+    :param c: the commands (one of u_ref, m/s, or w_ref, rad/s), same length
+    :param t: sample times, s, increasing, none before c_t[0]
+    :param timeout: seconds after a command at which it stops acting, or None
+    """
+    span = np.diff(c_t)
+    if timeout is not None:
+        span = np.minimum(span, timeout)
+    F = np.concatenate([[0.0], np.cumsum(c[:-1] * span)])     # integral up to c_t[j]
+    j = np.searchsorted(c_t, t, "right") - 1
+    since = t - c_t[j]
+    active = since if timeout is None else np.minimum(since, timeout)
+    G = F[j] + c[j] * active                                  # integral up to t
+    out = np.empty(t.size)
+    out[:-1] = np.diff(G) / np.diff(t)
+    out[-1] = c[j[-1]] if timeout is None or since[-1] < timeout else 0.0
+    return out
+
