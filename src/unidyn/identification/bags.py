@@ -41,9 +41,9 @@ periods, the recording has a gap: the commands sent meanwhile are unknown. The
 log keeps the odometry on both sides; the rows after the gap start with the
 first odometry following the first command after it. :func:`identify` splits
 the log there into pieces, each with its own initial state, as it does at the
-gaps of a CSV log; the dict's ``"gap"`` entry is the threshold (s) to pass as
-``identify(log, gap=log["gap"])`` so that only such gaps split it (and not a
-single late odometry message, across which the commands are still known).
+gaps of a CSV log; the dict's ``"gap"`` entry is the threshold (s) that
+:func:`identify` uses for it, so that only such gaps split it (and not a single
+late odometry message, across which the commands are still known).
 """
 
 from __future__ import annotations
@@ -203,7 +203,8 @@ def read_bag(path, cmd: str | None = None, odom: str | None = None,
         (m/s, rad/s: the commands as held over each row's interval, see the
         module's notes), u, w (m/s, rad/s: the odometry), as
         :func:`~unidyn.identification.load_log` returns, plus ``"gap"`` (s, the
-        recording-gap threshold to pass to ``identify(..., gap=)``), ``"source"``
+        recording-gap threshold :func:`identify` uses), ``"stamp_jitter"`` (0:
+        samples are at their header stamps), ``"source"``
         (the path), ``"cmd_topic"``, ``"cmd_type"``, ``"odom_topic"``,
         ``"cmd_timeout"`` and ``"t0"`` (the first command's time, ns since the
         epoch)
@@ -211,7 +212,7 @@ def read_bag(path, cmd: str | None = None, odom: str | None = None,
     Example::
 
         >>> log = read_bag("run1/")                          # doctest: +SKIP
-        >>> res = identify(log, gap=log["gap"])              # doctest: +SKIP
+        >>> res = identify(log)                              # doctest: +SKIP
     """
     path = Path(os.fspath(path))
     if cmd_timeout is not None:
@@ -309,7 +310,7 @@ def _log_from_messages(path, tc, uc, wc, to, tr, uo, wo, stamped, cmd_timeout, m
     u_ref = held_mean(c_t, uc, t, cmd_timeout)
     w_ref = held_mean(c_t, wc, t, cmd_timeout)
     return {"t": t, "u_ref": u_ref, "w_ref": w_ref, "u": u, "w": w, "gap": gap,
-            "source": str(path), **meta, "cmd_timeout": cmd_timeout, "t0": t0}
+            "stamp_jitter": 0.0, "source": str(path), **meta, "cmd_timeout": cmd_timeout, "t0": t0}
 
 
 def held_mean(c_t, c, t, timeout=None) -> np.ndarray:

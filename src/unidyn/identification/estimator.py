@@ -608,6 +608,7 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
         if not isinstance(v, (bool, np.bool_)):
             raise ValidationError(f"{flag} must be True or False, got {_short(v)}")
     logs = (log,) + more_logs
+    gap, stamp_jitter = _recorded_settings(logs, gap, stamp_jitter)
     D, segs, _, sources = join_logs(logs, columns, gap, time_unit)
     t, u_ref, w_ref, u, w = (D[k] for k in COLUMNS)
     _check_excitation(u_ref, w_ref)
@@ -734,6 +735,22 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
     if validate:
         res = _with_validation(res, D, segs)
     return _emit(res)
+
+
+def _recorded_settings(logs, gap, stamp_jitter):
+    """``gap`` and ``stamp_jitter`` where a log says them and the caller did not.
+
+    A log read from a ROS bag (:func:`~unidyn.identification.read_bag`) carries
+    its recording-gap threshold and ``stamp_jitter = 0``: its samples are at
+    their header stamps, irregular but exact, so no widening is due.
+    """
+    said = [lg for lg in logs if isinstance(lg, dict) and "gap" in lg]
+    if said and len(said) == len(logs):
+        if gap is None:
+            gap = max(float(lg["gap"]) for lg in said)
+        if stamp_jitter is None and all("stamp_jitter" in lg for lg in said):
+            stamp_jitter = max(float(lg["stamp_jitter"]) for lg in said)
+    return gap, stamp_jitter
 
 
 def _stamp_jitter(t, segs) -> float:
