@@ -245,7 +245,7 @@ class Scenario:
 
     @cached_property
     def reference_scale(self) -> tuple:
-        """(max |h_d|, max |h_d'|, max |h_d''|) of the reference over [0, T], from
+        r"""(max \|h_d\|, max \|h_d'\|, max \|h_d''\|) of the reference over [0, T], from
         257 evenly spaced samples (non-finite samples are ignored)."""
         t = np.linspace(0.0, self.T, _SCALE_POINTS)
         tr = self.trajectory
@@ -261,7 +261,7 @@ class Scenario:
         return tuple(out)
 
     def divergence_bounds(self) -> np.ndarray:
-        r"""[|(x, y)| bound in m, |u| bound in m/s, |w| bound in rad/s]: a state beyond
+        r"""[\|(x, y)\| bound in m, \|u\| bound in m/s, \|w\| bound in rad/s]: a state beyond
         one of these has diverged (both engines stop the run there).
 
         Each is :data:`DIVERGENCE_FACTOR` times a physical scale: the speed limits,
