@@ -42,10 +42,18 @@ templates_path = []
 # -- MyST and notebooks -------------------------------------------------------------
 myst_enable_extensions = ["dollarmath", "colon_fence", "deflist"]
 myst_heading_anchors = 3
-# The notebooks of examples/ are stored without outputs and the test suite executes
-# them (tests/test_notebooks.py, about two minutes); the site renders them as stored,
-# so a build takes seconds and needs no kernel.
-nb_execution_mode = "off"
+# The notebooks of examples/ are stored without outputs, and the test suite executes
+# them all (tests/test_notebooks.py). The build executes only the two that take
+# seconds, in a temporary folder; the others take minutes and are rendered as stored
+# (code and text, no outputs).
+EXECUTED_NOTEBOOKS = ("01_model", "04_toolbox_dropin")
+nb_execution_mode = "force"
+nb_execution_in_temp = True
+nb_execution_timeout = 120
+nb_execution_raise_on_error = True
+nb_execution_excludepatterns = [f"notebooks/{p.stem}.ipynb"
+                                for p in sorted((ROOT / "examples").glob("*.ipynb"))
+                                if p.stem not in EXECUTED_NOTEBOOKS]
 
 # -- autodoc ------------------------------------------------------------------------
 autodoc_member_order = "bysource"

@@ -169,6 +169,9 @@ def test_built_site_holds_every_notebook_and_guide(built):
     for nb in NOTEBOOKS:
         assert (built / "notebooks" / f"{nb.stem}.html").is_file(), f"{nb.name} is not in the site"
         assert f"{nb.stem}.html" in index
+    # the notebooks the build runs show their figures
+    for stem in ("01_model", "04_toolbox_dropin"):
+        assert "<img" in _text(built / "notebooks" / f"{stem}.html"), f"{stem} shows no output"
     for g in GUIDES:
         assert (built / "guides" / f"{g.stem}.html").is_file()
     assert (built / "_generated" / "step_responses.png").is_file() or \
