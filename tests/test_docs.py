@@ -96,7 +96,8 @@ def _sources():
 def test_reference_sources_name_every_public_name():
     text = (DOCS / "reference" / "api.rst").read_text(encoding="utf-8")
     for name in _public_names():
-        assert re.search(rf"(::|:mod:`) *unidyn\.{re.escape(name)}\b", text) or \
+        # api.rst documents inside the unidyn module: a name there is unidyn.NAME
+        assert re.search(rf"(::|:mod:`) *(unidyn\.)?{re.escape(name)}\b", text) or \
             re.search(rf"automodule:: unidyn\.{re.escape(name)}\b", _sources()), \
             f"unidyn.{name} is not in the reference"
 
