@@ -101,23 +101,19 @@ def repair_docstring(app, what, name, obj, options, lines):
               or (name if what == "module" else ""))
     if not str(module).startswith(REPAIRED_MODULES):
         return
-    out, in_fields = [], False
+    out, field_indent = [], None
     for line in lines:
-        line = re.sub(r"(?<![\\`])\|(?!`)", r"\\|", line)
+        line = re.sub(r"(?<![\\`])\|(?!`)", r"\\|", line)   # |x| is an absolute value
         indent = len(line) - len(line.lstrip())
         if _FIELD.match(line):
-            if out and out[-1].strip() and not in_fields:
-                out.append("")
-            in_fields = True
-        elif in_fields and line.strip() and indent <= (len(out[-1]) - len(out[-1].lstrip())
-                                                       if out and out[-1].strip() else 0) \
-                and not line.lstrip().startswith(":"):
-            field_indent = min((len(l) - len(l.lstrip())) for l in out if _FIELD.match(l))
-            if indent <= field_indent:
-                out.append("")
-                in_fields = False
+            if out and out[-1].strip() and field_indent is None:
+                out.append("")            # a field list starts after a blank line
+            field_indent = indent
+        elif field_indent is not None and line.strip() and indent <= field_indent:
+            out.append("")                # ... and ends before one
+            field_indent = None
         elif not line.strip():
-            in_fields = False
+            field_indent = None
         out.append(line)
     lines[:] = out
 
