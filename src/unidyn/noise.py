@@ -59,8 +59,8 @@ def held_sequence(seed, std: float, n: int, dim: int = 2, out=None) -> np.ndarra
 
     numpy's ``Generator`` keeps no state between calls beyond its bit generator, so one
     draw of shape (n, dim) is the same numbers as n draws of dim, in order
-    (``tests/test_model.py`` checks it), and 100x faster. ``out``: an array to draw
-    into, in place of a new one."""
+    (``tests/test_model.py`` checks it), in one call instead of n. ``out``: an array to
+    draw into, in place of a new one."""
     return HeldNoise(seed, std).draw(np.empty((n, dim)) if out is None else out)
 
 

@@ -39,8 +39,9 @@ DEFAULT_U_MAX = 1.2
 #: Angular-speed range (rad/s) of the grid used for properties 5 and 7: the
 #: limit of the paper's simulations (Section 5, :data:`unidyn.PAPER_LIMITS`).
 DEFAULT_W_MAX = float(model.PAPER_LIMITS.steer_max)
-#: Property 6 reads "theta6 >> |(theta5 - theta3) u|"; it is reported as holding
-#: when max |(theta5 - theta3) u| / theta6 over the speed range is below this.
+#: Property 6 reads :math:`\theta_6 \gg |(\theta_5 - \theta_3) u|`; it is reported as
+#: holding when :math:`\max |(\theta_5 - \theta_3) u| / \theta_6` over the speed range
+#: is below this.
 CONSTANT_F_TOLERANCE = 0.1
 
 # Relative tolerance of the identities (properties 4, 5 and Theorem 1's balance),

@@ -44,11 +44,11 @@ OPTIONAL_SERIES = ("v_d", "v_ref", "theta_hat")
 _SERIES_WIDTH = {"pose": 3, "velocity": 2, "reference": 2, "v_d": 2, "v_ref": 2, "theta_hat": 6}
 #: The most samples (T/Ts) one run may integrate, and the most bytes its log may
 #: hold (:meth:`Scenario.logged_bytes` per logged sample, times T/Ts/log_every).
-#: Measured by benchmarks/engines.py: a run takes about 160 MB to start, 32 MB for
-#: its held noise (drawn a window at a time), and its log (152 bytes per logged
-#: sample with every series in float64, 80 in float32, 72 and 40 with only the
-#: series that are always logged); writing its files streams them. So a run stays
-#: within about 1 GB.
+#: A run's memory is mostly its log (152 bytes per logged sample with every series
+#: in float64, 80 in float32, 72 and 40 with only the series that are always
+#: logged); the held noise is drawn a window at a time and the files are written by
+#: streaming, so with these bounds a run stays within about 1 GB
+#: (``python benchmarks/engines.py --memory`` measures it).
 MAX_SAMPLES = 10_000_000
 MAX_LOG_BYTES = 800_000_000
 #: A state this many times beyond its physical scale (the speed limits, or the
@@ -245,7 +245,7 @@ class Scenario:
 
     @cached_property
     def reference_scale(self) -> tuple:
-        """(max |h_d|, max |h_d'|, max |h_d''|) of the reference over [0, T], from
+        r"""(max \|h_d\|, max \|h_d'\|, max \|h_d''\|) of the reference over [0, T], from
         257 evenly spaced samples (non-finite samples are ignored)."""
         t = np.linspace(0.0, self.T, _SCALE_POINTS)
         tr = self.trajectory
@@ -261,7 +261,7 @@ class Scenario:
         return tuple(out)
 
     def divergence_bounds(self) -> np.ndarray:
-        r"""[|(x, y)| bound in m, |u| bound in m/s, |w| bound in rad/s]: a state beyond
+        r"""[\|(x, y)\| bound in m, \|u\| bound in m/s, \|w\| bound in rad/s]: a state beyond
         one of these has diverged (both engines stop the run there).
 
         Each is :data:`DIVERGENCE_FACTOR` times a physical scale: the speed limits,

@@ -1,0 +1,179 @@
+"""The documentation site: its guides' code runs, its reference lists everything
+public, and ``python -m sphinx -W`` builds it.
+
+- Every fenced block of docs/guides/*.md runs as the README's do (the machinery of
+  tests/test_readme.py: ``python`` blocks in a fresh interpreter, ``sh`` commands in a
+  working folder holding a copy of examples/); they take seconds each: slow tier.
+- The reference's sources name every name of ``unidyn.__all__`` (and every name
+  ``import unidyn`` makes available), every block class of unidyn.blocks and every
+  notebook of examples/ (fast: no build).
+- The site builds with warnings as errors, from the command the README and .ci/run
+  name, into a temporary folder, and the built pages hold every public name, every
+  block under its bdsim name, every subcommand of ``unidyn`` and every notebook
+  (slow tier; needs the ``docs`` extra).
+"""
+
+import html
+import inspect
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import test_readme as readme
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = ROOT / "docs"
+GUIDES = sorted((DOCS / "guides").glob("*.md"))
+GUIDE_BLOCKS = [b for g in GUIDES for b in readme.markdown_blocks(g)]
+NOTEBOOKS = sorted((ROOT / "examples").glob("*.ipynb"))
+SLOW = [pytest.mark.slow]
+
+
+def _public_names():
+    import unidyn
+    names = set(unidyn.__all__) | {n for n in unidyn._LAZY if not n.startswith("_")}
+    return sorted(names)
+
+
+def _block_classes():
+    """Every bdsim block class defined in unidyn.blocks (robots, controllers, sources)."""
+    from bdsim.components import Block
+
+    from unidyn.blocks import controllers, robots, sources
+    found = {}
+    for mod in (robots, controllers, sources):
+        for name, obj in vars(mod).items():
+            if (inspect.isclass(obj) and issubclass(obj, Block) and obj.__module__ == mod.__name__
+                    and not name.startswith("_")):
+                found[name] = obj
+    return found
+
+
+def _subcommands():
+    from unidyn.cli import _parser
+    for action in _parser()._actions:
+        if isinstance(getattr(action, "choices", None), dict):   # the subcommands
+            return sorted(action.choices)
+    return []
+
+
+# ------------------------------------------------------------------ the guides' code
+
+def test_guides_exist_and_their_blocks_have_known_languages():
+    assert len(GUIDES) >= 8, GUIDES
+    for g in GUIDES:
+        blocks = readme.markdown_blocks(g)
+        runnable = [b for b in blocks if b.lang in ("python", "sh", "toml")]
+        assert runnable, f"{g.name}: a guide shows code that runs"
+        readme.check_languages(blocks)
+        readme.check_includes(blocks)
+
+
+@pytest.mark.parametrize("block", readme.runnable("python", GUIDE_BLOCKS, SLOW))
+def test_guide_python_block_runs(block, tmp_path):
+    readme.run_python_block(block, tmp_path)
+
+
+@pytest.mark.parametrize("block,k", readme.sh_params(GUIDE_BLOCKS))
+def test_guide_sh_command_runs(block, k, tmp_path_factory):
+    readme.run_sh_command(block, k, _SH_WORKSPACES, tmp_path_factory)
+
+
+_SH_WORKSPACES: dict = {}
+
+
+# --------------------------------------------------------- the reference, unbuilt
+
+def _sources():
+    return "\n".join(p.read_text(encoding="utf-8")
+                     for p in sorted(DOCS.rglob("*")) if p.suffix in (".rst", ".md")
+                     and "_build" not in p.parts)
+
+
+def test_reference_sources_name_every_public_name():
+    text = (DOCS / "reference" / "api.rst").read_text(encoding="utf-8")
+    for name in _public_names():
+        # api.rst documents inside the unidyn module: a name there is unidyn.NAME
+        assert re.search(rf"(::|:mod:`) *(unidyn\.)?{re.escape(name)}\b", text) or \
+            re.search(rf"automodule:: unidyn\.{re.escape(name)}\b", _sources()), \
+            f"unidyn.{name} is not in the reference"
+
+
+def test_reference_sources_name_every_block():
+    text = (DOCS / "reference" / "blocks.rst").read_text(encoding="utf-8")
+    for name, cls in _block_classes().items():
+        assert re.search(rf"autoclass:: unidyn\.blocks\.(\w+\.)?{name}\n", text), \
+            f"block {name} ({name.upper()}) is not in docs/reference/blocks.rst"
+        assert f":blockname:`{name.upper()}`" in (cls.__doc__ or ""), \
+            f"{name}'s docstring does not name the block as bdsim does (:blockname:)"
+
+
+def test_cli_reference_is_generated_from_the_parser():
+    text = (DOCS / "reference" / "cli.rst").read_text(encoding="utf-8")
+    assert ".. argparse::" in text and ":func: cli_parser" in text
+
+
+# ------------------------------------------------------------------------ the build
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    pytest.importorskip("sphinx", reason="the docs extra: pip install -e '.[docs]'")
+    pytest.importorskip("myst_nb", reason="the docs extra: pip install -e '.[docs]'")
+    pytest.importorskip("sphinxarg", reason="the docs extra: pip install -e '.[docs]'")
+    out = tmp_path_factory.mktemp("html")
+    args = readme.DOCS_BUILD[:-1] + [str(out)]       # the README's command, into a temporary folder
+    r = subprocess.run([sys.executable, *args], cwd=ROOT, capture_output=True, text=True,
+                       env=readme._env(), timeout=900)
+    assert r.returncode == 0, (r.stdout[-3000:] + "\n" + r.stderr[-5000:])
+    return out
+
+
+def _text(path):
+    return html.unescape(path.read_text(encoding="utf-8"))
+
+
+@pytest.mark.slow
+def test_built_reference_holds_every_public_name(built):
+    pages = _text(built / "reference" / "api.html") + "".join(
+        _text(p) for p in (built / "reference" / "modules").glob("*.html"))
+    for name in _public_names():
+        assert (f'id="unidyn.{name}"' in pages or f'id="module-unidyn.{name}"' in pages), \
+            f"unidyn.{name} has no entry in the built reference"
+
+
+@pytest.mark.slow
+def test_built_reference_holds_every_block(built):
+    page = _text(built / "reference" / "blocks.html")
+    for name, cls in _block_classes().items():
+        assert re.search(rf'id="{re.escape(cls.__module__)}\.{name}"|id="unidyn\.blocks\.{name}"',
+                         page), f"block class {name} is not in the built blocks page"
+        assert f'id="block-{name.lower()}"' in page and name.upper() in page
+        assert "Port type" in page
+
+
+@pytest.mark.slow
+def test_built_cli_reference_holds_every_subcommand(built):
+    page = _text(built / "reference" / "cli.html")
+    subs = _subcommands()
+    assert {"run", "sweep", "robots", "properties", "identify"} <= set(subs)
+    for sub in subs:
+        assert re.search(rf"<h\d[^>]*>\s*{sub}\b", page), f"unidyn {sub} is not in the built CLI page"
+
+
+@pytest.mark.slow
+def test_built_site_holds_every_notebook_and_guide(built):
+    assert NOTEBOOKS
+    index = _text(built / "notebooks" / "index.html")
+    for nb in NOTEBOOKS:
+        assert (built / "notebooks" / f"{nb.stem}.html").is_file(), f"{nb.name} is not in the site"
+        assert f"{nb.stem}.html" in index
+    # the notebooks the build runs show their figures
+    for stem in ("01_model", "04_toolbox_dropin"):
+        assert "<img" in _text(built / "notebooks" / f"{stem}.html"), f"{stem} shows no output"
+    for g in GUIDES:
+        assert (built / "guides" / f"{g.stem}.html").is_file()
+    assert (built / "_generated" / "step_responses.png").is_file() or \
+        (built / "_images" / "step_responses.png").is_file()
