@@ -195,6 +195,13 @@ def _build_scenario(args):
     return sc, engine
 
 
+def _out(text: str) -> Path:
+    """--out as given, once it is known to name a folder (or nothing yet)."""
+    from .outdir import output_folder
+    output_folder(text)  # one line for an empty --out or a file
+    return Path(text)
+
+
 def _import_animation():
     import importlib
     try:
@@ -224,7 +231,7 @@ def _cmd_run(args) -> int:
         raise ValidationError(f"engine must be 'bdsim', 'batch' or 'auto', got {engine!r}")
     if engine == "auto":  # the batch engine where it applies: same numbers, far faster
         engine = "batch" if sc.control == "continuous" else "bdsim"
-    out = Path(args.out)
+    out = _out(args.out)
     animation = _import_animation() if args.animate else None
     # the new results are written into a private folder inside `out` and moved into
     # place only once complete; an error or an interrupt leaves `out` as it was
@@ -371,9 +378,8 @@ def _cmd_sweep(args) -> int:
                 spec = dataclasses.replace(spec, substeps=args.substeps)
         except ValidationError as err:
             raise ValidationError(f"{args.sweep}: {err}") from None
-    from .outdir import output_folder, record_files
-    out = Path(args.out)
-    output_folder(out)  # one line for an empty --out or a file
+    from .outdir import record_files
+    out = _out(args.out)
     n = len(spec)
     if args.dask is None:
         client, close = None, None
@@ -514,7 +520,7 @@ def _cmd_identify(args) -> int:
     for k in ("smoothing", "window", "name", "gap"):
         if getattr(args, k) is not None:
             kwargs[k] = getattr(args, k)
-    out = Path(args.out)
+    out = _out(args.out)
     owned = ("theta.json", "validation.json", "validation.png")
     staging = staged_output(out, kind="identify", overwrite=args.overwrite,
                             results=("theta.json",), what="identification results", owned=owned)

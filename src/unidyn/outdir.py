@@ -56,6 +56,7 @@ __all__ = ["Stage", "staged_output", "FolderLock", "FolderInUse", "LOCK_NAME",
 #: The lock file that marks a folder as being written by a unidyn process.
 LOCK_NAME = ".unidyn.lock"
 _PREFIX = ".unidyn"  # the lock, manifests and private folders: never a result file
+_STAGES: set = set()  # the private folders being written by this process
 
 
 class FolderInUse(ValidationError):
@@ -238,6 +239,9 @@ def staged_output(out, *, overwrite: bool, results, what: str = "results", owned
         false; :class:`FolderInUse` if another process holds ``out``'s lock
     """
     final = output_folder(out, option)
+    if final in _STAGES:  # called by code writing into a stage (save() by a command)
+        yield Stage(final)
+        return
     created = not final.exists()
     final.mkdir(parents=True, exist_ok=True)
     try:
@@ -254,6 +258,7 @@ def staged_output(out, *, overwrite: bool, results, what: str = "results", owned
                                       f"{what} are complete) or choose another {option}")
             stage = Stage(Path(tempfile.mkdtemp(prefix=f"{_PREFIX}-{kind}-new-", dir=final)),
                           held=held)
+            _STAGES.add(stage.path)
             try:
                 yield stage
                 with _interrupts_deferred():
@@ -264,6 +269,7 @@ def staged_output(out, *, overwrite: bool, results, what: str = "results", owned
                     raise _disk_full(err, stage, out, final) from None
                 raise
             finally:
+                _STAGES.discard(stage.path)
                 shutil.rmtree(stage.path, ignore_errors=True)
     except BaseException:
         if created:  # nothing was written: leave no empty folder behind

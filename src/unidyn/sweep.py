@@ -491,7 +491,8 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
     if chunk_size is None:
         chunk_size = DEFAULT_CHUNK[engine]
     chunk_size = integer("chunk_size", chunk_size, 1)
-    out = output_folder(out_dir, "out_dir")  # a symbolic link: its target
+    out = Path(out_dir)
+    output_folder(out, "out_dir")  # one line for an empty name or a file
     record = _spec_record(sweep, engine)
     if dask_address is None:
         client, close = None, None
@@ -523,7 +524,7 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
                     _detail(err, f"{out} is as it was ({_rows_named(rows_held)}); the new "
                                  f"sweep's rows were discarded")
                     raise
-                run.out_dir = Path(out_dir)
+                run.out_dir = out
                 run.replaced = tuple(rows_held)
                 return run
             except BaseException:
