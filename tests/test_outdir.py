@@ -121,13 +121,16 @@ def test_overwrite_replaces_the_results_files_and_keeps_foreign_ones(tmp_path):
 
 def test_a_folder_of_the_user_is_not_replaced_by_a_result_of_that_name(tmp_path):
     out = tmp_path / "out"
-    (out / "summary.json").mkdir(parents=True)
-    (out / "summary.json" / "mine.txt").write_text("mine")
+    with staged_output(out, overwrite=False, results=RESULTS) as st:
+        _write(st.path, 1)
+    (out / "extra.csv").mkdir()
+    (out / "extra.csv" / "mine.txt").write_text("mine")
     with pytest.raises(ValidationError, match="did not write"):
         with staged_output(out, overwrite=True, results=RESULTS) as st:
-            _write(st.path, 1)
-    assert (out / "summary.json" / "mine.txt").read_text() == "mine"
-    assert sorted(p.name for p in out.iterdir()) == ["summary.json"]
+            _write(st.path, 2, names=RESULTS + ("extra.csv",))
+    assert (out / "extra.csv" / "mine.txt").read_text() == "mine" and _generations(out) == {1}
+    assert sorted(p.name for p in out.iterdir()) == [".unidyn-results.json", "extra.csv",
+                                                     *sorted(RESULTS)]
 
 
 def test_partial_results_never_replace_complete_ones(tmp_path):
@@ -335,3 +338,19 @@ def test_sigterm_during_the_renames_is_held_back_then_delivered():
         signal.signal(signal.SIGTERM, previous)
         cli._TERMINATED.clear()  # the command's records of a signal, for the next tests
         cli._SIGNALLED.clear()
+
+
+def test_a_folder_the_command_wrote_is_replaced_whole(tmp_path):
+    """A script's results may be folders (one per case): the earlier one goes whole,
+    a folder of the user's beside it stays."""
+    out = tmp_path / "out"
+    (out / "mine").mkdir(parents=True)
+    (out / "mine" / "m.txt").write_text("mine")
+    for gen, names in ((1, ("a.csv", "b.csv")), (2, ("a.csv",))):
+        with staged_output(out, overwrite=True, results=("case1",)) as st:
+            (st.path / "case1").mkdir()
+            for n in names:
+                (st.path / "case1" / n).write_text(str(gen))
+    assert sorted(os.listdir(out / "case1")) == ["a.csv"]
+    assert (out / "case1" / "a.csv").read_text() == "2"
+    assert (out / "mine" / "m.txt").read_text() == "mine" and _private(out) == []

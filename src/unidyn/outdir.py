@@ -289,12 +289,11 @@ def _commit(stage: Stage, out: Path, kind, owned, what, hashes) -> Path:
         target = out.with_name(out.name + ".incomplete")
         target.mkdir(exist_ok=True)
     old = _read_manifest(target, kind)
-    earlier = set(owned if old is None else old["files"])
-    listed = set(() if old is None else old["files"])  # a folder is ours only if listed
+    earlier = set(owned if old is None else old["files"])  # the earlier result's names
     new = sorted(n for n in os.listdir(stage.path) if not n.startswith(_PREFIX))
     for n in new:
         p = target / n
-        if p.is_dir() and not p.is_symlink() and n not in listed:
+        if p.is_dir() and not p.is_symlink() and n not in earlier:
             raise ValidationError(f"{p} is a folder that these {what} did not write; "
                                   f"{target} is as it was")
     run_id = uuid.uuid4().hex
@@ -309,8 +308,7 @@ def _commit(stage: Stage, out: Path, kind, owned, what, hashes) -> Path:
     for n in sorted(earlier - set(new)):
         p = target / n
         if p.is_dir() and not p.is_symlink():
-            if n in listed:
-                shutil.rmtree(p, ignore_errors=True)
+            shutil.rmtree(p, ignore_errors=True)
         elif p.is_file() or p.is_symlink():
             p.unlink()
     _write_manifest(target, kind, files, True, run_id)
