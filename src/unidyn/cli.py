@@ -202,6 +202,13 @@ def _out(text: str) -> Path:
     return Path(text)
 
 
+def _shown(out: Path, final) -> Path:
+    """Where results went, as the user named it: ``out`` when they went there (its
+    link's target, for a symbolic link), else the folder's full path."""
+    from .outdir import output_folder
+    return out if Path(final) == output_folder(out) else Path(final)
+
+
 def _import_animation():
     import importlib
     try:
@@ -282,18 +289,15 @@ def _run_staged(staging, sc, engine, out, animation):
         if animation is not None and not interrupted:
             animation.animate(result, stage.path / "animation.gif")
     if interrupted:
-        from .outdir import output_folder
         kept = (f"; {out} keeps its previous results" if stage.held else "")
-        where = out if stage.final == output_folder(out) else stage.final
         raise _Interrupted(f"interrupted at t = {float(result.t[-1]):g} s of {sc.T:g} s; the "
-                           f"part computed is in {where} (timeseries.csv and summary.json, complete: "
+                           f"part computed is in {_shown(out, stage.final)} (timeseries.csv and summary.json, complete: "
                            f"false; no figures){kept}")
     return stage, result, wall, replaced
 
 
 def _run_summary(sc, out, stage, result, wall, replaced, animation) -> int:
-    from .outdir import output_folder
-    final = out if stage.final == output_folder(out) else Path(stage.final)
+    final = _shown(out, stage.final)
     print(f"case       {sc.case}" + (f"  ({_short_name(sc.name)})" if sc.name else ""))
     print(f"robot      {sc.robot.name}")
     backend = getattr(result, "backend", "")

@@ -205,6 +205,7 @@ class Stage:
     :ivar final: after the block, where the files are (``out``, or
         ``<out>.incomplete`` for a partial result beside complete ones)
     :ivar partial: why the results are partial ("" when complete)
+    :ivar moving: files are being (or were) moved into place
     """
 
     path: Path
