@@ -74,7 +74,8 @@ class FolderLock:
 
         def write_pid(fd):
             os.ftruncate(fd, 0)
-            os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+            os.lseek(fd, 0, os.SEEK_SET)
+            os.write(fd, f"{os.getpid()}\n".encode())
         self._lock = filelock.FileLock(self.path, timeout=0, on_acquired=write_pid)
         for _ in range(20):  # a holder that released meanwhile removed the file: again
             try:
@@ -85,6 +86,8 @@ class FolderLock:
                     pid = self.path.read_text(errors="replace").strip() or "unknown"
                 except FileNotFoundError:
                     continue
+                except OSError:  # locked for reading too (Windows)
+                    pid = "unknown"
                 raise FolderInUse(f"{folder} is being written by another unidyn process "
                                   f"(PID {pid}, lock {self.path}); wait for it to finish or "
                                   f"choose another output folder") from None
@@ -92,7 +95,7 @@ class FolderLock:
 
     def release(self) -> None:
         if self._lock.is_locked:  # removed while held: a waiter on it then tries afresh
-            with contextlib.suppress(FileNotFoundError):
+            with contextlib.suppress(OSError):  # (Windows: filelock removes it)
                 self.path.unlink()
             self._lock.release()
 
