@@ -291,7 +291,8 @@ def _run_staged(staging, sc, engine, out, animation):
     if interrupted:
         kept = (f"; {out} keeps its previous results" if stage.held else "")
         raise _Interrupted(f"interrupted at t = {float(result.t[-1]):g} s of {sc.T:g} s; the "
-                           f"part computed is in {_shown(out, stage.final)} (timeseries.csv and summary.json, complete: "
+                           f"part computed is in {_shown(out, stage.final)} (timeseries.csv "
+                           f"and summary.json, complete: "
                            f"false; no figures){kept}")
     return stage, result, wall, replaced
 

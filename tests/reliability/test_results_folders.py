@@ -246,3 +246,27 @@ def test_sweep_messages_speak_in_flags(tmp_path):
     code, _, err = cli(tmp_path, "sweep", f, "--out", "S", "--no-progress", "--overwrite")
     assert code == 0, err
     assert json.loads(record.read_text())["finished"] is True
+
+
+def test_sweep_and_identify_into_the_working_folder_touch_only_their_files(tmp_path):
+    """``unidyn sweep --out .`` started over, ``unidyn identify --out .`` replaced: the
+    working folder stays the same folder, with the user's files byte for byte."""
+    from .test_nothing_lost import write_log
+    cwd = tmp_path / "work"
+    cwd.mkdir()
+    users_files(cwd)
+    write_log(cwd / "log.csv", 1, T=20.0)
+    (cwd / "s.toml").write_text('[base]\ncase = "kinematic"\nT = 0.5\nnoise = "off"\n'
+                                '[grid]\nkx = [1.0, 2.0]\n')
+    mine, inode = tree(cwd), cwd.stat().st_ino
+    ours = {"metrics.csv", "sweep.json", ".sweep-id", "metrics.png", ".unidyn-sweep.json",
+            "theta.json", "validation.json", "validation.png", ".unidyn-identify.json"}
+    for extra in ([], ["--no-resume", "--overwrite"]):
+        code, _, err = cli(cwd, "sweep", "s.toml", "--out", ".", "--no-progress", *extra)
+        assert code == 0, err
+    for extra in ([], ["--overwrite"]):
+        code, _, err = cli(cwd, "identify", "log.csv", "--out", ".", *extra)
+        assert code == 0, err
+    assert tree(cwd, ours) == mine and cwd.stat().st_ino == inode
+    assert set(os.listdir(cwd)) == set(mine) - {"data/raw.csv", "data/deep/x.bin"} | {
+        "data"} | ours
