@@ -128,7 +128,7 @@ def test_an_overwrite_says_what_it_replaced(tmp_path, capsys):
     assert "theta_hat.png" in text  # the adaptive run's figure, gone now
     assert sorted(p.name for p in out.iterdir()) == sorted(
         ["notes.txt", "timeseries.csv", "summary.json", "path.png", "error.png",
-         "positions.png", "velocities.png"])
+         "positions.png", "velocities.png", ".unidyn-run.json"])  # the manifest
     assert json.loads((out / "summary.json").read_text())["scenario"]["T"] == 2.0
 
 

@@ -84,7 +84,7 @@ def test_failed_identification_keeps_the_old_results(tmp_path, capsys):
     assert notice.startswith("unidyn: replacing") and "kept as they are if it fails" in notice
     one_line_error(err, "bad.csv line 31, column 'u_ref'")
     assert (out / "theta.json").read_bytes() == before
-    assert sorted(p.name for p in out.iterdir()) == ["theta.json"]
+    assert sorted(p.name for p in out.iterdir()) == [".unidyn-identify.json", "theta.json"]
     # without --overwrite nothing is replaced either, and the message says how
     code, _, err = run(capsys, "identify", good, "--out", out)
     assert code == 2
@@ -102,7 +102,8 @@ def test_several_logs_no_validate_columns_and_convention(tmp_path, capsys):
     code, out, err = run(capsys, "identify", a, b, "--columns", cols, "--no-validate",
                          "--out", tmp_path / "I")
     assert code == 0, err
-    assert sorted(p.name for p in (tmp_path / "I").iterdir()) == ["theta.json"]
+    assert sorted(p.name for p in (tmp_path / "I").iterdir()) == [".unidyn-identify.json",
+                                                                   "theta.json"]
     theta = json.loads((tmp_path / "I" / "theta.json").read_text())
     assert theta["n_logs"] == 2 and theta["segments"] == 2
     # the wrong convention is named in the command line's own words
@@ -175,4 +176,5 @@ def test_overwrite_says_first_what_it_replaces_and_leaves_no_stale_file(tmp_path
     assert code == 0, err
     assert "replacing" in err and "theta.json, validation.json, validation.png" in err
     assert "replaced   the previous theta.json, validation.json, validation.png" in out
-    assert sorted(f.name for f in (tmp_path / "I").iterdir()) == ["theta.json"]
+    assert sorted(f.name for f in (tmp_path / "I").iterdir()) == [".unidyn-identify.json",
+                                                                   "theta.json"]

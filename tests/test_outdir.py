@@ -1,5 +1,5 @@
-"""All-or-nothing output folders (unidyn.outdir): refusals, interruptions, partial
-results, foreign files, and processes killed at random moments."""
+"""Output folders (unidyn.outdir): refusals, interruptions, partial results, foreign
+files, manifests, the lock, and processes killed at random moments."""
 
 import json
 import os
@@ -33,16 +33,26 @@ def _siblings(tmp_path, out):
     return sorted(p.name for p in tmp_path.iterdir() if p.name != out.name)
 
 
-def test_fresh_folder_is_created_with_the_usual_mode(tmp_path):
+def _private(out):
+    """What a writer keeps for itself in ``out`` while it works (its folders, the
+    lock): nothing once it is done."""
+    return sorted(p.name for p in out.iterdir() if p.name.startswith(".unidyn")
+                  and not p.name.endswith("-results.json"))
+
+
+def test_fresh_folder_is_created_with_the_usual_mode_and_a_manifest(tmp_path):
     out = tmp_path / "a" / "b"
     with staged_output(out, overwrite=False, results=RESULTS) as st:
-        assert st.path.parent == out.parent and st.path != out
+        assert st.path.parent == out and st.path.name.startswith(".unidyn-results-new-")
         _write(st.path, 1)
     assert _generations(out) == {1} and st.final == out.absolute()
     umask = os.umask(0)
     os.umask(umask)
     assert (out.stat().st_mode & 0o777) == (0o777 & ~umask)
-    assert _siblings(tmp_path / "a", out) == []
+    assert _siblings(tmp_path / "a", out) == [] and _private(out) == []
+    manifest = json.loads((out / ".unidyn-results.json").read_text())
+    assert manifest["complete"] is True and sorted(manifest["files"]) == sorted(RESULTS)
+    assert outdir.check_manifest(out, "results", RESULTS) == ""
 
 
 def test_existing_results_need_overwrite_and_the_message_names_them(tmp_path):
@@ -52,14 +62,21 @@ def test_existing_results_need_overwrite_and_the_message_names_them(tmp_path):
     with pytest.raises(ValidationError, match=r"summary\.json, timeseries\.csv.*--overwrite"):
         with staged_output(out, overwrite=False, results=RESULTS, what="run results"):
             pytest.fail("the block must not run")
+    with pytest.raises(ValidationError, match=r"pass overwrite=True .* another folder"):
+        with staged_output(out, overwrite=False, results=RESULTS, option="folder",
+                           flag="overwrite=True"):
+            pytest.fail("the block must not run")
     assert _generations(out) == {1} and _siblings(tmp_path, out) == []
 
 
-def test_a_file_is_not_a_folder(tmp_path):
+def test_a_file_or_an_empty_name_is_not_a_folder(tmp_path):
     out = tmp_path / "out"
     out.write_text("x")
     with pytest.raises(ValidationError, match="--out .* is a file"):
         with staged_output(out, overwrite=True, results=RESULTS):
+            pass
+    with pytest.raises(ValidationError, match=r"--out is empty; .*--out \. for the current"):
+        with staged_output("", overwrite=True, results=RESULTS):
             pass
 
 
@@ -73,13 +90,13 @@ def test_an_error_or_ctrl_c_inside_leaves_the_old_results(tmp_path, exc):
             _write(st.path, 2)
             raise exc
     assert _generations(out) == {1}
-    assert _siblings(tmp_path, out) == []  # staging folder removed
+    assert _siblings(tmp_path, out) == [] and _private(out) == []  # private folder removed
 
 
-def test_overwrite_replaces_owned_artefacts_and_keeps_foreign_files(tmp_path):
+def test_overwrite_replaces_the_results_files_and_keeps_foreign_ones(tmp_path):
     out = tmp_path / "out"
     (out / "notes").mkdir(parents=True)
-    _write(out, 1)
+    _write(out, 1)  # written before manifests: the owned names are the earlier result's
     (out / "animation.gif").write_text("old gif")
     (out / "README.txt").write_text("mine")
     (out / "notes" / "n.txt").write_text("also mine")
@@ -92,6 +109,28 @@ def test_overwrite_replaces_owned_artefacts_and_keeps_foreign_files(tmp_path):
     assert (out / "README.txt").read_text() == "mine"
     assert (out / "notes" / "n.txt").read_text() == "also mine"
     assert _siblings(tmp_path, out) == []
+    # with a manifest, exactly the files it lists are the earlier result's
+    with staged_output(out, overwrite=True, results=RESULTS) as st:
+        _write(st.path, 3, names=RESULTS + ("extra.csv",))
+    with staged_output(out, overwrite=True, results=RESULTS) as st:
+        _write(st.path, 4)
+    assert _generations(out) == {4} and not (out / "extra.csv").exists()
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        [".unidyn-results.json", "README.txt", "notes", *RESULTS])
+
+
+def test_a_folder_of_the_user_is_not_replaced_by_a_result_of_that_name(tmp_path):
+    out = tmp_path / "out"
+    with staged_output(out, overwrite=False, results=RESULTS) as st:
+        _write(st.path, 1)
+    (out / "extra.csv").mkdir()
+    (out / "extra.csv" / "mine.txt").write_text("mine")
+    with pytest.raises(ValidationError, match="did not write"):
+        with staged_output(out, overwrite=True, results=RESULTS) as st:
+            _write(st.path, 2, names=RESULTS + ("extra.csv",))
+    assert (out / "extra.csv" / "mine.txt").read_text() == "mine" and _generations(out) == {1}
+    assert sorted(p.name for p in out.iterdir()) == [".unidyn-results.json", "extra.csv",
+                                                     *sorted(RESULTS)]
 
 
 def test_partial_results_never_replace_complete_ones(tmp_path):
@@ -120,34 +159,45 @@ def test_partial_results_go_into_an_empty_target(tmp_path):
     assert st.final == out.absolute() and _generations(out) == {1}
 
 
-def test_leftovers_of_a_killed_process_are_recovered(tmp_path):
-    out = tmp_path / "out"
-    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
-                          capture_output=True, text=True).stdout.strip()
-    # died between the two renames of the fallback swap: the old results sit aside
-    backup = tmp_path / f".out.old-{dead}-abc"
-    backup.mkdir()
-    _write(backup, 1)
-    staging = tmp_path / f".out.new-{dead}-def"
-    staging.mkdir()
-    _write(staging, 2)
-    with pytest.raises(ValidationError, match="already holds"):
-        with staged_output(out, overwrite=False, results=RESULTS):
-            pass
-    assert _generations(out) == {1}
-    assert _siblings(tmp_path, out) == []
-
-
-def test_fallback_swap_without_renameat2(tmp_path, monkeypatch):
-    monkeypatch.setattr(outdir, "_EXCHANGE", None)
+def test_what_a_killed_process_left_is_removed_by_the_next_writer(tmp_path):
     out = tmp_path / "out"
     out.mkdir()
     _write(out, 1)
-    (out / "keep.txt").write_text("k")
-    with staged_output(out, overwrite=True, results=RESULTS) as st:
-        _write(st.path, 2)
-    assert _generations(out) == {2} and (out / "keep.txt").read_text() == "k"
-    assert _siblings(tmp_path, out) == []
+    left = out / ".unidyn-results-new-abc"  # kill -9 while writing
+    left.mkdir()
+    _write(left, 2)
+    with pytest.raises(ValidationError, match="already holds"):
+        with staged_output(out, overwrite=False, results=RESULTS):
+            pass
+    assert _generations(out) == {1} and _private(out) == []
+
+
+def test_a_replacement_cut_short_is_told_apart_from_results(tmp_path):
+    """kill -9 in the milliseconds in which files are renamed into place: the
+    manifest still says the replacement is under way, and readers say so."""
+    out = tmp_path / "out"
+    with staged_output(out, overwrite=False, results=RESULTS) as st:
+        _write(st.path, 1)
+    m = json.loads((out / ".unidyn-results.json").read_text())
+    (out / ".unidyn-results.json").write_text(json.dumps({**m, "complete": False}))
+    assert "cut short" in outdir.check_manifest(out, "results")
+    (out / ".unidyn-results.json").write_text(json.dumps(m))
+    assert outdir.check_manifest(out, "results", RESULTS) == ""
+    _write(out, 2, names=RESULTS[:1])  # one file of another run
+    assert "summary.json is not the file its run wrote" in outdir.check_manifest(
+        out, "results", RESULTS)
+    assert outdir.check_manifest(tmp_path, "results", RESULTS) == ""  # no manifest: passes
+
+
+def test_the_folder_holding_out_is_never_written(tmp_path):
+    parent = tmp_path / "parent"
+    (parent / "out").mkdir(parents=True)
+    before = os.stat(parent).st_mtime_ns
+    time.sleep(0.01)
+    for gen in (1, 2):
+        with staged_output(parent / "out", overwrite=True, results=RESULTS) as st:
+            _write(st.path, gen)
+    assert os.stat(parent).st_mtime_ns == before and _generations(parent / "out") == {2}
 
 
 _WRITER = textwrap.dedent("""
@@ -166,8 +216,9 @@ _WRITER = textwrap.dedent("""
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL, signal.SIGTERM])
 def test_processes_killed_at_random_moments_leave_old_or_new_never_a_mix(tmp_path, sig):
     """Real processes, real signals: after each one, ``out`` holds every file of one
-    generation (the last complete one, or the one just killed if it got as far as its
-    swap)."""
+    generation (the last complete one, or the one just killed if it got as far as
+    moving its files in). Only ``kill -9`` in the milliseconds of the renames can leave
+    a mix, and then the manifest says the replacement was cut short."""
     rng = random.Random(20261123 + int(sig))
     out = tmp_path / "out"
     script = tmp_path / "writer.py"
@@ -175,6 +226,7 @@ def test_processes_killed_at_random_moments_leave_old_or_new_never_a_mix(tmp_pat
     env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
     subprocess.run([sys.executable, str(script), str(out), "0"], check=True, env=env,
                    cwd=tmp_path, capture_output=True)
+    names = ("summary.json", "timeseries.csv", "a.csv", "b.csv")
     done = 0
     for gen in range(1, 9):
         proc = subprocess.Popen([sys.executable, str(script), str(out), str(gen)], env=env,
@@ -183,19 +235,23 @@ def test_processes_killed_at_random_moments_leave_old_or_new_never_a_mix(tmp_pat
         proc.send_signal(sig)
         stdout, _ = proc.communicate(timeout=30)
         finished = b"done" in stdout
-        names = ("summary.json", "timeseries.csv", "a.csv", "b.csv")
         gens = {json.loads((out / n).read_text().rstrip())["generation"] for n in names}
-        assert len(gens) == 1, f"mixed generations {gens} after {sig!r}"
-        if finished:
-            assert gens == {gen}
-        else:  # the old one, or the new one if the signal came after its swap but
+        problem = outdir.check_manifest(out, "results", names)
+        if len(gens) > 1:
+            assert sig == signal.SIGKILL and "cut short" in problem, (gens, sig, problem)
+            gens = {gen}
+        elif finished:
+            assert gens == {gen} and problem == ""
+        else:  # the old one, or the new one if the signal came after its renames but
             # before it could print "done"
             assert gens in ({done}, {gen}), (gens, done, gen)
+            assert problem == "" or sig == signal.SIGKILL, problem
         done = gens.pop()
-    # what the killed processes left beside out is cleaned by the next writer
+    # what the killed processes left in out is cleaned by the next writer
     subprocess.run([sys.executable, str(script), str(out), "99"], check=True, env=env,
                    cwd=tmp_path, capture_output=True)
-    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".out.")] == []
+    assert _siblings(tmp_path, out) == ["writer.py"] and _private(out) == []
+    assert outdir.check_manifest(out, "results", names) == ""
 
 
 def test_the_block_holds_the_folder_lock_and_a_second_writer_is_refused(tmp_path):
@@ -248,53 +304,27 @@ def test_two_processes_into_one_empty_folder_one_writes_the_other_is_refused(tmp
     assert (out / "summary.json").read_text() == winner
 
 
-def test_read_only_parent_stages_inside_the_folder(tmp_path, monkeypatch):
-    out = tmp_path / "out"
-    out.mkdir()
-    _write(out, 1)
-    (out / "old_artefact.png").write_text("old")
-    real = outdir._mkdir_like_others
-
-    def parent_read_only(parent, prefix):
-        if parent == out.parent:
-            raise PermissionError(13, "Permission denied", str(parent))
-        return real(parent, prefix)
-
-    monkeypatch.setattr(outdir, "_mkdir_like_others", parent_read_only)
-    with pytest.raises(KeyboardInterrupt):
-        with staged_output(out, overwrite=True, results=RESULTS) as st:
-            assert st.path.parent == out
-            _write(st.path, 2)
-            raise KeyboardInterrupt
-    assert _generations(out) == {1} and sorted(p.name for p in out.iterdir()) == [
-        "old_artefact.png", *RESULTS]
-    with staged_output(out, overwrite=True, results=RESULTS,
-                       owned=RESULTS + ("old_artefact.png",)) as st:
-        _write(st.path, 2)
-    assert _generations(out) == {2} and sorted(p.name for p in out.iterdir()) == list(RESULTS)
-
-
-def test_ctrl_c_during_the_swap_is_held_back():
+def test_ctrl_c_during_the_renames_is_held_back():
     with outdir._interrupts_deferred():
         signal.raise_signal(signal.SIGINT)  # arrives inside: held back, then dropped
     with pytest.raises(KeyboardInterrupt):
         with outdir._interrupts_deferred():
             signal.raise_signal(signal.SIGINT)
-            raise OSError("the swap failed")  # not done: the Ctrl-C is raised after all
+            raise OSError("a rename failed")  # not done: the Ctrl-C is raised after all
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
-def test_sigterm_during_the_swap_is_held_back_then_delivered():
-    """A SIGTERM during a swap reaches the handler that was there, after the swap; the
-    unidyn command's handler drops it once the results are in place (the command has
-    finished, and says what it wrote), and gets it when they are not."""
+def test_sigterm_during_the_renames_is_held_back_then_delivered():
+    """A SIGTERM while files are renamed into place reaches the handler that was
+    there, after; the unidyn command's handler drops it once the results are in place
+    (the command has finished, and says what it wrote), and gets it when they are not."""
     from unidyn import cli
     got = []
     previous = signal.signal(signal.SIGTERM, lambda *a: got.append("term"))
     try:
         with outdir._interrupts_deferred():
             signal.raise_signal(signal.SIGTERM)
-            assert got == []  # held back during the swap
+            assert got == []  # held back during the renames
         assert got == ["term"]  # then delivered to the handler that was there
         signal.signal(signal.SIGTERM, cli._on_sigterm)
         with outdir._interrupts_deferred():
@@ -302,9 +332,25 @@ def test_sigterm_during_the_swap_is_held_back_then_delivered():
         with pytest.raises(KeyboardInterrupt):
             with outdir._interrupts_deferred():
                 signal.raise_signal(signal.SIGTERM)
-                raise OSError("the swap failed")  # not in place: the command stops
+                raise OSError("a rename failed")  # not in place: the command stops
         assert signal.getsignal(signal.SIGTERM) is cli._on_sigterm
     finally:
         signal.signal(signal.SIGTERM, previous)
         cli._TERMINATED.clear()  # the command's records of a signal, for the next tests
         cli._SIGNALLED.clear()
+
+
+def test_a_folder_the_command_wrote_is_replaced_whole(tmp_path):
+    """A script's results may be folders (one per case): the earlier one goes whole,
+    a folder of the user's beside it stays."""
+    out = tmp_path / "out"
+    (out / "mine").mkdir(parents=True)
+    (out / "mine" / "m.txt").write_text("mine")
+    for gen, names in ((1, ("a.csv", "b.csv")), (2, ("a.csv",))):
+        with staged_output(out, overwrite=True, results=("case1",)) as st:
+            (st.path / "case1").mkdir()
+            for n in names:
+                (st.path / "case1" / n).write_text(str(gen))
+    assert sorted(os.listdir(out / "case1")) == ["a.csv"]
+    assert (out / "case1" / "a.csv").read_text() == "2"
+    assert (out / "mine" / "m.txt").read_text() == "mine" and _private(out) == []

@@ -32,8 +32,8 @@ __all__ = ["main"]
 
 #: The longest scenario name a run accepts (it titles every figure).
 MAX_NAME = 200
-_RESULT_FILES = ("timeseries.csv", "summary.json")
-# everything a run writes, removed before an --overwrite so no stale file survives
+_RESULT_FILES = ("timeseries.csv", "summary.json")  # unidyn.result.RESULT_FILES
+# everything a run writes: removed on --overwrite from a folder written before manifests
 _RUN_ARTEFACTS = _RESULT_FILES + ("path.png", "error.png", "positions.png", "velocities.png",
                                   "theta_hat.png", "animation.gif")
 
@@ -81,6 +81,14 @@ def _shorten(word: str) -> str:
     return f"{word[:60]}...[{len(word)} characters]...{word[-20:]}"
 
 
+def _flag_words(message: str) -> str:
+    """The library's keyword arguments in a message about output folders, as flags."""
+    for lib, cli in (("overwrite=True", "--overwrite"), ("resume=False", "--no-resume"),
+                     ("out_dir ", "--out ")):
+        message = message.replace(lib, cli)
+    return message
+
+
 def _err(message: str) -> None:
     message = " ".join(_shorten(w) for w in str(message).split())  # one line, readable
     print(f"unidyn: error: {message}", file=sys.stderr)
@@ -123,6 +131,10 @@ def _build_scenario(args):
         path = Path(args.from_)
         if path.is_dir():
             path = path / "summary.json"
+        from .outdir import check_manifest
+        problem = check_manifest(path.parent, "run", [path.name])  # not two runs' files
+        if problem:
+            raise ValidationError(f"--from {args.from_}: {problem}")
         try:
             summary = json.loads(path.read_text())
         except FileNotFoundError:
@@ -184,18 +196,18 @@ def _build_scenario(args):
     return sc, engine
 
 
-def _check_out(out: Path, overwrite: bool, names=_RESULT_FILES, artefacts=_RUN_ARTEFACTS):
-    if out.exists() and not out.is_dir():
-        raise ValidationError(f"--out {out} is a file, not a folder")
-    held = [n for n in names if (out / n).exists()]
-    if held and not overwrite:
-        raise ValidationError(f"{out} already holds results ({', '.join(held)}); pass "
-                              f"--overwrite to replace them or choose another --out")
-    if held:
-        for n in artefacts:
-            p = out / n
-            if p.is_file():
-                p.unlink()
+def _out(text: str) -> Path:
+    """--out as given, once it is known to name a folder (or nothing yet)."""
+    from .outdir import output_folder
+    output_folder(text)  # one line for an empty --out or a file
+    return Path(text)
+
+
+def _shown(out: Path, final) -> Path:
+    """Where results went, as the user named it: ``out`` when they went there (its
+    link's target, for a symbolic link), else the folder's full path."""
+    from .outdir import output_folder
+    return out if Path(final) == output_folder(out) else Path(final)
 
 
 def _import_animation():
@@ -227,13 +239,13 @@ def _cmd_run(args) -> int:
         raise ValidationError(f"engine must be 'bdsim', 'batch' or 'auto', got {engine!r}")
     if engine == "auto":  # the batch engine where it applies: same numbers, far faster
         engine = "batch" if sc.control == "continuous" else "bdsim"
-    out = Path(args.out)
+    out = _out(args.out)
     animation = _import_animation() if args.animate else None
     bag = _bag_target(args)
-    # the new results are written beside `out` and swapped in only once complete; an
-    # error or an interrupt leaves `out` as it was
+    # the new results are written into a private folder inside `out` and moved into
+    # place only once complete; an error or an interrupt leaves `out` as it was
     # (staged_output also holds the folder's lock: one writer at a time)
-    staging = staged_output(out, overwrite=args.overwrite, results=_RESULT_FILES,
+    staging = staged_output(out, kind="run", overwrite=args.overwrite, results=_RESULT_FILES,
                             what="run results", owned=_RUN_ARTEFACTS)
     try:
         stage, result, wall, replaced = _run_staged(staging, sc, engine, out, animation)
@@ -298,16 +310,14 @@ def _run_staged(staging, sc, engine, out, animation):
     if interrupted:
         kept = (f"; {out} keeps its previous results" if stage.held else "")
         raise _Interrupted(f"interrupted at t = {float(result.t[-1]):g} s of {sc.T:g} s; the "
-                           f"part computed is in {stage.final} (timeseries.csv and summary.json, complete: "
+                           f"part computed is in {_shown(out, stage.final)} (timeseries.csv "
+                           f"and summary.json, complete: "
                            f"false; no figures){kept}")
     return stage, result, wall, replaced
 
 
 def _run_summary(sc, out, stage, result, wall, replaced, animation) -> int:
-    final = Path(stage.final)
-    for shown in (out, out.with_name(out.name + ".incomplete")):
-        if final == shown.absolute():
-            final = shown
+    final = _shown(out, stage.final)
     print(f"case       {sc.case}" + (f"  ({_short_name(sc.name)})" if sc.name else ""))
     print(f"robot      {sc.robot.name}")
     backend = getattr(result, "backend", "")
@@ -392,9 +402,8 @@ def _cmd_sweep(args) -> int:
                 spec = dataclasses.replace(spec, substeps=args.substeps)
         except ValidationError as err:
             raise ValidationError(f"{args.sweep}: {err}") from None
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise ValidationError(f"--out {out} is a file, not a folder")
+    from .outdir import record_files
+    out = _out(args.out)
     n = len(spec)
     if args.dask is None:
         client, close = None, None
@@ -438,6 +447,7 @@ def _cmd_sweep(args) -> int:
         plot_fig11(run.rows, out / "fig11.png",
                    title=f"IAE, T = {base.T:g} s, noise " + ("off" if base.noise is None
                                                              else "on"))
+        record_files(out, "sweep", ["claims.md", "fig11.png"], hashes=False)
         print()
         print(table)
         print(f"\nwritten {out}/claims.md and {out}/fig11.png")
@@ -546,11 +556,10 @@ def _cmd_identify(args) -> int:
     if args.gap is None and bags and len(bags) == len(logs):  # only recording gaps split
         kwargs["gap"] = max(b["gap"] for b in bags)
     logs = [bags.pop(0) if is_bag(p) else p for p in logs]
-    out = Path(args.out)
-    staging = staged_output(out, overwrite=args.overwrite, results=("theta.json",),
-                            what="identification results",
-                            owned=("theta.json", "validation.json", "validation.png"))  # as below
+    out = _out(args.out)
     owned = ("theta.json", "validation.json", "validation.png")
+    staging = staged_output(out, kind="identify", overwrite=args.overwrite,
+                            results=("theta.json",), what="identification results", owned=owned)
     with staging as stage:
         replaced = _listing(out, owned) if stage.held else ""
         if replaced:
@@ -601,7 +610,7 @@ def _cmd_identify(args) -> int:
             from .figstyle import save
             axes = ident.plot_validation(report)
             save(axes[0].figure, stage.path / "validation.png")
-    final = stage.final or out
+    final = out  # an identification is never partial: it is where it was asked for
     print(f"written    {final / path.name}")
     if not args.no_validate:
         print(f"written    {final / 'validation.json'}, {final / 'validation.png'}")
@@ -825,7 +834,7 @@ def main(argv=None) -> int:
         _err(err)
         return 1
     except (ValidationError, _UsageError, MissingDependency) as err:
-        _err(err)
+        _err(_flag_words(str(err)))
         return 2
     except BrokenPipeError:  # e.g. piped into head: stop quietly
         import os

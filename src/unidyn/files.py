@@ -316,7 +316,7 @@ def read_rows(path: Path, columns: list):
     header = next(reader, None)
     if header != columns:
         raise ValidationError(f"{path} has columns {header}, this sweep writes {columns}; "
-                              f"use another output folder or resume=False (--no-resume)")
+                              f"use another output folder or resume=False")
     rows = []
     for rec in reader:
         if len(rec) != len(columns):

@@ -4,14 +4,17 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Result", "metrics", "distance", "write_atomic"]
+from .outdir import staged_output, write_atomic
+
+__all__ = ["Result", "metrics", "distance", "write_atomic", "RESULT_FILES"]
+
+#: The files of a run's results (figures may join them: see :func:`unidyn.plots.save_figures`).
+RESULT_FILES = ("timeseries.csv", "summary.json")
 
 
 #: Samples a metric is accumulated over at a time (float64), so that a long series
@@ -74,29 +77,6 @@ def metrics(t, error, velocity) -> dict:
 
 #: Rows of timeseries.csv formatted at a time.
 _CSV_BLOCK = 10_000
-
-
-def write_atomic(path: Path, text: str, more=()) -> None:
-    """Write ``text`` (then each string of the iterable ``more``) to ``path``
-    through a temporary file and a rename, so an interrupted write never leaves a
-    half-written file that looks complete."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", newline="") as fh:
-            fh.write(text)
-            for chunk in more:
-                fh.write(chunk)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the usual mode
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
 
 
 @dataclass
@@ -208,11 +188,23 @@ class Result:
         (with a line in ``notes``), never as ``Infinity`` or ``NaN``."""
         return json.dumps(self.summary(), indent=2, default=_json_default, allow_nan=False) + "\n"
 
-    def save(self, folder) -> Path:
-        """Write ``timeseries.csv`` and ``summary.json`` into ``folder`` (created if needed),
-        each atomically."""
-        folder = Path(folder)
-        folder.mkdir(parents=True, exist_ok=True)
+    def save(self, folder, overwrite: bool = False) -> Path:
+        """Write ``timeseries.csv`` and ``summary.json`` into ``folder`` (created if
+        needed, a symbolic link followed) and return it.
+
+        A folder that holds an earlier run's results is refused unless ``overwrite``;
+        then the earlier run's files are replaced, and those this one does not write
+        (its figures, listed in the folder's manifest ``.unidyn-run.json``) removed.
+        Nothing else in the folder is touched. The files are written in full before
+        any is replaced, so an error or an interrupt leaves the folder as it was (see
+        :mod:`unidyn.outdir`)."""
+        with staged_output(folder, kind="run", overwrite=overwrite, results=RESULT_FILES,
+                           what="run results", option="folder",
+                           flag="overwrite=True") as stage:
+            self._write(stage.path)
+        return Path(folder)
+
+    def _write(self, folder: Path) -> None:
         cols = {"t": self.t, "x": self.pose[:, 0], "y": self.pose[:, 1], "psi": self.pose[:, 2],
                 "u": self.velocity[:, 0], "w": self.velocity[:, 1],
                 "x_d": self.reference[:, 0], "y_d": self.reference[:, 1]}
@@ -239,7 +231,6 @@ class Result:
                 yield (line * len(block)) % tuple(block.ravel().tolist())
         write_atomic(folder / "timeseries.csv", header, more=rows())
         write_atomic(folder / "summary.json", self.to_json())
-        return folder
 
     # plotting helpers (matplotlib is imported only when used)
     def plot_path(self, ax=None, **kw):

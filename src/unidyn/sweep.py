@@ -58,7 +58,7 @@ from .files import (ID_NAME, MAX_POINTS, METRICS, RECORD_NAME, cell, check_keys,
                     expand_range, finished_rows, is_number, plain, text, read_rows, read_sweep_id,
                     read_sweep_record, read_toml, rows_text, scenario_from_layers,
                     write_rows, write_sweep_id, write_sweep_record)
-from .outdir import FolderLock, staged_output
+from .outdir import FolderLock, check_manifest, output_folder, record_files, staged_output
 from .result import json_ready, write_atomic
 
 __all__ = ["Sweep", "Point", "SweepRun", "run_sweep", "read_metrics", "plot_metrics",
@@ -396,6 +396,9 @@ def _what_is_held(out: Path, record: dict) -> tuple:
     spec_path, csv_path = out / RECORD_NAME, out / "metrics.csv"
     if not spec_path.exists() and not csv_path.exists():
         return "none", ""
+    problem = check_manifest(out, "sweep")
+    if problem:  # a replacement killed half way: rows and record may not match
+        return "unknown", problem.replace(f"{out} holds", "it holds")
     if spec_path.exists():
         try:
             old = read_sweep_record(out)
@@ -460,10 +463,11 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
       which starts over as below.
     - ``resume=False``: start over. A folder with finished rows is refused unless
       ``overwrite``.
-    - starting over where there are finished rows writes the new sweep into a fresh
-      folder beside ``out_dir`` and swaps it in only when every point has run: an
-      error or an interrupt leaves the old sweep as it was (the new rows are
-      discarded).
+    - starting over where there are finished rows writes the new sweep into a private
+      folder inside ``out_dir`` and moves its files into place only when every point
+      has run: an error or an interrupt leaves the old sweep as it was (the new rows
+      are discarded). Files in ``out_dir`` that the sweep did not write are never
+      touched (see :mod:`unidyn.outdir`).
 
     While it runs, the folder is locked (``.unidyn.lock``, holding the PID): a
     second process writing the same folder is refused with :class:`FolderInUse`.
@@ -488,8 +492,7 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
         chunk_size = DEFAULT_CHUNK[engine]
     chunk_size = integer("chunk_size", chunk_size, 1)
     out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise ValidationError(f"output folder {out} is a file")
+    output_folder(out, "out_dir")  # one line for an empty name or a file
     record = _spec_record(sweep, engine)
     if dask_address is None:
         client, close = None, None
@@ -512,9 +515,9 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
                     return _run_in(sweep, out, record, engine, chunk_size, progress, client,
                                    t0, resume=False)
                 try:
-                    with staged_output(out, overwrite=True, results=_SWEEP_RESULTS,
-                                       what="sweep results", owned=_SWEEP_OWNED,
-                                       lock=False) as stage:  # held above
+                    with staged_output(out, kind="sweep", overwrite=True, hashes=False,
+                                       results=_SWEEP_RESULTS, what="sweep results",
+                                       owned=_SWEEP_OWNED, lock=False) as stage:  # held above
                         run = _run_in(sweep, stage.path, record, engine, chunk_size,
                                       progress, client, t0, resume=False)
                 except BaseException as err:
@@ -537,14 +540,14 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
 def _refusal(out, state, detail, rows, resume) -> str:
     held = _rows_named(rows)
     if state in ("same", "none") and not resume:
-        return (f"{out} holds {held}; starting over (resume=False, --no-resume) would "
-                f"delete them: add overwrite=True (--overwrite) to replace them once the new "
-                f"sweep has finished, or choose another output folder")
+        return (f"{out} holds {held}; starting over (resume=False) would delete them: add "
+                f"overwrite=True to replace them once the new sweep has finished, or choose "
+                f"another output folder")
     what = {"engine": "this sweep run with another engine",
             "different": "a different sweep",
             "unknown": "sweep rows of unknown origin"}.get(state, "a sweep")
-    return (f"{out} holds {what} ({detail}): {held}; pass overwrite=True (--overwrite) to "
-            f"replace them once this sweep has finished, or choose another output folder")
+    return (f"{out} holds {what} ({detail}): {held}; pass overwrite=True to replace them "
+            f"once this sweep has finished, or choose another output folder")
 
 
 def _detail(err: BaseException, text: str) -> None:
@@ -627,6 +630,8 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
         plot_metrics(sweep, rows, out / "metrics.png")
     except ImportError:  # no matplotlib: the data is what matters
         pass
+    # the files of these results, for a later overwrite (no hashes: rows are appended)
+    record_files(out, "sweep", [n for n in _SWEEP_OWNED if (out / n).exists()], hashes=False)
     return SweepRun(out_dir=out, rows=rows, ran=len(new_rows), skipped=len(done),
                     seconds=seconds, failed=failed)
 

@@ -103,7 +103,7 @@ def test_results_record_version_scenario_and_seed(tmp_path):
 
 
 def test_an_interrupted_write_leaves_no_file_that_looks_complete(tmp_path, monkeypatch):
-    from unidyn import result as result_mod
+    from unidyn import outdir as result_mod  # where results are written atomically
     r = simulate_batch([Scenario.paper(1, T=1.0)])[0]
 
     def broken_replace(src, dst):

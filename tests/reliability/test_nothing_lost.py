@@ -84,8 +84,11 @@ def files(folder: Path) -> dict:
 
 
 def leftovers(parent: Path, name: str) -> list:
-    """Staging or backup folders of ``parent/name`` left behind."""
-    return [p.name for p in parent.iterdir() if p.name.startswith(f".{name}.")]
+    """What a command left of its work on ``parent/name``: its private folders inside,
+    and anything beside it (nothing is ever written there)."""
+    inside = (parent / name).glob(".unidyn-*-new-*") if (parent / name).is_dir() else []
+    return [p.name for p in parent.iterdir() if p.name.startswith(f".{name}.")] + [
+        f"{name}/{p.name}" for p in inside]
 
 
 def complete_run(folder: Path, T: float) -> bool:
@@ -387,7 +390,7 @@ def test_a_killed_restart_keeps_the_old_rows_or_writes_all_new_ones(tmp_path):
     seen = set()
     for sig in (signal.SIGKILL, signal.SIGINT):
         p = start(tmp_path, "sweep", g, "--out", "S", "--overwrite", *common)
-        # the new rows go to a staging folder: kill at a random moment of the run
+        # the new rows go to a private folder: kill at a random moment of the run
         code, _, err = kill_at_random(p, rng, 0.5, 6.0, sig)
         assert "Traceback" not in err or loading(code, err), err
         got = files(tmp_path / "S")
@@ -409,14 +412,14 @@ def test_a_killed_restart_keeps_the_old_rows_or_writes_all_new_ones(tmp_path):
 @pytest.mark.slow
 def test_sigterm_stops_a_sweep_like_ctrl_c_and_leaves_no_staging_folder(tmp_path):
     """kill (SIGTERM) during a sweep that replaces another: the old rows stay, the
-    staging folder and temporary files go (SIGTERM used to kill it outright, leaving the
-    staging folder until a later --overwrite), then the process ends by SIGTERM (the
+    private folder and temporary files go, then the process ends by SIGTERM (the
     shell's status 143)."""
     _, g, old = a_sweep_and_another(tmp_path)
     p = start(tmp_path, "sweep", g, "--out", "S", "--overwrite", *COMMON)
     t_end = time.monotonic() + 120
     while p.poll() is None and time.monotonic() < t_end and not any(
             rows_in(tmp_path / name / "metrics.csv") >= 2 for name in leftovers(tmp_path, "S")):
+        # the new sweep's rows go into its private folder inside S
         time.sleep(0.005)
     assert p.poll() is None, "the sweep ended before it could be killed"
     p.send_signal(signal.SIGTERM)

@@ -73,6 +73,7 @@ import numpy as np
 
 from .._validate import ValidationError, choice, integer, nonnegative, positive
 from ..model import regressor
+from ..outdir import staged_output, write_atomic
 from ..parameters import RobotParameters
 from ._simulate import COMMAND_CONVENTIONS, simulate_held, step_length
 from .logs import COLUMNS, TIME_UNITS, IdentificationWarning, _short, join_logs
@@ -488,14 +489,19 @@ class IdentificationResult:
         d["noise_std"] = [num(x) for x in self.noise_std]
         return d
 
-    def save(self, folder) -> Path:
+    def save(self, folder, overwrite: bool = False) -> Path:
         """Write ``theta.json`` (see :meth:`as_dict`) into ``folder`` (created if
-        needed) and return its path."""
-        folder = Path(folder)
-        folder.mkdir(parents=True, exist_ok=True)
-        path = folder / "theta.json"
-        path.write_text(json.dumps(self.as_dict(), indent=2, allow_nan=False) + "\n")
-        return path
+        needed) and return its path. A folder holding an earlier identification is
+        refused unless ``overwrite``; then its ``theta.json``, ``validation.json`` and
+        ``validation.png`` are replaced or removed, nothing else (see
+        :mod:`unidyn.outdir`)."""
+        with staged_output(folder, kind="identify", overwrite=overwrite,
+                           results=("theta.json",), what="identification results",
+                           owned=("theta.json", "validation.json", "validation.png"),
+                           option="folder", flag="overwrite=True") as stage:
+            write_atomic(stage.path / "theta.json",
+                         json.dumps(self.as_dict(), indent=2, allow_nan=False) + "\n")
+        return Path(folder) / "theta.json"
 
     def summary(self) -> str:
         """A readable table of the estimates."""
