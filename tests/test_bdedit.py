@@ -288,3 +288,85 @@ def test_bdedit_command_draws_each_block_where_the_file_places_it(bdedit_command
     # (its length moves it by up to 50 px) and drawn below it, and bdedit draws a block
     # taller the more ports it has (up to 80 px lower).
     assert (spread < (50, 80)).all(), dict(zip((b["title"] for b in shown), offsets.tolist()))
+
+
+SIM_TIME = r"""
+import json, sys
+from PySide6.QtWidgets import QApplication
+from unidyn.editor import open_window
+app = QApplication(["bdedit"])
+out = {}
+for path in sys.argv[1:]:
+    window = open_window(path)
+    app.processEvents()
+    scene = window.centralWidget().scene
+    out[path] = [window.simTimeBox.text(), sorted(b.title for b in scene.blocks)]
+    scene.has_been_modified = False
+    window.close()
+print("RESULT " + json.dumps(out))
+"""
+
+
+def test_unidyn_edit_window_shows_the_files_simulation_time_and_blocks(qt):
+    paths = [str(p) for p in SHIPPED]
+    proc = _python(SIM_TIME, *paths)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    line = next(s for s in proc.stdout.splitlines() if s.startswith("RESULT "))
+    got = json.loads(line[len("RESULT "):])
+    for path in paths:
+        data = json.loads(Path(path).read_text())
+        assert float(got[path][0]) == data["simulation_time"] != 10.0, (path, got[path])
+        assert got[path][1] == sorted(b["title"] for b in data["blocks"]), path
+
+
+def test_unidyn_edit_runs_until_terminated(qt):
+    """The command opens the editor and keeps it open; SIGTERM (and Ctrl-C) end it,
+    although Python's own handlers never run inside Qt's event loop."""
+    proc = subprocess.Popen([sys.executable, "-m", "unidyn", "edit", str(SHIPPED[0])],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV,
+                            cwd=ROOT)
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and proc.poll() is None and _cpu_seconds(proc.pid) < 5:
+            time.sleep(0.5)
+        assert proc.poll() is None, proc.communicate()[1][-3000:]
+        proc.terminate()
+        _, err = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == -15, (proc.returncode, err[-3000:])
+    assert "Traceback" not in err, err[-3000:]
+
+
+@pytest.mark.parametrize("args, message", [
+    (["notes.txt"], "FILE must be a .bd block-diagram file, got 'notes.txt'"),
+    (["missing.bd"], "no such .bd file: missing.bd"),
+])
+def test_unidyn_edit_bad_file_is_one_line(args, message):
+    proc = subprocess.run([sys.executable, "-m", "unidyn", "edit", *args], capture_output=True,
+                          text=True, timeout=120, env=ENV, cwd=ROOT)
+    assert proc.returncode == 2 and proc.stderr == f"unidyn: error: {message}\n", proc.stderr
+
+
+def test_missing_qt_libraries_are_named_all_at_once(monkeypatch):
+    """Qt aborts naming the first library it lacks; the editor command names each
+    missing one and every package Qt's window system needs, in one line."""
+    from unidyn._errors import MissingDependency
+    from unidyn.editor import QT_XCB_PACKAGES, check_qt
+    pytest.importorskip("PySide6")
+    lacking = {"xcb-icccm", "xcb-keysyms"}
+    monkeypatch.setattr(sys, "platform", "linux")
+    monkeypatch.delenv("QT_QPA_PLATFORM", raising=False)
+    with pytest.raises(MissingDependency) as info:
+        check_qt(find_library=lambda name: None if name in lacking else f"lib{name}.so")
+    text = str(info.value)
+    assert "\n" not in text
+    assert "missing (libxcb-icccm4 libxcb-keysyms1)" in text
+    assert all(pkg in text for pkg in ("libxcb-cursor0", "libxcb-icccm4", "libxcb-keysyms1"))
+    assert text.endswith("sudo apt-get install " + " ".join(QT_XCB_PACKAGES) + ")")
+    # all there, or not using xcb: nothing to say
+    check_qt(find_library=lambda name: f"lib{name}.so")
+    monkeypatch.setenv("QT_QPA_PLATFORM", "offscreen")
+    check_qt(find_library=lambda name: None)
