@@ -317,3 +317,21 @@ def test_slides_preset_scales_text_lines_and_figures_of_unidyns_plots(adaptive_r
     with pytest.raises(ValueError, match="figure preset must be one of paper, slides, got 'poster'"):
         with figstyle.style("poster"):
             pass
+
+
+def test_section5_error_panels_share_one_scale(tmp_path, monkeypatch):
+    """The four cases' distance errors are drawn on one y-scale, the largest error's."""
+    sys.path.insert(0, str(EXAMPLES))
+    try:
+        import paper_section5
+    finally:
+        sys.path.remove(str(EXAMPLES))
+    runs = unidyn.simulate_batch([unidyn.Scenario.paper(n, T=4) for n in (1, 2, 3, 4)])
+    results = dict(zip((1, 2, 3, 4), runs))
+    limits = []
+    monkeypatch.setattr(figstyle, "save", lambda fig, path: limits.extend(
+        ax.get_ylim() for ax in fig.axes[1:8:2]) or plt.close(fig))
+    paper_section5.section5_figure(results, tmp_path / "section5.png")
+    top = max(float(r.error.max()) for r in runs)
+    assert len(limits) == 4 and len(set(limits)) == 1, limits
+    assert limits[0][0] == 0 and top < limits[0][1] < 1.1 * top
