@@ -132,8 +132,10 @@ def _fresh_venv(path: Path) -> Path:
     python = path / "bin" / "python"
     purelib = subprocess.run([str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
                              capture_output=True, text=True, check=True).stdout.strip()
-    import sysconfig
-    (Path(purelib) / "zz-unidyn-test-deps.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
+    # every site-packages folder this interpreter sees (in a venv of its own, as in
+    # tests/test_fresh_clone.py, the dependencies are in an outer one)
+    deps = [p for p in sys.path if Path(p).name in ("site-packages", "dist-packages")]
+    (Path(purelib) / "zz-unidyn-test-deps.pth").write_text("".join(p + "\n" for p in deps))
     return python
 
 
