@@ -21,14 +21,7 @@ nbformat = pytest.importorskip("nbformat")
 nbclient = pytest.importorskip("nbclient")
 pytest.importorskip("ipykernel")
 
-pytestmark = [
-    pytest.mark.slow,
-    # jupyter_client leaves its kernel's zmq sockets to the garbage collector, which
-    # warns that they were not closed: third-party clean-up, nothing of unidyn's
-    pytest.mark.filterwarnings("ignore:Unclosed socket <zmq:ResourceWarning"),
-    pytest.mark.filterwarnings("ignore:Exception ignored in. <function Socket.__del__"
-                               ":pytest.PytestUnraisableExceptionWarning"),
-]
+pytestmark = pytest.mark.slow
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 NOTEBOOKS = sorted(EXAMPLES.glob("*.ipynb"))

@@ -107,4 +107,5 @@ def edit(path: str | os.PathLike) -> int:
     # end any program
     signal.signal(signal.SIGINT, signal.SIG_DFL)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    return app.exec()
+    event_loop = app.exec  # Qt's event loop (QApplication.exec), runs until the window closes
+    return event_loop()
