@@ -236,3 +236,32 @@ def test_sdist_and_wheel_pass_twine_and_the_wheel_behaves_as_the_editable_instal
     icons = {p.name for p in (ROOT / "src" / "unidyn" / "blocks" / "Icons").glob("*.png")}
     assert icons and icons == {p.name for p in (site / "unidyn" / "blocks" / "Icons").glob("*.png")}
     _check_install(python, site)
+
+
+def test_unidyn_and_bdsim_run_without_roboticstoolbox():
+    """roboticstoolbox-python is the optional extra "toolbox": with it not importable,
+    a simulation, a Fig. 2 diagram run by bdsim and a .bd file loaded by bdsim work."""
+    r = _run(f"""
+        import sys, importlib.abc
+        class NoToolbox(importlib.abc.MetaPathFinder):
+            def find_spec(self, name, path=None, target=None):
+                if name.split('.')[0] in ('roboticstoolbox', 'rtbdata'):
+                    raise ModuleNotFoundError(f'No module named {{name!r}}', name=name)
+        sys.meta_path.insert(0, NoToolbox())
+        import unidyn
+        from unidyn.diagrams import build_fig2, new_simulator
+        r = unidyn.simulate(unidyn.Scenario.paper(4, T=1))
+        sim = new_simulator()
+        fig = build_fig2(sim, unidyn.Scenario.paper(3, T=0.5))
+        fig.bd.compile()
+        sim.run(fig.bd, T=0.5, dt=0.1)
+        from bdsim.blockdiagram import bdload
+        import warnings
+        bd = sim.blockdiagram()
+        with warnings.catch_warnings():
+            warnings.simplefilter('ignore')
+            bdload(bd, {str(ROOT / 'examples' / 'bd' / 'fig2_case4_adaptive.bd')!r})
+        print(len(bd.blocklist) >= 8, 'roboticstoolbox' in sys.modules)
+    """)
+    assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-3000:]
+    assert r.stdout.split()[-2:] == ["True", "False"], r.stdout
