@@ -59,10 +59,13 @@ def section5_figure(results, path):
     """Path (left) and distance error (right) of the four cases, one row each."""
     fig, axes = plt.subplots(4, 2, figsize=(figstyle.PAGE, 8.6),
                              gridspec_kw={"width_ratios": [1, 2.3]})
+    # one error scale for the four rows, so the cases compare at a glance
+    top = 1.06 * max(float(r.error.max()) for r in results.values())
     for n, r in results.items():
         pa, ea = axes[n - 1]
         plot_path(r, ax=pa, legend=False, label="path of h")
         plot_error(r, ax=ea)
+        ea.set_ylim(0, top)
         ea.set_title(TITLES[n], loc="left")
         if n < 4:
             ea.set_xlabel("")

@@ -275,3 +275,63 @@ def test_section5_script_refuses_to_replace_results(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "--overwrite" in err and "section5.png" in err
     assert (out / "section5.png").read_bytes() == b"earlier results"
+
+
+def test_no_style_leaks_in_from_another_library(adaptive_run):
+    """roboticstoolbox's plotting module switches the whole process to "ggplot" (grey
+    axes, its colour cycle) when bdsim loads it; unidyn's figures still start from
+    matplotlib's defaults, and the process's settings are as they were afterwards."""
+    from unidyn.plots import plot_velocities
+    with plt.style.context("ggplot"):
+        leaked = matplotlib.rcParams["axes.facecolor"]
+        axes = plot_velocities(adaptive_run)
+        assert matplotlib.rcParams["axes.facecolor"] == leaked != "white"
+    assert [ax.get_facecolor() for ax in axes] == [(1.0, 1.0, 1.0, 1.0)] * 2
+    default_first = matplotlib.rcParamsDefault["axes.prop_cycle"].by_key()["color"][0]
+    actual = [ln for ln in axes[0].get_lines() if ln.get_label() == "$u$"]
+    assert matplotlib.colors.same_color(actual[0].get_color(), default_first)
+    plt.close(axes[0].figure)
+
+
+def test_velocities_name_the_kinematic_controllers_output(adaptive_run):
+    from unidyn.plots import plot_velocities
+    axes = plot_velocities(adaptive_run)
+    labels = [ln.get_label() for ln in axes[0].get_lines()]
+    plt.close(axes[0].figure)
+    assert "$u_d$ (kinematic controller)" in labels and not any("reference" in s for s in labels)
+
+
+def test_slides_preset_scales_text_lines_and_figures_of_unidyns_plots(adaptive_run):
+    ax = plot_error(adaptive_run)
+    paper = (ax.figure.get_size_inches(), ax.xaxis.label.get_fontsize(), ax.get_lines()[0].get_lw())
+    plt.close(ax.figure)
+    with figstyle.style("slides"):
+        ax = plot_error(adaptive_run)
+        slides = (ax.figure.get_size_inches(), ax.xaxis.label.get_fontsize(), ax.get_lines()[0].get_lw())
+        plt.close(ax.figure)
+    k = figstyle.SLIDES_SCALE
+    np.testing.assert_allclose(slides[0], k * paper[0])
+    assert slides[1] == pytest.approx(k * paper[1]) and slides[2] == pytest.approx(k * paper[2])
+    # after the block, the paper preset again
+    assert figstyle.size(1) == (figstyle.COLUMN, figstyle.COLUMN * 0.75)
+    with pytest.raises(ValueError, match="figure preset must be one of paper, slides, got 'poster'"):
+        with figstyle.style("poster"):
+            pass
+
+
+def test_section5_error_panels_share_one_scale(tmp_path, monkeypatch):
+    """The four cases' distance errors are drawn on one y-scale, the largest error's."""
+    sys.path.insert(0, str(EXAMPLES))
+    try:
+        import paper_section5
+    finally:
+        sys.path.remove(str(EXAMPLES))
+    runs = unidyn.simulate_batch([unidyn.Scenario.paper(n, T=4) for n in (1, 2, 3, 4)])
+    results = dict(zip((1, 2, 3, 4), runs))
+    limits = []
+    monkeypatch.setattr(figstyle, "save", lambda fig, path: limits.extend(
+        ax.get_ylim() for ax in fig.axes[1:8:2]) or plt.close(fig))
+    paper_section5.section5_figure(results, tmp_path / "section5.png")
+    top = max(float(r.error.max()) for r in runs)
+    assert len(limits) == 4 and len(set(limits)) == 1, limits
+    assert limits[0][0] == 0 and top < limits[0][1] < 1.1 * top

@@ -82,9 +82,28 @@ def test_kernel_runs_this_python(kernel_spec_dir, tmp_path):
     assert os.path.realpath(text[1]) == os.path.realpath(tmp_path)
 
 
+#: ggplot's grey axes background (229, 229, 229), which must not appear in a figure
+GGPLOT_GREY = 229
+
+
+def _grey_fraction(png_base64: str) -> float:
+    import base64
+    import io
+
+    import matplotlib.image as mpimg
+    import numpy as np
+    rgb = np.round(mpimg.imread(io.BytesIO(base64.b64decode(png_base64)))[..., :3] * 255)
+    return float(np.all(np.abs(rgb - GGPLOT_GREY) <= 1, axis=-1).mean())
+
+
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
 def test_notebook_runs(path, kernel_spec_dir, tmp_path):
+    """Each notebook runs; its figures are drawn in unidyn's style even with another
+    style set for the whole kernel first (as roboticstoolbox's plotting module does
+    when loaded): no ggplot-grey axes in any figure."""
     nb = nbformat.read(path, as_version=4)
+    nb.cells.insert(0, nbformat.v4.new_code_cell(
+        "import matplotlib.pyplot as plt\nplt.style.use('ggplot')"))
     start = time.perf_counter()
     # a failing cell raises nbclient's CellExecutionError with the cell and its traceback
     nb = execute(nb, kernel_spec_dir, tmp_path)
@@ -92,4 +111,9 @@ def test_notebook_runs(path, kernel_spec_dir, tmp_path):
     errors = [o for cell in nb.cells if cell.cell_type == "code"
               for o in cell.get("outputs", []) if o.get("output_type") == "error"]
     assert not errors, errors
+    pngs = [o["data"]["image/png"] for cell in nb.cells if cell.cell_type == "code"
+            for o in cell.get("outputs", []) if "image/png" in o.get("data", {})]
+    assert pngs, "no figure shown"
+    grey = [round(_grey_fraction(png), 3) for png in pngs]
+    assert max(grey) < 0.05, grey
     print(f"{path.name}: {elapsed:.1f} s")

@@ -664,6 +664,11 @@ def _record_topics(theta_json: Path, logs) -> None:
 
 # ------------------------------------------------------------------------ parser
 
+def _cmd_edit(args) -> int:
+    from .editor import edit
+    return edit(args.file)
+
+
 def _parser() -> argparse.ArgumentParser:
     p = _Parser(prog="unidyn", description="Differential-drive robots with the velocity-based "
                 "dynamic model of Martins et al. (2017): simulations, sweeps, parameters.")
@@ -812,6 +817,15 @@ def _parser() -> argparse.ArgumentParser:
                    help="skip the validation simulation and figure")
     i.add_argument("--overwrite", action="store_true", help="replace a theta.json in DIR")
     i.set_defaults(func=_cmd_identify)
+
+    e = sub.add_parser("edit", help="open a .bd file in bdsim's editor, bdedit",
+                       description="Open a block-diagram file in bdedit with unidyn's blocks "
+                       "in its palette and the file's simulation time in the toolbar; says "
+                       "which system libraries Qt lacks, if any (needs unidyn[teach]).",
+                       formatter_class=_Formatter, epilog=_examples(
+                           "unidyn edit examples/bd/fig2_case3_compensated.bd"))
+    e.add_argument("file", metavar="FILE.bd", help="the block-diagram file")
+    e.set_defaults(func=_cmd_edit)
     return p
 
 

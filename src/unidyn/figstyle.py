@@ -19,6 +19,17 @@ decorator around any function that draws::
     @figstyle.styled                           # the same style for a whole function
     def plot_something(...): ...
 
+For lecture slides, ``figstyle.style("slides")`` draws everything (unidyn's own
+plots inside it included) :data:`SLIDES_SCALE` times larger: text, lines and figure
+sizes, so a one-column figure fills half a 16:9 slide at a readable size::
+
+    with figstyle.style("slides"):
+        unidyn.plots.plot_path(result)
+
+Every figure starts from matplotlib's defaults, not from whatever style another
+library set (roboticstoolbox's plotting module, which bdsim loads when it runs a
+diagram, switches matplotlib to "ggplot" for the whole process).
+
 Log axes get plain tick labels (1, 2, 5, 10, 20) with :func:`plain_log_axis`.
 Nothing here shows a figure; everything works headless (``MPLBACKEND=Agg``).
 """
@@ -26,6 +37,7 @@ Nothing here shows a figure; everything works headless (``MPLBACKEND=Agg``).
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import functools
 import math
 import os
@@ -35,7 +47,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["STYLE", "COLUMN", "PAGE", "DPI", "style", "styled", "size", "label", "as_text", "legend",
+__all__ = ["STYLE", "COLUMN", "PAGE", "DPI", "PRESETS", "SLIDES_SCALE", "style", "styled", "size", "label", "as_text", "legend",
            "emptiest_corner", "ylim_from_data", "plain_log_axis", "save", "REFERENCE",
            "START"]
 
@@ -85,16 +97,48 @@ REFERENCE = {"color": "k", "ls": (0, (4, 2)), "lw": 0.8, "zorder": 3}
 START = {"marker": "o", "ls": "none", "ms": 5, "mfc": "white", "mec": "C3", "mew": 1.2}
 
 
+#: How much larger the "slides" preset draws than the "paper" one (text 8 -> 14.4 pt,
+#: a one-column figure 3.5 -> 6.3 in wide, about half a 13.3 in wide 16:9 slide).
+SLIDES_SCALE = 1.8
+#: Preset name -> scale of every size in :data:`STYLE` and of :func:`size`.
+PRESETS = {"paper": 1.0, "slides": SLIDES_SCALE}
+
+_SIZED = ("font.size", "axes.titlesize", "axes.labelsize", "xtick.labelsize", "ytick.labelsize",
+          "legend.fontsize", "figure.titlesize", "lines.linewidth", "lines.markersize",
+          "axes.linewidth", "grid.linewidth", "xtick.major.width", "ytick.major.width")
+_preset = contextvars.ContextVar("unidyn_figstyle_preset", default="paper")
+
+
+def _settings(preset: str) -> dict:
+    scale = PRESETS[preset]
+    return {k: (v * scale if k in _SIZED else v) for k, v in STYLE.items()}
+
+
 @contextlib.contextmanager
-def style():
-    """Context manager: unidyn's matplotlib settings (:data:`STYLE`) inside the block."""
+def style(preset: str | None = None):
+    """Context manager: unidyn's matplotlib settings (:data:`STYLE`) inside the block,
+    on top of matplotlib's defaults. ``preset``: "paper" (journal sizes) or "slides"
+    (:data:`SLIDES_SCALE` times larger); by default the enclosing block's preset, so
+    unidyn's plot functions called inside ``style("slides")`` draw for slides."""
     import matplotlib
-    with matplotlib.rc_context(STYLE):
-        yield
+    import matplotlib.style
+    preset = _preset.get() if preset is None else preset
+    if preset not in PRESETS:
+        raise ValueError(f"figure preset must be one of {', '.join(PRESETS)}, got {preset!r}")
+    token = _preset.set(preset)
+    try:
+        with matplotlib.rc_context():
+            # matplotlib's defaults first: no setting left by another library leaks in
+            # (the backend and interactive mode are left as they are)
+            matplotlib.style.use("default")
+            matplotlib.rcParams.update(_settings(preset))
+            yield
+    finally:
+        _preset.reset(token)
 
 
 def styled(fn):
-    """Decorator: run ``fn`` inside :func:`style`."""
+    """Decorator: run ``fn`` inside :func:`style` (with the enclosing block's preset)."""
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
         with style():
@@ -104,8 +148,9 @@ def styled(fn):
 
 def size(width=1.0, aspect=0.75):
     """Figure size (w, h) in inches: ``width`` in columns (1: :data:`COLUMN`, 2: :data:`PAGE`)
-    and height = ``aspect`` x width."""
+    and height = ``aspect`` x width; scaled by the preset of the enclosing :func:`style`."""
     w = COLUMN if width == 1 else (PAGE if width == 2 else float(width) * COLUMN)
+    w *= PRESETS[_preset.get()]
     return (w, w * aspect)
 
 

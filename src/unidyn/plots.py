@@ -193,12 +193,12 @@ def plot_positions(result, axes=None):
 
 @figstyle.styled
 def plot_velocities(result, axes=None):
-    """u and omega: the kinematic controller's reference v_d against the actual
-    velocities (Figs. 4b, 6b, 8b, 10b)."""
+    """u and omega: the kinematic controller's output v_d (the velocities it asks for,
+    Eq. 10) against the actual velocities (Figs. 4b, 6b, 8b, 10b)."""
     axes = _two_panels(axes)
     for i, (ax, n, unit) in enumerate(zip(axes, ("u", r"\omega"), ("m/s", "rad/s"))):
         if result.v_d is not None:  # not logged when the scenario's log_series leaves it out
-            ax.plot(result.t, result.v_d[:, i], **REFERENCE, label=f"${n}_d$ (reference)")
+            ax.plot(result.t, result.v_d[:, i], **REFERENCE, label=f"${n}_d$ (kinematic controller)")
         ax.plot(result.t, result.velocity[:, i], color="C0", lw=0.9, label=f"${n}$")
         ax.set_ylabel(_unit(f"${n}$", unit))
         _time_axis(ax, result.t)

@@ -23,7 +23,7 @@ import time
 
 import numpy as np
 
-from . import robots
+from . import figstyle, robots
 from ._validate import ValidationError, positive
 from .noise import PAPER_NOISE
 from .parameters import RobotParameters
@@ -127,24 +127,24 @@ class LoopExplorer:
         return {k: np.asarray(line.get_xydata(), dtype=float) for k, line in self._lines.items()}
 
     # ------------------------------------------------------------------ #
+    @figstyle.styled
     def _make_figure(self):
         from matplotlib.figure import Figure
         from matplotlib.backends.backend_agg import FigureCanvasAgg
-        fig = Figure(figsize=(10, 3.8), layout="constrained")
+        fig = Figure(figsize=figstyle.size(2, 0.38), layout="constrained")
         FigureCanvasAgg(fig)
         ax_path, ax_err = fig.subplots(1, 2, width_ratios=(1, 1.6))
-        ref, = ax_path.plot([], [], color="0.45", ls="--", lw=1, label="reference $h_d$")
-        path, = ax_path.plot([], [], color="C0", lw=1.2, label="path of h")
-        ax_path.set(xlabel="x (m)", ylabel="y (m)")
+        ref, = ax_path.plot([], [], **figstyle.REFERENCE, label="reference $h_d$")
+        path, = ax_path.plot([], [], color="C0", label="path of h")
+        ax_path.set(xlabel=figstyle.label("x", "m"), ylabel=figstyle.label("y", "m"))
         ax_path.set_aspect("equal", adjustable="box")
-        ax_path.legend(loc="lower right", fontsize="small")
-        err, = ax_err.plot([], [], color="C0", lw=1)
-        ax_err.set(xlabel="t (s)", ylabel="distance error (m)")
-        for ax in (ax_path, ax_err):
-            ax.grid(alpha=0.3)
+        ax_path.legend(loc="lower right")
+        err, = ax_err.plot([], [], color="C0")
+        ax_err.set(xlabel=figstyle.label("t", "s"), ylabel=figstyle.label("distance error", "m"))
         self.fig, self._axes = fig, (ax_path, ax_err)
         self._lines = {"path": path, "reference": ref, "error": err}
 
+    @figstyle.styled
     def _draw(self):
         r, s = self.result, self.settings
         ax_path, ax_err = self._axes

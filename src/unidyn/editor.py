@@ -1,0 +1,111 @@
+"""Open a block-diagram file in bdsim's graphical editor, bdedit (``unidyn edit FILE.bd``).
+
+What this adds to typing ``bdedit FILE.bd``:
+
+- before Qt starts, a check that the system libraries Qt's X11 platform plugin
+  (xcb) needs are there; Qt itself aborts naming only the first one missing, this
+  names every one (:data:`QT_XCB_PACKAGES`, Debian's package names);
+- the simulation-time box shows the file's simulation time. ``bdedit FILE`` loads
+  the file through ``InterfaceWindow.loadFromFilePath``, which leaves the box at its
+  default of 10 s (bdedit 1.4), while bdedit's File > Open menu sets it from the
+  file; here the box is set as that menu does.
+
+unidyn's blocks are in the palette as they are for ``bdedit`` itself: every install
+ships the start-up hook that names ``unidyn`` in ``BDSIMPATH`` (see
+:mod:`unidyn._bdsim_path`), and importing unidyn adds it for a checkout used
+without installing.
+"""
+
+from __future__ import annotations
+
+import ctypes.util
+import os
+import signal
+import sys
+from pathlib import Path
+
+from ._errors import MissingDependency, ValidationError
+
+#: Debian/Ubuntu packages of the system libraries that Qt 6's xcb platform plugin
+#: (the one that opens windows on X11) loads, with the library names ``ctypes``
+#: looks for. The first three are the ones a desktop usually lacks.
+QT_XCB_PACKAGES = {
+    "libxcb-cursor0": "xcb-cursor",
+    "libxcb-icccm4": "xcb-icccm",
+    "libxcb-keysyms1": "xcb-keysyms",
+    "libxcb-image0": "xcb-image",
+    "libxcb-render-util0": "xcb-render-util",
+    "libxcb-shape0": "xcb-shape",
+    "libxcb-randr0": "xcb-randr",
+    "libxcb-xkb1": "xcb-xkb",
+    "libxkbcommon-x11-0": "xkbcommon-x11",
+    "libegl1": "EGL",
+    "libfontconfig1": "fontconfig",
+}
+
+
+def missing_qt_packages(find_library=ctypes.util.find_library) -> list[str]:
+    """The packages of :data:`QT_XCB_PACKAGES` whose library is not found, when Qt is
+    going to use its xcb plugin (Linux, ``QT_QPA_PLATFORM`` unset or ``xcb``)."""
+    platform = os.environ.get("QT_QPA_PLATFORM", "")
+    if not sys.platform.startswith("linux") or platform.split(":")[0] not in ("", "xcb"):
+        return []
+    return [pkg for pkg, lib in QT_XCB_PACKAGES.items() if find_library(lib) is None]
+
+
+def check_qt(find_library=ctypes.util.find_library) -> None:
+    """Raise :class:`MissingDependency` with one line naming what Qt lacks."""
+    try:
+        import PySide6  # noqa: F401
+        import bdedit  # noqa: F401
+    except ImportError as err:
+        raise MissingDependency(f"the editor needs {err.name}, which is not installed: "
+                                "pip install 'unidyn[teach]'") from None
+    missing = missing_qt_packages(find_library)
+    if missing:
+        raise MissingDependency(
+            f"Qt cannot open a window: system libraries missing ({' '.join(missing)}); Qt "
+            f"needs all of: {' '.join(QT_XCB_PACKAGES)} (Debian/Ubuntu: sudo apt-get "
+            f"install {' '.join(QT_XCB_PACKAGES)})")
+
+
+def open_window(path: str | os.PathLike):
+    """bdedit's main window with ``path`` loaded, as ``bdedit FILE`` builds it, and
+    the simulation-time box showing the file's time. Needs a running QApplication."""
+    from bdedit.interface_manager import InterfaceWindow
+    from PySide6.QtWidgets import QApplication
+
+    app = QApplication.instance()
+    window = InterfaceWindow(app.primaryScreen().availableGeometry())
+    scene = window.centralWidget().scene
+    # what bdedit's start-up does with its default options (bdedit.bdedit.main)
+    scene.block_name_fontsize = 12
+    scene.grScene.updateBackgroundMode("grey", True)
+    window.loadFromFilePath(str(path))
+    # what bdedit's File > Open does after loading, and its command line does not
+    window.runButtonParameters["SimTime"] = scene.sim_time
+    window.simTimeBox.setText(str(scene.sim_time))
+    return window
+
+
+def edit(path: str | os.PathLike) -> int:
+    """Open ``path`` (a .bd file) in bdedit and run the editor until it is closed."""
+    path = Path(path)
+    if path.suffix != ".bd":
+        raise ValidationError(f"FILE must be a .bd block-diagram file, got {str(path)!r}")
+    if not path.is_file():
+        raise FileNotFoundError(f"no such .bd file: {path}")
+    check_qt()
+    from PySide6.QtWidgets import QApplication
+
+    app = QApplication.instance() or QApplication(["bdedit"])
+    app.setApplicationName("bdedit")
+    window = open_window(path)
+    window.show()
+    # Python runs its signal handlers only between bytecodes, never while Qt's event
+    # loop runs: with the default actions, Ctrl-C and SIGTERM end the editor as they
+    # end any program
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    event_loop = app.exec  # Qt's event loop (QApplication.exec), runs until the window closes
+    return event_loop()
