@@ -1,4 +1,4 @@
-"""Shared fixtures and the warning policy's one exception.
+"""Shared fixtures.
 
 Importing unidyn first registers its blocks with bdsim (for a checkout used without
 installing it). pyproject.toml turns every warning into an error; the expected ones
