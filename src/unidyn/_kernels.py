@@ -391,7 +391,7 @@ def log_row(t, X, p, noise, cols, row, out):
         out[j] = row[cols[j]]
 
 
-@jit
+@jit(entry=True)
 def start(X, P_, pos_noise, vel_noise, bound, cols, LOG, status):
     """Log sample 0 of every run (its columns cols) and check its state (noise row 0:
     interval 0)."""
@@ -535,7 +535,7 @@ def _run_group(XL, PL, runs, nl, m, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n,
             last[i] = k + 1
 
 
-@jit(parallel=True)
+@jit(parallel=True, entry=True)
 def run_groups(XG, PG, runs, nlanes, mG, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n, L, bound,
                rate_max, refined, max_steps, parts, cols, LOG, status, last, seen, m_max, work,
                splits):

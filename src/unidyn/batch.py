@@ -483,6 +483,7 @@ def _split(loop, X, tb, h, k, depth, ks, row):
     and crosses one, else None. Returns (the state, RK4 steps computed, changes
     located)."""
     from ._kernels import _dense_weights
+    _dense_weights = getattr(_dense_weights, "py_func", _dense_weights)  # plain Python here
     rows = np.array([row])
     U = 1 << depth
     steps = located = 0
@@ -527,7 +528,7 @@ def _rk4(loop, X, t0, k, m, h, rows, work, splits):
     there (:func:`_split`). work and splits (per run of the batch) count the RK4
     steps beyond m and the changes located."""
     from ._kernels import split_depth
-    depth = split_depth(m, SPLIT_PARTS)
+    depth = getattr(split_depth, "py_func", split_depth)(m, SPLIT_PARTS)  # plain Python here
     for j in range(m):
         tb = t0 + j * h
         ks = _stages(loop, X, tb, h, k, rows)
