@@ -184,7 +184,7 @@ class Compiled:
     earlier compile in the folder) first says so on a terminal (:data:`NOTICE`)."""
 
     def __init__(self, dispatcher, name):
-        self.dispatcher, self.name, self.ready = dispatcher, name, set()
+        self.dispatcher, self.name, self.ready, self.cached = dispatcher, name, set(), None
         self.__doc__ = dispatcher.__doc__
 
     def __call__(self, *args):
@@ -204,6 +204,15 @@ class Compiled:
             marker.touch()
         self.ready.add(key)
         return out
+
+    def compiled(self) -> bool:
+        """Whether this process called it already, or a process had compiled it into the
+        cache folder (a marker of its first call there) when this process first asked."""
+        if self.ready:
+            return True
+        if self.cached is None:  # looked at once per process: a process keeps one engine
+            self.cached = CACHE_FOLDER is not None and any(CACHE_FOLDER.glob(f"{self.name}-*.ready"))
+        return self.cached
 
     @property
     def py_func(self):

@@ -25,7 +25,7 @@ from . import equations as eq
 from ._jit import AVAILABLE, jit, prange
 from .equations import P, S
 
-__all__ = ["AVAILABLE", "LOG_COLUMNS", "reference", "rhs", "run_groups", "start", "LANES", "OK", "NONFINITE",
+__all__ = ["AVAILABLE", "compiled", "LOG_COLUMNS", "reference", "rhs", "run_groups", "start", "LANES", "OK", "NONFINITE",
            "POSITION", "SPEED_U", "SPEED_W", "INTERRUPTED", "STEP"]
 
 NSTATE = len(eq.STATE)
@@ -348,6 +348,12 @@ def _steps_lanes(XL, PL, NL, p0, t0, h, m, nl, D, KF, XP, XS, PS, NS, DS, DC, KS
                 SP[b] += splits
                 for q in range(NSTATE):
                     XL[q * LANES + b] = XS[q * LANES]
+
+
+def compiled() -> bool:
+    """Whether the engine's entry points were compiled (or loaded) in this process or
+    lie compiled in the cache folder (:class:`unidyn._jit.Compiled`)."""
+    return AVAILABLE and run_groups.compiled() and start.compiled()
 
 
 #: Why a run stopped (``status``): still running / complete, a non-finite state,

@@ -35,7 +35,7 @@ from .equations import STATE, SWITCH_TOL, TRAJECTORY_KINDS, P, saturate
 from .result import Result
 from .scenario import ALWAYS_LOGGED, Scenario
 
-__all__ = ["simulate_batch", "DEFAULT_SUBSTEPS"]
+__all__ = ["simulate_batch", "DEFAULT_SUBSTEPS", "AccuracyWarning"]
 
 #: RK4 steps per sample interval Ts. With Ts = 0.1 s this is a 10 ms step; on the
 #: noise-free Fig. 11 grid the IAE is then within 7.7e-7 (relative) of a run at 200 steps
@@ -153,6 +153,12 @@ def _short(v) -> str:
     return "[" + ", ".join(f"{x:g}" for x in v) + "]"
 
 
+#: While the compiled kernel has never been compiled in this version and cache folder
+#: (the first calls after an install), ``backend="auto"`` answers a call of at most this
+#: many RK4 steps (a 200 s run at 0.1 s and 10 steps per sample is 20,000) with the
+#: numpy backend, which needs no compiling, rather than compile first; a larger call
+#: compiles (once per install, saying so on a terminal) and is then compiled throughout.
+READY_STEPS = 100_000
 #: The most RK4 steps per sample interval the engine takes before it refuses.
 MAX_SUBSTEPS = 10_000
 
@@ -231,7 +237,10 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
         the default step
     :param backend: ``"numba"`` (compiled kernel, :mod:`unidyn._kernels`; needs numba and
         the built-in trajectories), ``"numpy"`` (vectorised numpy), or ``"auto"`` (numba
-        when it can be used, else numpy). Both integrate the same equations with the
+        when it can be used, else numpy; numpy also for a call of at most
+        :data:`READY_STEPS` RK4 steps while the kernel was never compiled: the first
+        result after an install does not wait for the compiler; ``Result.backend`` says
+        which ran). Both integrate the same equations with the
         same steps and agree to rounding (the compiled sin and cos,
         :mod:`unidyn._vecmath`, are NaN beyond 1e8 rad, a heading after 16 million
         turns, where the run then stops as non-finite).
@@ -265,8 +274,10 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
     if backend == "numba" and not compilable:
         raise ValidationError("backend='numba' supports the figure_eight, circle and line "
                               "trajectories only; use backend='numpy' for a FunctionTrajectory")
-    use_numba = backend == "numba" or (backend == "auto" and _kernels.AVAILABLE and compilable)
     m_all = [stable_substeps(s, int(substeps)) for s in scs]  # refuses before any work
+    use_numba = backend == "numba" or (
+        backend == "auto" and _kernels.AVAILABLE and compilable
+        and (_kernels.compiled() or sum(s.steps * m for s, m in zip(scs, m_all)) > READY_STEPS))
     groups = {}
     for i, s in enumerate(scs):
         key = (s.T, s.Ts, s.log_every, s.log_dtype, s.log_series) + (() if use_numba else (m_all[i],))
@@ -607,6 +618,31 @@ _CAUSE = {
 }
 
 
+class AccuracyWarning(UserWarning):
+    """A batch run finished, but the engine cannot vouch for its accuracy."""
+
+
+def _unvouched(sc: Scenario, m_max: int) -> str:
+    """Why the engine cannot vouch for a complete run's accuracy, or "". At SPLIT_PARTS
+    steps per sample or more, a step that crosses a change of the limits is no longer
+    split (:func:`unidyn._kernels.split_depth`): RK4 is then second order across each
+    kink, and at high adaptation gains the estimate drifts from a converged solution
+    (Scenario(gamma=[1000] * 6, adapt_from=0, T=20, noise=None): theta_hat 1.2e-3 off,
+    against 5.5e-6 at gamma = 100)."""
+    lim = sc.limits
+    limited = any(np.isfinite(v) for v in (*lim.speed, *lim.accel))
+    if m_max < SPLIT_PARTS or not limited:
+        return ""
+    text = (f"complete, but its accuracy is not vouched for: the loop needed {m_max} RK4 steps "
+            f"per {sc.Ts:g} s sample (at least {SPLIT_PARTS}), where the engine no longer "
+            f"splits steps at the speed and acceleration limits and is second order there; "
+            f"lower the adaptation gain gamma or the controller gains, or run it through "
+            f"unidyn.simulate (the bdsim diagram) with a tight rtol (scenario {sc.name or sc.case})")
+    import warnings
+    warnings.warn(text, AccuracyWarning, stacklevel=4)
+    return text
+
+
 def _results(run: _Run) -> list:
     """One Result per run of ``run``. A run that stopped keeps the samples up to
     its stop (a non-finite last sample is dropped; a run too stiff to go on keeps
@@ -631,7 +667,7 @@ def _results(run: _Run) -> list:
         label = sc.name or sc.case
         t_stop = last * loop.Ts
         if complete:
-            message = ""
+            message = _unvouched(sc, int(run.m_max[i]))
         elif status == 0:
             message = f"interrupted at t = {t_stop:.6g} s (scenario {label})"
         else:
