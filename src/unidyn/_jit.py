@@ -177,6 +177,14 @@ NOTICE = ("unidyn: compiling the batch engine, once per install and version "
 _noticed = []
 
 
+def _kind(a):
+    """What numba compiles a call's argument a for (its type, dtype and dimensions;
+    those of the items of a tuple)."""
+    if isinstance(a, tuple):
+        return (type(a).__name__,) + tuple(_kind(x) for x in a)
+    return type(a).__name__, str(getattr(a, "dtype", "")), getattr(a, "ndim", 0)
+
+
 class Compiled:
     """A compiled entry point (called from Python): the dispatcher, whose first call per
     argument types in this process (where numba loads or compiles and caches it) holds
@@ -188,8 +196,7 @@ class Compiled:
         self.__doc__ = dispatcher.__doc__
 
     def __call__(self, *args):
-        key = tuple((type(a).__name__, str(getattr(a, "dtype", "")), getattr(a, "ndim", 0))
-                    for a in args)
+        key = _kind(args)
         if key in self.ready or CACHE_FOLDER is None:
             out = self.dispatcher(*args)
             self.ready.add(key)

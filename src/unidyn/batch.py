@@ -398,15 +398,21 @@ def _integrate_numba(run: _Run, bar):
     run.backend = "numba (compiled)"
     n = loop.steps
     X = loop.initial_state()
-    _kernels.start(X, loop.P, loop.pos_noise, loop.vel_noise, run.bounds, run.cols, run.LOG,
-                   run.status)
-    runs, nlanes, mG = _lane_groups(loop, run.m)
+
+    def runs():  # the per-run arrays (the noise window's arrays change as it moves on)
+        return _kernels.Runs(loop.P, loop.pos_noise, loop.vel_noise, run.bounds, run.rate_max,
+                             run.cols, run.LOG, run.status, run.last, run.seen, run.m_max,
+                             run.work, run.splits)
+    _kernels.start(X, runs())
+    lanes, count, steps = _lane_groups(loop, run.m)
     # lane-minor: value i of lane b at [i * LANES + b]
-    XG = np.ascontiguousarray(X[runs].transpose(0, 2, 1)).reshape(len(runs), -1)
-    PG = np.ascontiguousarray(loop.P[runs].transpose(0, 2, 1)).reshape(len(runs), -1)
+    group = _kernels.Groups(
+        np.ascontiguousarray(X[lanes].transpose(0, 2, 1)).reshape(len(lanes), -1),
+        np.ascontiguousarray(loop.P[lanes].transpose(0, 2, 1)).reshape(len(lanes), -1),
+        lanes, count, steps)
     import os
-    per_thread = -(-len(runs) // max(1, min(len(runs), os.cpu_count() or 1)))
-    S = max(1, SLICE_STEPS // (int(mG.max()) * per_thread))
+    per_thread = -(-len(lanes) // max(1, min(len(lanes), os.cpu_count() or 1)))
+    S = max(1, SLICE_STEPS // (int(steps.max()) * per_thread))
     k = 0
     import numba
     # groups differ in cost (their steps per sample): hand them to the threads one at
@@ -416,11 +422,9 @@ def _integrate_numba(run: _Run, bar):
         while k < n and (run.status == _kernels.OK).any():
             loop.next_noise_window(k)
             k1 = min(n, k + S, loop.noise_end)
-            _kernels.run_groups(XG, PG, runs, nlanes, mG, loop.P, loop.pos_noise, loop.vel_noise,
-                                loop.noise_k0, float(loop.Ts), k, k1, n, run.L, run.bounds,
-                                run.rate_max, STEP_RATE_REFINED, MAX_SUBSTEPS, SPLIT_PARTS,
-                                run.cols, run.LOG,
-                                run.status, run.last, run.seen, run.m_max, run.work, run.splits)
+            call = _kernels.Call(float(loop.Ts), loop.noise_k0, n, run.L, STEP_RATE_REFINED,
+                                 MAX_SUBSTEPS, SPLIT_PARTS)
+            _kernels.run_groups(group, runs(), call, k, k1)
             bar.advance(k1 - k)
             k = k1
     finally:
