@@ -133,3 +133,31 @@ def test_a_process_waits_while_another_compiles_into_the_same_cache(tmp_path):
     out, err = proc.communicate(timeout=600)
     assert proc.returncode == 0, err
     assert 0.0 < float(out.split()[-1]) < 0.31
+
+
+def _stderr_on_a_terminal(cache):
+    """HELD run with its stderr on a pseudo-terminal: what it writes there."""
+    import pty
+    main, child = pty.openpty()
+    proc = subprocess.Popen([sys.executable, "-c", HELD], env=_env(SRC.parent, cache),
+                            stdout=subprocess.PIPE, stderr=child, text=True)
+    os.close(child)
+    out, _ = proc.communicate(timeout=600)
+    said = b""
+    while True:
+        try:
+            chunk = os.read(main, 4096)
+        except OSError:  # the terminal's other side closed
+            break
+        if not chunk:
+            break
+        said += chunk
+    os.close(main)
+    assert proc.returncode == 0
+    return said.decode(errors="replace")
+
+
+def test_a_compile_says_so_on_the_terminal_once_per_install(tmp_path):
+    first = _stderr_on_a_terminal(tmp_path)
+    assert "compiling the log simulator of identification, once per install" in first, first
+    assert "compiling" not in _stderr_on_a_terminal(tmp_path)  # loaded from the cache

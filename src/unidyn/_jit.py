@@ -172,7 +172,7 @@ def _numba_cache_dir(folder):
 
 
 #: Said once per process on stderr (a terminal) before a compile of the engine.
-NOTICE = ("unidyn: compiling the batch engine, once per install and version "
+NOTICE = ("unidyn: compiling {what}, once per install and version "
           "(a minute or so; later runs load it from the cache) ...")
 _noticed = []
 
@@ -191,8 +191,9 @@ class Compiled:
     a ``filelock`` lock of the cache folder. A call that compiles (no marker of an
     earlier compile in the folder) first says so on a terminal (:data:`NOTICE`)."""
 
-    def __init__(self, dispatcher, name):
-        self.dispatcher, self.name, self.ready, self.cached = dispatcher, name, set(), None
+    def __init__(self, dispatcher, name, what):
+        self.dispatcher, self.name, self.what = dispatcher, name, what
+        self.ready, self.cached = set(), None
         self.__doc__ = dispatcher.__doc__
 
     def __call__(self, *args):
@@ -206,7 +207,7 @@ class Compiled:
         with FileLock(str(CACHE_FOLDER / "compile.lock")):
             if not marker.exists() and not _noticed and sys.stderr is not None and sys.stderr.isatty():
                 _noticed.append(True)
-                print(NOTICE, file=sys.stderr, flush=True)
+                print(NOTICE.format(what=self.what), file=sys.stderr, flush=True)
             out = self.dispatcher(*args)
             marker.touch()
         self.ready.add(key)
@@ -226,13 +227,14 @@ class Compiled:
         return self.dispatcher.py_func
 
 
-def jit(f=None, *, parallel: bool = False, inline: bool = False, entry: bool = False):
+def jit(f=None, *, parallel: bool = False, inline: bool = False, entry: str = ""):
     """``numba.njit(cache=True, nogil=True)`` of f; f itself without numba.
 
     ``parallel=True``: numba's threads over ``numba.prange``; ``inline=True``: f is
     inlined into its compiled callers (as the equations are), which saves a call
     with reference counting of its array arguments at every right-hand side;
-    ``entry=True``: f is called from Python (:class:`Compiled`).
+    ``entry``: f is called from Python (:class:`Compiled`); what it is, for the notice
+    of its compile (``"the batch engine"``).
     Division by zero gives inf or NaN as in numpy (``error_model="numpy"``), which the
     engines' checks for non-finite states then report."""
     def wrap(g):
@@ -245,7 +247,7 @@ def jit(f=None, *, parallel: bool = False, inline: bool = False, entry: bool = F
         else:
             with _numba_cache_dir(CACHE_FOLDER):
                 compiled = numba.njit(cache=True, **options)(g)
-        return Compiled(compiled, g.__qualname__) if entry else compiled
+        return Compiled(compiled, g.__qualname__, entry) if entry else compiled
     return wrap if f is None else wrap(f)
 
 

@@ -433,7 +433,7 @@ def log_row(t, X, p, noise, cols, row, out):
         out[j] = row[cols[j]]
 
 
-@jit(entry=True)
+@jit(entry="the batch engine")
 def start(X, runs):
     """Log sample 0 of every run (state X (B, 13); noise row 0: interval 0) and check
     its state (into runs.status)."""
@@ -574,7 +574,7 @@ def _run_group(group, g, runs, call, k0, k1):
             runs.last[i] = k + 1
 
 
-@jit(parallel=True, entry=True)
+@jit(parallel=True, entry="the batch engine")
 def run_groups(group, runs, call, k0, k1):
     """Advance every group of runs (:data:`Groups`; their states updated in place)
     over sample intervals k0..k1-1, one group per thread at a time; the per-run
