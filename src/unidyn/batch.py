@@ -17,6 +17,14 @@ substeps=100 for the paper's case 4; bdsim's adaptive solver resolves it).
 ``tests/evals/test_engines.py`` measures the agreement with the bdsim diagram;
 ``benchmarks/engines.py`` the speed.
 
+Where each piece lives: the loop's equations in :mod:`unidyn.equations`; this module
+sets the steps, groups the runs and reads the results; the numpy backend's step
+rule is here (:func:`_steps`, :func:`_rk4`, :func:`_split`), the compiled one's in
+:mod:`unidyn._kernels` (:func:`~unidyn._kernels.run_groups`), both taking the same
+steps; numba's cache and compile notice in :mod:`unidyn._jit`. Until the compiled
+kernel was compiled once (per install and version), small calls are answered by the
+numpy backend (:data:`READY_STEPS`).
+
 The step is set from the scenario (:func:`stable_substeps`) and checked against the
 loop's state at the start of every interval of a compensated run
 (:func:`unidyn.equations.loop_step_rate`): an estimate far from theta makes the
