@@ -651,7 +651,7 @@ def _unvouched(sc: Scenario, m_max: int) -> str:
             f"lower the adaptation gain gamma or the controller gains, or run it through "
             f"unidyn.simulate (the bdsim diagram) with a tight rtol (scenario {sc.name or sc.case})")
     import warnings
-    warnings.warn(text, AccuracyWarning, stacklevel=4)
+    warnings.warn(text, AccuracyWarning, stacklevel=5)  # at the caller of simulate_batch
     return text
 
 
