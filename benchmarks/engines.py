@@ -18,6 +18,15 @@ runs with and without thinning the log (``log_every``), in float64 and float32
 (``log_dtype``), and of writing their files; the bytes per logged sample are the
 result's own arrays.
 
+    python benchmarks/engines.py --cold   # first and second result, compile included
+
+``--cold`` times, each in fresh processes with an empty compiler cache (a fresh
+``NUMBA_CACHE_DIR``), the first and then the second: ``unidyn run
+examples/scenario.toml``; ``simulate_batch`` of the paper's 200 s run (simulation 4) in
+a fresh Python; the Fig. 11 sweep (280 runs of 250 s). The first minus the second is
+the compile (and cache writing). Run it on two versions in one sitting, each with
+PYTHONPATH pointing at its ``src``, to compare them.
+
     python benchmarks/engines.py --memory            # the memory table only
     python benchmarks/engines.py --memory --long     # also two 10^7-sample runs (4-6 min)
 """
@@ -338,14 +347,78 @@ def memory_table(long=False):
               f"| {(run - base) * 2**20 / (T / 0.1):.0f} | {series / n:.0f} |")
 
 
+COLD_PROBE = """
+import sys, time
+t0 = time.perf_counter()
+sys.path.insert(0, sys.argv[2])
+from unidyn import Scenario
+from unidyn.batch import simulate_batch
+if sys.argv[1] == "paper":
+    runs = [Scenario.paper(4)]
+else:
+    from engines import fig11_scenarios
+    runs = fig11_scenarios()
+times = []
+for _ in range(2):
+    t, c = time.perf_counter(), time.process_time()
+    simulate_batch(runs, progress=False)
+    times += [time.perf_counter() - t, time.process_time() - c]
+print(*times)
+"""
+
+
+def cold_table():
+    """First and second result with an empty compiler cache, each row in fresh
+    processes (see the module docstring)."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    scenario = os.path.join(os.path.dirname(here), "examples", "scenario.toml")
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        def env(name):
+            return dict(os.environ, NUMBA_CACHE_DIR=os.path.join(tmp, name), MPLBACKEND="Agg")
+        import resource
+        cli = []
+        for i in range(2):
+            t0 = time.perf_counter()
+            c0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+            r = subprocess.run([sys.executable, "-m", "unidyn", "run", scenario, "--out",
+                                os.path.join(tmp, f"run{i}")], env=env("cli"),
+                               capture_output=True, text=True)
+            c1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+            cli += [time.perf_counter() - t0,
+                    c1.ru_utime + c1.ru_stime - c0.ru_utime - c0.ru_stime]
+            if r.returncode != 0:
+                print(f"unidyn run FAILED: {r.stderr.strip()[-300:]}")
+        rows.append(("`unidyn run examples/scenario.toml` (fresh process each)", *cli))
+        for what, label in (("paper", "simulate_batch([Scenario.paper(4)]) in a fresh Python"),
+                            ("fig11", "Fig. 11 sweep, simulate_batch of 280 runs x 250 s")):
+            r = subprocess.run([sys.executable, "-c", COLD_PROBE, what, here], env=env(what),
+                               capture_output=True, text=True)
+            if r.returncode != 0:
+                print(f"{label} FAILED: {r.stderr.strip()[-300:]}")
+                continue
+            rows.append((label, *map(float, r.stdout.split()[-4:])))
+    print("\n| first and second result, empty compiler cache | first [s] | second [s] "
+          "| first / second | first - second (compile) [s] | CPU first, second [s] |")
+    print("|---|---:|---:|---:|---:|---:|")
+    for label, first, cpu1, second, cpu2 in rows:
+        print(f"| {label} | {first:.1f} | {second:.2f} | {first / second:.1f} "
+              f"| {first - second:.1f} | {cpu1:.1f}, {cpu2:.1f} |")
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description="unidyn engine benchmarks")
     p.add_argument("--quick", action="store_true", help="sample 4 bdsim sweep points, not 12")
     p.add_argument("--memory", action="store_true", help="only the memory table")
+    p.add_argument("--cold", action="store_true",
+                   help="only first and second results with an empty compiler cache")
     p.add_argument("--limit", action="store_true", help="only the arithmetic limit")
     p.add_argument("--long", action="store_true",
                    help="add 10^7-sample runs (float32; float64 with log_series=()) to the memory table (4-6 min)")
     args = p.parse_args(argv)
+    if args.cold:
+        cold_table()
+        return
     if args.memory:
         memory_table(args.long)
         return

@@ -6,6 +6,25 @@ Every public function of :mod:`unidyn.equations` is registered with numba's
 ``register_jitable`` (inlined into its callers): it stays the plain function for
 Python callers and becomes compilable inside compiled code, so the engines compile
 the equations the rest of the library runs, not a copy of them.
+
+**The on-disk cache.** numba (``cache=True``) keys a cached function on its own
+source file only, not on the files of the functions it inlines (numba's documented
+limitation): a kernel cached beside ``_kernels.py`` would keep running an edited
+:mod:`unidyn.equations` as it was. So the package's compiled functions are cached
+in a folder of their own per version of the compiled sources
+(:data:`COMPILED_SOURCES`, hashed into :data:`STAMP`):
+``<cache>/unidyn-numba/<STAMP>``, where ``<cache>`` is ``NUMBA_CACHE_DIR`` if the user
+set it, else the user's cache folder. numba is pointed there through its documented
+``NUMBA_CACHE_DIR`` while the package's functions are declared (the user's own
+functions keep numba's usual place). Folders of older versions beyond
+:data:`KEEP_VERSIONS` are removed.
+
+numba writes its cache without a lock between processes (numba issues #4807 and
+#10128: a process that loads files two processes wrote at once can crash). The first
+call of each compiled entry point in a process, where numba loads or compiles it, is
+made under a ``filelock`` lock of the version folder (:class:`Compiled`); processes
+that start together (pytest-xdist workers, a Dask cluster) then load what the first
+one wrote.
 """
 
 from __future__ import annotations
@@ -13,7 +32,8 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import os
-import re
+import shutil
+import sys
 from pathlib import Path
 
 from . import equations
@@ -70,10 +90,9 @@ if AVAILABLE:
 #: elementary functions they inline, the overloads here, and the compiled functions.
 COMPILED_SOURCES = ("equations.py", "_vecmath.py", "_jit.py", "_kernels.py",
                     "identification/_simulate.py")
-#: Versions of the compiled code whose cache files are kept (switching between a few
+#: Versions of the compiled code whose cache folders are kept (switching between a few
 #: versions, as between git branches, compiles none of them again).
 KEEP_VERSIONS = 3
-_ROOT = Path(__file__).resolve().parent
 
 
 def sources_stamp() -> str:
@@ -89,222 +108,149 @@ def sources_stamp() -> str:
 STAMP = sources_stamp()
 
 
-def _inside_package(path) -> bool:
-    try:
-        return Path(path).resolve().is_relative_to(_ROOT)
-    except (OSError, ValueError, RuntimeError):  # RuntimeError: a symlink loop
-        return False
+def cache_root() -> Path:
+    """Where the versions' cache folders lie: ``$NUMBA_CACHE_DIR/unidyn-numba`` if the
+    user set numba's cache folder, else ``unidyn-numba`` in the user's cache folder."""
+    base = os.environ.get("NUMBA_CACHE_DIR")
+    if not base:
+        if sys.platform == "win32":
+            base = os.environ.get("LOCALAPPDATA") or Path.home() / "AppData" / "Local"
+        elif sys.platform == "darwin":
+            base = Path.home() / "Library" / "Caches"
+        else:
+            base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "unidyn-numba"
 
 
-def _remove_other_versions(folder, keep: int = KEEP_VERSIONS):
-    """Remove this package's numba cache files in ``folder`` (one cache folder of its
-    source folders) but those of the current version and of the keep - 1 versions
-    used most recently, once per version and folder. A process still running a
-    version whose files are gone compiles it again if it needs it."""
-    folder = Path(folder)
-    marker = folder / "unidyn.numba-stamp"
+def remove_other_versions(root: Path, keep: int = KEEP_VERSIONS):
+    """Remove the version folders in ``root`` but :data:`STAMP`'s and those of the
+    keep - 1 other versions used most recently (a process still running a removed
+    version compiles it again if it needs it)."""
     try:
-        if marker.read_text() == STAMP:
-            return
+        folders = [f for f in root.iterdir() if f.is_dir() and f.name != STAMP]
+        folders.sort(key=lambda f: f.stat().st_mtime, reverse=True)
     except OSError:
-        pass
-    versions = {}  # stamp -> (newest modification time, files)
-    for cached in list(folder.glob("*.nb[ic]")):
-        found = re.search(r"-([0-9a-f]{12})\.py\d", cached.name)
-        stamp = found.group(1) if found else None  # None: a file without a stamp
-        try:
-            mtime = cached.stat().st_mtime
-        except OSError:
-            continue
-        newest, group = versions.get(stamp, (0.0, []))
-        versions[stamp] = (max(newest, mtime), group + [cached])
-    kept = {STAMP} | set(sorted((v for v in versions if v not in (STAMP, None)),
-                                key=lambda v: versions[v][0], reverse=True)[:keep - 1])
-    for stamp, (_, group) in versions.items():
-        if stamp not in kept:
-            for cached in group:
-                try:
-                    cached.unlink(missing_ok=True)
-                except OSError:  # in use (Windows), or read-only
-                    pass
-    try:
-        (folder / "equations.numba-stamp").unlink(missing_ok=True)  # the earlier marker
-        marker.write_text(STAMP)
-    except OSError:
-        pass
-
-
-if AVAILABLE:
-    from numba.core import caching as _caching
-
-    class _StampedLocator:
-        """Where numba caches this package's compiled functions: where it would anyway
-        (numba's own locators: beside the source, or under ``NUMBA_CACHE_DIR`` or the
-        user's cache folder where the source is read-only), with :data:`STAMP` in the
-        file names.
-
-        numba keys its on-disk cache (``cache=True``) on the source file of each
-        compiled function only, not on the functions it inlines: a kernel in
-        ``_kernels.py`` would keep running :mod:`unidyn.equations` as it was when it
-        was cached. With the stamp of every file compiled in its name, each version of
-        the code has cache files of its own: an edited equation is compiled anew, and
-        a process still running the previous version (a notebook started before the
-        edit) can write its cache without another process ever loading it. The files
-        of older versions are removed (:func:`_remove_other_versions`).
-
-        (``NUMBA_CACHE_LOCATOR_CLASSES``, where a numba has it, replaces numba's list
-        of locators, this one included.)"""
-
-        _cleaned: set = set()
-
-        def __init__(self, inner):
-            self._inner = inner
-            path = inner.get_cache_path()
-            if path not in self._cleaned:
-                self._cleaned.add(path)
-                _remove_other_versions(path)
-
-        def __getattr__(self, name):  # what numba reads of its own locators (_py_file)
-            if name == "_inner":
-                raise AttributeError(name)
-            return getattr(self._inner, name)
-
-        def ensure_cache_path(self):
-            self._inner.ensure_cache_path()
-
-        def get_cache_path(self):
-            return self._inner.get_cache_path()
-
-        def get_source_stamp(self):
-            return self._inner.get_source_stamp()
-
-        def get_disambiguator(self):
-            return f"{self._inner.get_disambiguator()}-{STAMP}"
-
-        @classmethod
-        def from_function(cls, py_func, py_file):
-            if not _inside_package(py_file):
-                return None
-            for other in _LOCATORS:
-                if other is not cls:
-                    inner = other.from_function(py_func, py_file)
-                    if inner is not None:
-                        return cls(inner)
-            return None
-
-    # numba's locators, tried in order for each function cached (on CacheImpl;
-    # _CacheImpl in older numba)
-    _IMPL = getattr(_caching, "CacheImpl", getattr(_caching, "_CacheImpl", None))
-    _LOCATORS = getattr(_IMPL, "_locator_classes", None)
-    if isinstance(_LOCATORS, list):
-        if _StampedLocator not in _LOCATORS:
-            _LOCATORS.insert(0, _StampedLocator)
-    else:  # no stamp in the names: the package's cache files go when the code changes
-        for _folder in (_ROOT / "__pycache__", _ROOT / "identification" / "__pycache__"):
-            _remove_other_versions(_folder, keep=1)
-
-
-_HELD = {}  # lock file -> [open file or None, depth]: the locks this process holds
-
-
-def _lock(path):
-    """An open file of ``path`` locked exclusively (waiting for another process that
-    holds it), or ``None`` where files cannot be locked here."""
-    try:
-        f = open(path, "a+b")
-    except OSError:  # a read-only cache folder: numba cannot write there either
-        return None
-    try:
-        import fcntl
-        fcntl.flock(f.fileno(), fcntl.LOCK_EX)
-        return f
-    except ImportError:  # pragma: no cover - Windows
-        pass
-    try:  # pragma: no cover - Windows
-        import msvcrt
-        while True:
-            try:
-                msvcrt.locking(f.fileno(), msvcrt.LK_LOCK, 1)  # retries for 10 s
-                return f
-            except OSError:
-                continue
-    except ImportError:  # pragma: no cover
-        f.close()
-        return None
-
-
-def _unlock(f):
-    if f is None:
         return
+    for f in folders[keep - 1:]:
+        shutil.rmtree(f, ignore_errors=True)
+
+
+def _version_folder():
+    """This version's cache folder, created (and touched: used now), or None where no
+    folder can be written: then nothing is cached and each process compiles."""
+    folder = cache_root() / STAMP
     try:
-        import fcntl
-        fcntl.flock(f.fileno(), fcntl.LOCK_UN)
-    except ImportError:  # pragma: no cover - Windows
-        import msvcrt
-        f.seek(0)
-        msvcrt.locking(f.fileno(), msvcrt.LK_UNLCK, 1)
-    f.close()
+        folder.mkdir(parents=True, exist_ok=True)
+        os.utime(folder)
+        probe = folder / ".writable"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError:
+        return None
+    remove_other_versions(folder.parent)
+    return folder
+
+
+CACHE_FOLDER = _version_folder() if AVAILABLE else None
 
 
 @contextlib.contextmanager
-def compiling(folder):
-    """Hold numba's compiler lock and, against other processes, a lock on
-    ``unidyn.compile.lock`` in the cache folder ``folder`` (re-entrant: a kernel's
-    compilation compiles the functions it calls).
+def _numba_cache_dir(folder):
+    """numba's documented NUMBA_CACHE_DIR set to folder while the package's functions
+    are declared (numba reads it when a function with cache=True is declared)."""
+    before = os.environ.get("NUMBA_CACHE_DIR")
+    os.environ["NUMBA_CACHE_DIR"] = str(folder)
+    numba.config.reload_config()
+    try:
+        yield
+    finally:
+        if before is None:
+            del os.environ["NUMBA_CACHE_DIR"]
+        else:
+            os.environ["NUMBA_CACHE_DIR"] = before
+        numba.config.reload_config()
 
-    numba writes its cache without a lock between processes: two processes that
-    compile the same functions at once (pytest-xdist workers, a Dask cluster, two
-    notebooks after an install) each write some of the files, and a process that
-    then loads files of both can crash (numba issues #4807 and #10128). Under this
-    lock one process loads or compiles and caches at a time; the others wait and load
-    what it wrote."""
-    from numba.core.compiler_lock import global_compiler_lock
-    path = os.path.join(folder, "unidyn.compile.lock")
-    with global_compiler_lock:  # first: a thread waiting for it holds no file lock
-        held = _HELD.setdefault(path, [None, 0])
-        if held[1] == 0:
-            held[0] = _lock(path)
-        held[1] += 1
+
+#: Said once per process on stderr (a terminal) before a compile of the engine.
+NOTICE = ("unidyn: compiling {what}, once per install and version "
+          "(a minute or so; later runs load it from the cache) ...")
+_noticed = []
+
+
+def _kind(a):
+    """What numba compiles a call's argument a for (its type, dtype and dimensions;
+    those of the items of a tuple)."""
+    if isinstance(a, tuple):
+        return (type(a).__name__,) + tuple(_kind(x) for x in a)
+    return type(a).__name__, str(getattr(a, "dtype", "")), getattr(a, "ndim", 0)
+
+
+class Compiled:
+    """A compiled entry point (called from Python): the dispatcher, whose first call per
+    argument types in this process (where numba loads or compiles and caches it) holds
+    a ``filelock`` lock of the cache folder. A call that compiles (no marker of an
+    earlier compile in the folder) first says so on a terminal (:data:`NOTICE`)."""
+
+    def __init__(self, dispatcher, name, what):
+        self.dispatcher, self.name, self.what = dispatcher, name, what
+        self.ready, self.cached = set(), None
+        self.__doc__ = dispatcher.__doc__
+
+    def __call__(self, *args):
+        key = _kind(args)
+        if key in self.ready or CACHE_FOLDER is None:
+            out = self.dispatcher(*args)
+            self.ready.add(key)
+            return out
         try:
-            yield
-        finally:
-            held[1] -= 1
-            if held[1] == 0:
-                _unlock(held[0])
-                del _HELD[path]
+            from filelock import FileLock
+        except ImportError:  # numba installed without the fast extra: no lock between processes
+            FileLock = contextlib.nullcontext
+        marker = CACHE_FOLDER / f"{self.name}-{hashlib.sha256(repr(key).encode()).hexdigest()[:8]}.ready"
+        with FileLock(str(CACHE_FOLDER / "compile.lock")):
+            if not marker.exists() and not _noticed and sys.stderr is not None and sys.stderr.isatty():
+                _noticed.append(True)
+                print(NOTICE.format(what=self.what), file=sys.stderr, flush=True)
+            out = self.dispatcher(*args)
+            marker.touch()
+        self.ready.add(key)
+        return out
+
+    def compiled(self) -> bool:
+        """Whether this process called it already, or a process had compiled it into the
+        cache folder (a marker of its first call there) when this process first asked."""
+        if self.ready:
+            return True
+        if self.cached is None:  # looked at once per process: a process keeps one engine
+            self.cached = CACHE_FOLDER is not None and any(CACHE_FOLDER.glob(f"{self.name}-*.ready"))
+        return self.cached
+
+    @property
+    def py_func(self):
+        return self.dispatcher.py_func
 
 
-def _compile_locked(dispatcher):
-    """The dispatcher, its loading or compiling of a new signature under
-    :func:`compiling`."""
-    folder = getattr(getattr(dispatcher, "_cache", None), "_cache_path", None)
-    if folder is None:  # not cached
-        return dispatcher
-    compile_ = dispatcher.compile
-
-    def compile(sig):
-        with compiling(folder):
-            return compile_(sig)
-
-    compile.__doc__ = compile_.__doc__
-    dispatcher.compile = compile
-    return dispatcher
-
-
-def jit(f=None, *, parallel: bool = False, inline: bool = False):
+def jit(f=None, *, parallel: bool = False, inline: bool = False, entry: str = ""):
     """``numba.njit(cache=True, nogil=True)`` of f; f itself without numba.
 
     ``parallel=True``: numba's threads over ``numba.prange``; ``inline=True``: f is
     inlined into its compiled callers (as the equations are), which saves a call
-    with reference counting of its array arguments at every right-hand side.
+    with reference counting of its array arguments at every right-hand side;
+    ``entry``: f is called from Python (:class:`Compiled`); what it is, for the notice
+    of its compile (``"the batch engine"``).
     Division by zero gives inf or NaN as in numpy (``error_model="numpy"``), which the
     engines' checks for non-finite states then report."""
     def wrap(g):
         if not AVAILABLE:
             return g
-        return _compile_locked(numba.njit(cache=True, nogil=True, parallel=parallel,
-                                          error_model="numpy",
-                                          inline="always" if inline else "never")(g))
+        options = dict(nogil=True, parallel=parallel, error_model="numpy",
+                       inline="always" if inline else "never")
+        if CACHE_FOLDER is None:
+            compiled = numba.njit(**options)(g)
+        else:
+            with _numba_cache_dir(CACHE_FOLDER):
+                compiled = numba.njit(cache=True, **options)(g)
+        return Compiled(compiled, g.__qualname__, entry) if entry else compiled
     return wrap if f is None else wrap(f)
 
 

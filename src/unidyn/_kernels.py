@@ -18,6 +18,7 @@ Python, which ``tests/evals/test_engines.py`` checks against the numpy engine.
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
 
@@ -25,7 +26,7 @@ from . import equations as eq
 from ._jit import AVAILABLE, jit, prange
 from .equations import P, S
 
-__all__ = ["AVAILABLE", "LOG_COLUMNS", "reference", "rhs", "run_groups", "start", "LANES", "OK", "NONFINITE",
+__all__ = ["AVAILABLE", "compiled", "Groups", "Runs", "Call", "LOG_COLUMNS", "reference", "rhs", "run_groups", "start", "LANES", "OK", "NONFINITE",
            "POSITION", "SPEED_U", "SPEED_W", "INTERRUPTED", "STEP"]
 
 NSTATE = len(eq.STATE)
@@ -175,59 +176,96 @@ def _lane_noise(NL, b):
     return NL[b], NL[LANES + b], NL[2 * LANES + b], NL[3 * LANES + b]
 
 
+#: A group of up to LANES runs, lane-minor: ``state`` (13 * LANES), ``params``
+#: (NPARAM * LANES), ``noise`` (4 * LANES: this interval's position x, y and velocity
+#: u, w noise), ``count``: the lanes in use. The engine's scratch group (one run taken
+#: alone) is one too, with count 1.
+Lanes = namedtuple("Lanes", "state params noise count")
+#: Every group of a call: ``state`` (G, 13 * LANES), ``params`` (G, NPARAM * LANES),
+#: ``runs`` (G, LANES): run index of each lane, ``count`` (G,): lanes used, ``steps``
+#: (G,): RK4 steps per sample interval.
+Groups = namedtuple("Groups", "state params runs count steps")
+#: The per-run arrays of a call (row i: run i): ``params`` (B, NPARAM);
+#: ``noise_pos``, ``noise_vel`` (B, rows, 2): the noise of intervals noise_first,
+#: noise_first + 1, ...; ``bounds`` (B, 3): divergence bounds on |(x, y)|, |u|, |w|;
+#: ``rate_max`` (B,): the fastest loop rate the step resolves (inf: not checked);
+#: ``log_columns``: the columns of :data:`LOG_COLUMNS` kept; ``log`` (B, rows,
+#: len(log_columns)); and what the engine fills: ``status`` (why it stopped, OK while
+#: it runs), ``last`` (last sample reached), ``fastest`` (fastest rate met),
+#: ``most_steps`` (most steps an interval took), ``rk4_steps`` (RK4 steps computed),
+#: ``splits`` (steps split at a change of the limits).
+Runs = namedtuple("Runs", "params noise_pos noise_vel bounds rate_max log_columns log status "
+                          "last fastest most_steps rk4_steps splits")
+#: The numbers of a call: sample interval ``Ts``; ``noise_first``, the interval of the
+#: noise arrays' row 0; ``samples``, the run's intervals; ``log_every``; an interval
+#: taken finer uses ceil(Ts rate / ``refined_rate``) steps, at most ``max_steps``; a
+#: change of the limits is located to Ts / ``split_parts`` (:func:`split_depth`).
+Call = namedtuple("Call", "Ts noise_first samples log_every refined_rate max_steps split_parts")
+#: A group's work arrays: ``stages`` (4, NSTAGE * LANES), ``crossed`` (LANES,): 1 where a
+#: lane's step crossed a change of the limits, ``before``: the state before the step;
+#: for a lane taken alone (:func:`_split`): ``alone`` (a :class:`Lanes` of count 1),
+#: ``alone_stages`` (4, NSTAGE * LANES), ``probe`` (2, NSTAGE * LANES), ``alone_crossed``;
+#: ``extra_steps`` and ``located`` (LANES,): per lane, the RK4 steps of its splits and
+#: the changes located, this interval.
+Work = namedtuple("Work", "stages crossed before alone alone_stages probe alone_crossed "
+                          "extra_steps located")
+
+
 @jit
-def _stage(t, ref, XL, a, DL, first, PL, NL, nl, OUT):
-    """One RK4 stage for lanes 0..nl-1 of a group: OUT = the loop's rates at
-    XL + a DL (at XL itself when ``first``), time t, reference ref (all lane-minor).
+def _stage(t, ref, lanes, a, DL, first, out):
+    """One RK4 stage for the lanes in use: out = the loop's rates at state + a DL (at
+    the state itself when ``first``), time t, reference ref (all lane-minor).
     Compiled once and called for the four stages: the equations are inlined into
     this one loop, which the compiler vectorises over the lanes."""
-    for b in range(nl):
+    XL, PL, NL = lanes.state, lanes.params, lanes.noise
+    for b in range(lanes.count):
         X = _lane_state(XL, b)
         if not first:
             X = _axpy(X, a, _lane_state(DL, b))
         d, code = eq.loop_rates_and_limits(t, X, ref, _lane_params(PL, b), _lane_noise(NL, b))
         for i in range(NSTATE):
-            OUT[i * LANES + b] = d[i]
-        OUT[CODE * LANES + b] = code
+            out[i * LANES + b] = d[i]
+        out[CODE * LANES + b] = code
 
 
 @jit(inline=True)
-def _limit_changes(D1, D2, D3, D4, PL, b):
-    """Whether the four stages of lane b's RK4 step disagree on which limits act on
+def _limit_changes(D, b):
+    """Whether the four stages D of lane b's RK4 step disagree on which limits act on
     the robot's accelerations and its command (:func:`unidyn.equations.limit_state`,
     in the stages' row CODE): the step then crosses a kink or a jump of the
     right-hand side."""
     c = CODE * LANES + b
-    c1 = D1[c]
-    return (c1 != D2[c]) | (c1 != D3[c]) | (c1 != D4[c])
+    c1 = D[0][c]
+    return (c1 != D[1][c]) | (c1 != D[2][c]) | (c1 != D[3][c])
 
 
 @jit
-def _step(XL, h, D1, D2, D3, D4, PL, nl, KF):
-    """RK4's step from the four stages, X + h / 6 (d1 + 2 d2 + 2 d3 + d4), for lanes
-    0..nl-1; the speeds end on their limits where the step crosses one. KF[b] is set
-    to 1 where lane b's step crosses a change of the limits (:func:`_limit_changes`),
-    else 0."""
-    for b in range(nl):
-        X = _rk4(_lane_state(XL, b), h, _lane_state(D1, b), _lane_state(D2, b),
-                 _lane_state(D3, b), _lane_state(D4, b))
+def _step(lanes, h, D, crossed):
+    """RK4's step from the four stages D, X + h / 6 (d1 + 2 d2 + 2 d3 + d4), for the
+    lanes in use; the speeds end on their limits where the step crosses one.
+    crossed[b] is set to 1 where lane b's step crosses a change of the limits
+    (:func:`_limit_changes`), else 0."""
+    XL, PL = lanes.state, lanes.params
+    for b in range(lanes.count):
+        X = _rk4(_lane_state(XL, b), h, _lane_state(D[0], b), _lane_state(D[1], b),
+                 _lane_state(D[2], b), _lane_state(D[3], b))
         for i in range(NSTATE):
             XL[i * LANES + b] = X[i]
         XL[S.u * LANES + b] = eq.saturate(X[S.u], PL[P.speed_u * LANES + b])
         XL[S.w * LANES + b] = eq.saturate(X[S.w], PL[P.speed_w * LANES + b])
-        KF[b] = eq.select(_limit_changes(D1, D2, D3, D4, PL, b), 1.0, 0.0)
+        crossed[b] = eq.select(_limit_changes(D, b), 1.0, 0.0)
 
 
 @jit(inline=True)
-def _stages(t, h, XL, PL, NL, p0, nl, D):
-    """RK4's four stages of the step of length h from t for lanes 0..nl-1 of a group
-    into D[0..3]; the reference (p0's) is evaluated once a stage for all lanes."""
+def _stages(t, h, lanes, p0, D):
+    """RK4's four stages of the step of length h from t for the lanes in use into
+    D[0..3]; the reference (p0's) is evaluated once a stage for all lanes."""
     r2 = reference(t + 0.5 * h, p0)
     # first: a literal, so that numba compiles the stage without the branch
-    _stage(t, reference(t, p0), XL, 0.0, D[0], True, PL, NL, nl, D[0])
-    _stage(t + 0.5 * h, r2, XL, 0.5 * h, D[0], False, PL, NL, nl, D[1])
-    _stage(t + 0.5 * h, r2, XL, 0.5 * h, D[1], False, PL, NL, nl, D[2])
-    _stage(t + h, reference(t + h, p0), XL, h, D[2], False, PL, NL, nl, D[3])
+    _stage(t, reference(t, p0), lanes, 0.0, D[0], True, D[0])
+    _stage(t + 0.5 * h, r2, lanes, 0.5 * h, D[0], False, D[1])
+    _stage(t + 0.5 * h, r2, lanes, 0.5 * h, D[1], False, D[2])
+    _stage(t + h, reference(t + h, p0), lanes, h, D[2], False, D[3])
 
 
 @jit
@@ -253,16 +291,17 @@ def _dense_weights(th):
 
 
 @jit
-def _split(XS, PS, NS, p0, tb, h, depth, tried, one, D, DC, KS):
-    """The RK4 step of length h from tb of lane 0 of the scratch group XS (parameters
-    PS, noise NS), split where it crosses a change of the limits (D holds the step's
-    stages when ``tried``: it was computed and crosses one). Where a step crosses a
-    change, the change is located to one part of 2^-depth of the step by bisection,
-    each probe one right-hand side at RK4's continuous extension of that step
-    (:func:`_dense_weights`); then the step up to that part, the part, and the rest
-    are steps of their own, each checked again. A step that crosses no change is the
-    very step :func:`_steps_lanes` takes. DC (2, 13 * LANES) is scratch. Returns (RK4
-    steps computed, changes located)."""
+def _split(work, p0, tb, h, depth, tried):
+    """The RK4 step of length h from tb of the run taken alone (``work.alone``),
+    split where it crosses a change of the limits (``work.alone_stages`` holds the
+    step's stages when ``tried``: it was computed and crosses one). Where a step
+    crosses a change, the change is located to one part of 2^-depth of the step by
+    bisection, each probe one right-hand side at RK4's continuous extension of that
+    step (:func:`_dense_weights`); then the step up to that part, the part, and the
+    rest are steps of their own, each checked again. A step that crosses no change is
+    the very step :func:`_steps_lanes` takes. Returns (RK4 steps computed, changes
+    located)."""
+    alone, D, DC = work.alone, work.alone_stages, work.probe
     U = 1 << depth  # the step's length in units of its finest part
     steps = 0
     located = 0
@@ -275,10 +314,10 @@ def _split(XS, PS, NS, p0, tb, h, depth, tried, one, D, DC, KS):
         hh = (end - pos) * (h / U)
         t = tb + pos * (h / U)
         if not tried:
-            _stages(t, hh, XS, PS, NS, p0, one, D)
+            _stages(t, hh, alone, p0, D)
             steps += 1
         tried = False
-        if end - pos > 1 and _limit_changes(D[0], D[1], D[2], D[3], PS, 0):
+        if end - pos > 1 and _limit_changes(D, 0):
             located += 1
             c1 = D[0][ic]
             lo = pos
@@ -290,7 +329,7 @@ def _split(XS, PS, NS, p0, tb, h, depth, tried, one, D, DC, KS):
                     DC[0][i * LANES] = (b1 * D[0][i * LANES] + b2 * (D[1][i * LANES] + D[2][i * LANES])
                                         + b4 * D[3][i * LANES])
                 tq = tb + q * (h / U)
-                _stage(tq, reference(tq, p0), XS, hh, DC[0], False, PS, NS, one, DC[1])
+                _stage(tq, reference(tq, p0), alone, hh, DC[0], False, DC[1])
                 if DC[1][ic] == c1:
                     lo = q
                 else:
@@ -302,52 +341,55 @@ def _split(XS, PS, NS, p0, tb, h, depth, tried, one, D, DC, KS):
             else:
                 end = hi
             continue
-        _step(XS, hh, D[0], D[1], D[2], D[3], PS, one, KS)
+        _step(alone, hh, D, work.alone_crossed)
         pos = end
         end = khi if pos == klo else U
     return steps, located
 
 
 @jit
-def _lane_in(XS, PS, NS, XL, PL, NL, b):
-    """Lane b of a group's state XL, parameters PL and noise NL into lane 0 of the
-    scratch group XS, PS, NS."""
+def _lane_in(alone, state, lanes, b):
+    """Lane b of ``state`` (a group's state, lane-minor) and of the group's parameters
+    and noise into lane 0 of the scratch group ``alone``."""
     for q in range(NSTATE):
-        XS[q * LANES] = XL[q * LANES + b]
+        alone.state[q * LANES] = state[q * LANES + b]
     for q in range(NPARAM):
-        PS[q * LANES] = PL[q * LANES + b]
+        alone.params[q * LANES] = lanes.params[q * LANES + b]
     for q in range(4):
-        NS[q * LANES] = NL[q * LANES + b]
+        alone.noise[q * LANES] = lanes.noise[q * LANES + b]
 
 
 @jit
-def _steps_lanes(XL, PL, NL, p0, t0, h, m, nl, D, KF, XP, XS, PS, NS, DS, DC, KS, WK, SP, depth,
-                 one):
-    """m RK4 steps of length h from t0 for lanes 0..nl-1 of one group (state XL,
-    parameters PL, this interval's noise NL; all lane-minor; D (4, 13 * LANES) holds
-    the stages). The reference is the same for every lane (p0: the group's first
-    run), so it is evaluated once a stage. A lane's step that crosses a change of the
-    limits is taken again alone, in parts (:func:`_split`, in the scratch group XS,
-    PS, NS from the state before the step, kept in XP, with its stages copied to DS;
-    located to 2^-depth of the step); WK[b] and SP[b] count lane b's extra RK4 steps
-    and the changes located. (one: the lane count 1 as a value known only when
-    running; a literal 1 would make numba compile the steps again.)"""
+def _steps_lanes(lanes, p0, t0, h, m, depth, work):
+    """m RK4 steps of length h from t0 for the lanes in use of one group. The
+    reference is the same for every lane (p0: the group's first run's parameters), so
+    it is evaluated once a stage. A lane's step that crosses a change of the limits
+    is taken again alone, in parts (:func:`_split`, from the state before the step,
+    located to 2^-depth of the step); work.extra_steps[b] and work.located[b] count
+    lane b's extra RK4 steps and the changes located."""
+    D = work.stages
     for j in range(m):
         t = t0 + j * h
-        _stages(t, h, XL, PL, NL, p0, nl, D)
-        XP[:] = XL
-        _step(XL, h, D[0], D[1], D[2], D[3], PL, nl, KF)
-        for b in range(nl):
-            if KF[b] != 0.0 and depth > 0:
-                _lane_in(XS, PS, NS, XP, PL, NL, b)
+        _stages(t, h, lanes, p0, D)
+        work.before[:] = lanes.state
+        _step(lanes, h, D, work.crossed)
+        for b in range(lanes.count):
+            if work.crossed[b] != 0.0 and depth > 0:
+                _lane_in(work.alone, work.before, lanes, b)
                 for s_ in range(4):
                     for q in range(NSTAGE):
-                        DS[s_][q * LANES] = D[s_][q * LANES + b]
-                steps, splits = _split(XS, PS, NS, p0, t, h, depth, True, one, DS, DC, KS)
-                WK[b] += steps
-                SP[b] += splits
+                        work.alone_stages[s_][q * LANES] = D[s_][q * LANES + b]
+                steps, splits = _split(work, p0, t, h, depth, True)
+                work.extra_steps[b] += steps
+                work.located[b] += splits
                 for q in range(NSTATE):
-                    XL[q * LANES + b] = XS[q * LANES]
+                    lanes.state[q * LANES + b] = work.alone.state[q * LANES]
+
+
+def compiled() -> bool:
+    """Whether the engine's entry points were compiled (or loaded) in this process or
+    lie compiled in the cache folder (:class:`unidyn._jit.Compiled`)."""
+    return AVAILABLE and run_groups.compiled() and start.compiled()
 
 
 #: Why a run stopped (``status``): still running / complete, a non-finite state,
@@ -391,172 +433,152 @@ def log_row(t, X, p, noise, cols, row, out):
         out[j] = row[cols[j]]
 
 
-@jit
-def start(X, P_, pos_noise, vel_noise, bound, cols, LOG, status):
-    """Log sample 0 of every run (its columns cols) and check its state (noise row 0:
-    interval 0)."""
+@jit(entry="the batch engine")
+def start(X, runs):
+    """Log sample 0 of every run (state X (B, 13); noise row 0: interval 0) and check
+    its state (into runs.status)."""
     row = np.empty(NLOG)
     for i in range(X.shape[0]):
-        noise = (pos_noise[i, 0, 0], pos_noise[i, 0, 1], vel_noise[i, 0, 0], vel_noise[i, 0, 1])
-        log_row(0.0, X[i], P_[i], noise, cols, row, LOG[i, 0])
-        status[i] = check_state(X[i], bound[i])
+        noise = (runs.noise_pos[i, 0, 0], runs.noise_pos[i, 0, 1], runs.noise_vel[i, 0, 0],
+                 runs.noise_vel[i, 0, 1])
+        log_row(0.0, X[i], runs.params[i], noise, runs.log_columns, row, runs.log[i, 0])
+        runs.status[i] = check_state(X[i], runs.bounds[i])
 
 
 @jit
-def _interval_steps(t, k, XL, PL, NL, p0, runs, nl, m, Ts, rate_max, refined, max_steps,
-                    status, seen, last, m_max, work, MK):
-    """The RK4 steps each running lane of a group takes over interval k, into MK: m,
-    or, where the loop's rate at the interval's start
+def _interval_steps(t, k, lanes, p0, group_runs, m, runs, call, steps):
+    """The RK4 steps each running lane of a group takes over interval k, into steps:
+    m, or, where the loop's rate at the interval's start
     (:func:`unidyn.equations.loop_step_rate`) is beyond rate_max of its run,
-    ceil(Ts rate / refined); a lane that would need more than max_steps stops with
-    status STEP. seen and m_max keep each run's fastest rate and most steps, work
-    counts its steps. Returns whether any lane takes finer steps. Runs with
-    rate_max = inf are not checked."""
+    ceil(Ts rate / refined_rate); a lane that would need more than max_steps stops
+    with status STEP. Counts each run's fastest rate, most steps and RK4 steps.
+    Returns whether any lane takes finer steps. Runs with rate_max = inf are not
+    checked."""
     finer = False
     ref = reference(t, p0)
-    for b in range(nl):
-        i = runs[b]
-        MK[b] = m
-        if status[i] != OK:
+    for b in range(lanes.count):
+        i = group_runs[b]
+        steps[b] = m
+        if runs.status[i] != OK:
             continue
-        if rate_max[i] != np.inf:
-            rate = eq.loop_step_rate(t, _lane_state(XL, b), ref, _lane_params(PL, b),
-                                     _lane_noise(NL, b))
-            if rate > seen[i]:
-                seen[i] = rate
-            if rate > rate_max[i]:
-                need = Ts * rate / refined
-                if not need <= max_steps:
-                    status[i] = STEP
-                    last[i] = k
+        if runs.rate_max[i] != np.inf:
+            rate = eq.loop_step_rate(t, _lane_state(lanes.state, b), ref,
+                                     _lane_params(lanes.params, b), _lane_noise(lanes.noise, b))
+            if rate > runs.fastest[i]:
+                runs.fastest[i] = rate
+            if rate > runs.rate_max[i]:
+                need = call.Ts * rate / call.refined_rate
+                if not need <= call.max_steps:
+                    runs.status[i] = STEP
+                    runs.last[i] = k
                     continue
-                MK[b] = math.ceil(need)
-                m_max[i] = max(m_max[i], MK[b])
-                work[i] += MK[b]
+                steps[b] = math.ceil(need)
+                runs.most_steps[i] = max(runs.most_steps[i], steps[b])
+                runs.rk4_steps[i] += steps[b]
                 finer = True
-        work[i] += m
+        runs.rk4_steps[i] += m
     return finer
 
 
 @jit
-def _lane_alone(XS0, XL, PL, NL, b, p0, t0, h, m, parts, XS, PS, NS, D, DC, KS, one):
-    """Lane b's interval again from its start XS0, alone (in lane 0 of the scratch
-    group XS, PS, NS) with m steps of h (each split where it crosses a change of the
-    limits, :func:`_split`), into lane b of XL: the numbers the run has when it is
-    alone in its group. Returns (RK4 steps computed, steps split)."""
-    _lane_in(XS, PS, NS, XS0, PL, NL, b)
+def _lane_alone(start_state, lanes, b, p0, t0, m, call, work):
+    """Lane b's interval again from its start (``start_state``, the group's state
+    then), alone (in the scratch group work.alone), with m steps of Ts / m from t0
+    (each split where it crosses a change of the limits, :func:`_split`), into lane
+    b of the group: the numbers the run has when it is alone in its group. Returns
+    (RK4 steps computed, steps split)."""
+    _lane_in(work.alone, start_state, lanes, b)
+    h = call.Ts / m
     steps = 0
     splits = 0
+    depth = split_depth(m, call.split_parts)
     for j in range(m):
-        st, sp = _split(XS, PS, NS, p0, t0 + j * h, h, split_depth(m, parts), False, one, D, DC,
-                        KS)
+        st, sp = _split(work, p0, t0 + j * h, h, depth, False)
         steps += st
         splits += sp
     for q in range(NSTATE):
-        XL[q * LANES + b] = XS[q * LANES]
+        lanes.state[q * LANES + b] = work.alone.state[q * LANES]
     return steps, splits
 
 
 @jit
-def _run_group(XL, PL, runs, nl, m, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n, L, bound,
-               rate_max, refined, max_steps, parts, cols, LOG, status, last, seen, m_max, work,
-               splits):
-    """Advance the nl runs of one group (run runs[b] in lane b; state XL and
-    parameters PL lane-minor) over sample intervals k0..k1-1 with m RK4 steps each;
-    a lane whose loop is faster at an interval's start than m steps resolve
-    (:func:`_interval_steps`), or one of whose steps crosses a change of the limits,
-    takes that interval again alone, with its steps split where they cross such a
-    change (:func:`_lane_alone`; splits counts them).
+def _run_group(group, g, runs, call, k0, k1):
+    """Advance the runs of group g (run group.runs[g, b] in lane b) over sample
+    intervals k0..k1-1 with group.steps[g] RK4 steps each; a lane whose loop is faster
+    at an interval's start than those steps resolve (:func:`_interval_steps`) takes
+    that interval again alone, finer (:func:`_lane_alone`); a step that crosses a
+    change of the limits is split there (:func:`_steps_lanes`).
     A run that stops is no longer logged (its lane goes on being computed, unused)."""
-    NL = np.empty(4 * LANES)
-    D = np.zeros((4, NSTAGE * LANES))
+    nl = group.count[g]
+    m = group.steps[g]
+    group_runs = group.runs[g]
+    lanes = Lanes(group.state[g], group.params[g], np.empty(4 * LANES), nl)
+    # the scratch group of one run taken alone (its count: 1 as a value known only when
+    # running; a literal 1 would make numba compile the steps again)
+    alone = Lanes(np.zeros(NSTATE * LANES), np.zeros(NPARAM * LANES), np.zeros(4 * LANES),
+                  min(nl, 1))
+    work = Work(np.zeros((4, NSTAGE * LANES)), np.zeros(LANES), np.empty(NSTATE * LANES), alone,
+                np.zeros((4, NSTAGE * LANES)), np.zeros((2, NSTAGE * LANES)), np.zeros(LANES),
+                np.zeros(LANES, dtype=np.int64), np.zeros(LANES, dtype=np.int64))
+    steps = np.empty(LANES, dtype=np.int64)
     x = np.empty(NSTATE)
-    XS0 = np.empty(NSTATE * LANES)
-    XS = np.zeros(NSTATE * LANES)
-    PS = np.zeros(NPARAM * LANES)
-    NS = np.zeros(4 * LANES)
-    MK = np.empty(LANES, dtype=np.int64)
-    KF = np.zeros(LANES)
-    KS = np.zeros(LANES)
-    XP = np.empty(NSTATE * LANES)
-    DS = np.zeros((4, NSTAGE * LANES))
-    DC = np.zeros((2, NSTAGE * LANES))
-    WK = np.zeros(LANES, dtype=np.int64)
-    SP = np.zeros(LANES, dtype=np.int64)
+    start_state = np.empty(NSTATE * LANES)
     full = np.empty(NLOG)
+    Ts = call.Ts
     h = Ts / m
-    depth = split_depth(m, parts)
-    p0 = P_[runs[0]]
+    depth = split_depth(m, call.split_parts)
+    p0 = runs.params[group_runs[0]]
     for k in range(k0, k1):
-        r = k - kn
+        r = k - call.noise_first
         for b in range(nl):
-            i = runs[b]
-            NL[b] = pos_noise[i, r, 0]
-            NL[LANES + b] = pos_noise[i, r, 1]
-            NL[2 * LANES + b] = vel_noise[i, r, 0]
-            NL[3 * LANES + b] = vel_noise[i, r, 1]
-        finer = _interval_steps(k * Ts, k, XL, PL, NL, p0, runs, nl, m, Ts, rate_max, refined,
-                                max_steps, status, seen, last, m_max, work, MK)
+            i = group_runs[b]
+            lanes.noise[b] = runs.noise_pos[i, r, 0]
+            lanes.noise[LANES + b] = runs.noise_pos[i, r, 1]
+            lanes.noise[2 * LANES + b] = runs.noise_vel[i, r, 0]
+            lanes.noise[3 * LANES + b] = runs.noise_vel[i, r, 1]
+        finer = _interval_steps(k * Ts, k, lanes, p0, group_runs, m, runs, call, steps)
         running = False
         for b in range(nl):
-            running = running or status[runs[b]] == OK
+            running = running or runs.status[group_runs[b]] == OK
         if not running:
             return
         if finer:
-            XS0[:] = XL
-        WK[:] = 0
-        SP[:] = 0
-        _steps_lanes(XL, PL, NL, p0, k * Ts, h, m, nl, D, KF, XP, XS, PS, NS, DS, DC, KS, WK, SP,
-                     depth, min(nl, 1))
+            start_state[:] = lanes.state
+        work.extra_steps[:] = 0
+        work.located[:] = 0
+        _steps_lanes(lanes, p0, k * Ts, h, m, depth, work)
         for b in range(nl):
-            i = runs[b]
-            if status[i] != OK:
+            i = group_runs[b]
+            if runs.status[i] != OK:
                 continue
-            work[i] += WK[b]
-            if MK[b] > m:  # the interval again, alone, finer (MK[b] counted already)
-                steps, split = _lane_alone(XS0, XL, PL, NL, b, p0, k * Ts, Ts / MK[b], MK[b],
-                                           parts, XS, PS, NS, D, DC, KS, min(nl, 1))
-                work[i] += steps - MK[b]
-                splits[i] += split
+            runs.rk4_steps[i] += work.extra_steps[b]
+            if steps[b] > m:  # the interval again, alone, finer (steps[b] counted already)
+                done, split = _lane_alone(start_state, lanes, b, p0, k * Ts, steps[b], call, work)
+                runs.rk4_steps[i] += done - steps[b]
+                runs.splits[i] += split
             else:
-                splits[i] += SP[b]
+                runs.splits[i] += work.located[b]
         for b in range(nl):
-            i = runs[b]
-            if status[i] != OK:
+            i = group_runs[b]
+            if runs.status[i] != OK:
                 continue
             for q in range(NSTATE):
-                x[q] = XL[q * LANES + b]
-            st = check_state(x, bound[i])
-            row = log_index(k + 1, n, L, st != OK)
+                x[q] = lanes.state[q * LANES + b]
+            st = check_state(x, runs.bounds[i])
+            row = log_index(k + 1, call.samples, call.log_every, st != OK)
             if row >= 0:
                 # logged with interval k's measurement, as the diagram logs it before the tick
-                log_row((k + 1) * Ts, x, P_[i], _lane_noise(NL, b), cols, full, LOG[i, row])
-            status[i] = st
-            last[i] = k + 1
+                log_row((k + 1) * Ts, x, runs.params[i], _lane_noise(lanes.noise, b),
+                        runs.log_columns, full, runs.log[i, row])
+            runs.status[i] = st
+            runs.last[i] = k + 1
 
 
-@jit(parallel=True)
-def run_groups(XG, PG, runs, nlanes, mG, P_, pos_noise, vel_noise, kn, Ts, k0, k1, n, L, bound,
-               rate_max, refined, max_steps, parts, cols, LOG, status, last, seen, m_max, work,
-               splits):
-    """Advance every group of runs over sample intervals k0..k1-1, one group per
-    thread at a time. Group g holds nlanes[g] runs (indices runs[g, :nlanes[g]] into
-    the per-run arrays) that share their RK4 steps per interval, mG[g], and their
-    reference; XG (G, 13 * LANES) and PG (G, len(LOOP_PARAMETERS) * LANES) are their
-    states (updated in place) and parameters, lane-minor. Per run: P_ (B, ...) its
-    parameters; pos_noise, vel_noise (B, rows, 2) the noise of intervals kn, kn + 1, ...
-    (k0 >= kn, k1 <= kn + rows); every L-th sample (and the one a run stops at) is
-    logged into LOG (B, rows, len(cols); float64 or float32): the columns cols of
-    :data:`LOG_COLUMNS` (:func:`log_layout`); status[i] says why run i
-    stopped (OK while it runs) and last[i] is the last sample it reached. Where the
-    loop's rate at an interval's start exceeds rate_max[i] (inf: not checked), run i
-    takes that interval with ceil(Ts rate / refined) steps, at most max_steps (else it
-    stops with status STEP); seen[i] and m_max[i] keep its fastest rate and most
-    steps, work[i] counts the RK4 steps computed for it (with the coarse steps of an
-    interval taken again) and splits[i] its steps split where they cross a change of
-    the limits (on the robot's accelerations or its command), down to parts of Ts / parts
-    (:func:`split_depth`)."""
-    for g in prange(XG.shape[0]):
-        _run_group(XG[g], PG[g], runs[g], nlanes[g], mG[g], P_, pos_noise, vel_noise, kn, Ts,
-                   k0, k1, n, L, bound, rate_max, refined, max_steps, parts, cols, LOG, status,
-                   last, seen, m_max, work, splits)
+@jit(parallel=True, entry="the batch engine")
+def run_groups(group, runs, call, k0, k1):
+    """Advance every group of runs (:data:`Groups`; their states updated in place)
+    over sample intervals k0..k1-1, one group per thread at a time; the per-run
+    arrays :data:`Runs` are read and filled (every log_every-th sample, and the one a
+    run stops at, is logged), with the numbers of :data:`Call`."""
+    for g in prange(group.state.shape[0]):
+        _run_group(group, g, runs, call, k0, k1)

@@ -104,7 +104,7 @@ def _sim_segments(theta, t, u_ref, w_ref, starts, stops, v0, delay, linear, hmax
 
 # compiled where numba is installed (the ``fast`` extra); without it the same code runs
 # in Python
-_sim_compiled = jit(_sim_segments)
+_sim_compiled = jit(_sim_segments, entry="the log simulator of identification")
 
 
 def step_length(theta, dt) -> float:
