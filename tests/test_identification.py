@@ -441,7 +441,17 @@ def test_plot_validation_is_headless(monkeypatch):
     truth, lim, log, clean, holdout, res, _ = experiment("p3dx")
     rep = ident.validate(res, {k: holdout[k][:1000] for k in ("t", "u_ref", "w_ref", "u", "w")})
     axes = ident.plot_validation(rep)
-    assert len(axes) == 2 and all(len(a.lines) == 2 for a in axes)
+    assert len(axes) == 4 and len(axes[0].lines) == len(axes[2].lines) == 2
     assert "fit" in axes[0].get_legend().get_texts()[1].get_text()
+    # the measured trace is drawn over the simulated one
+    measured, simulated = axes[0].lines
+    assert measured.get_zorder() > simulated.get_zorder()
+    # the residual panels show measured minus simulated
+    for main, res, k in ((axes[0], axes[1], "u"), (axes[2], axes[3], "w")):
+        r = res.lines[-1].get_ydata()
+        want = np.asarray(getattr(rep, k)) - np.asarray(getattr(rep, f"{k}_sim"))
+        np.testing.assert_allclose(r[np.isfinite(r)], want)
+    two = ident.plot_validation(rep, ax=plt.subplots(2, 1)[1])
+    assert len(two) == 2 and all(len(a.lines) == 2 for a in two)
     plt.close("all")
     assert math.isfinite(rep.fit["u"]) and math.isfinite(rep.rmse["w"])

@@ -132,22 +132,29 @@ def validation_report(rp, d, segs, commands, delay, v0=None, limits=NO_LIMITS):
 
 @styled
 def plot_validation(report: ValidationReport, ax=None):
-    """Plot measured and simulated u and w of a :class:`ValidationReport`.
+    """Plot measured and simulated u and w of a :class:`ValidationReport`, and
+    their differences.
 
-    Never calls ``plt.show()``; works with any backend, including Agg.
+    The measured trace is drawn over the simulated one (thin and dark), so that
+    where they agree the measurement stays visible; below each, the residual
+    (measured minus simulated) shows what the model leaves unexplained. Never
+    calls ``plt.show()``; works with any backend, including Agg.
 
     :param report: from :func:`validate`
-    :param ax: two matplotlib Axes (u, w); default a new figure with two rows
-    :return: the two Axes
+    :param ax: four matplotlib Axes (u, its residual, w, its residual), or two
+        (u, w) for no residual panels; default a new figure with four rows
+    :return: the Axes
     """
     if not isinstance(report, ValidationReport):
         raise ValidationError(f"report must be a ValidationReport, got {type(report).__name__}")
     if ax is None:
         import matplotlib.pyplot as plt
-        _, ax = plt.subplots(2, 1, sharex=True, figsize=size(2, 0.5), layout="constrained")
+        _, ax = plt.subplots(4, 1, sharex=True, figsize=size(2, 0.7), layout="constrained",
+                             gridspec_kw={"height_ratios": [3, 1, 3, 1]})
     ax = list(np.ravel(ax))
-    if len(ax) != 2:
-        raise ValidationError(f"ax must be two Axes (u, w), got {len(ax)}")
+    if len(ax) not in (2, 4):
+        raise ValidationError(f"ax must be four Axes (u, its residual, w, its residual) or "
+                              f"two (u, w), got {len(ax)}")
     t = np.asarray(report.t, dtype=float)
     dt = np.diff(t)
     # break the lines at gaps in the log instead of drawing across them
@@ -157,13 +164,21 @@ def plot_validation(report: ValidationReport, ax=None):
         return np.insert(np.asarray(y, dtype=float), cut, np.nan)
 
     tb = broken(t)
-    for a, k, sym, unit in ((ax[0], "u", "u", "m/s"), (ax[1], "w", "\u03c9", "rad/s")):
-        a.plot(tb, broken(getattr(report, k)), lw=0.6, color="0.6", label="measured")
-        a.plot(tb, broken(getattr(report, f"{k}_sim")), lw=1.0, color="C0",
+    step = len(ax) // 2
+    for a, k, sym, unit in ((ax[0], "u", "u", "m/s"), (ax[step], "w", "\u03c9", "rad/s")):
+        measured, simulated = getattr(report, k), getattr(report, f"{k}_sim")
+        a.plot(tb, broken(measured), lw=0.6, color="0.15", zorder=3, label="measured")
+        a.plot(tb, broken(simulated), lw=1.6, color="C0", alpha=0.8, zorder=2,
                label=f"simulated, \u03b8 = {report.theta.name or 'identified'} "
                      f"(fit {report.fit[k]:.1f} %)")
         a.set_ylabel(label(sym, unit))
         ylim_from_data(a)
         legend(a)
-    ax[1].set_xlabel(label("t", "s"))
+        if step == 2:
+            r = ax[ax.index(a) + 1]
+            r.axhline(0.0, lw=0.6, color="0.5")
+            r.plot(tb, broken(np.asarray(measured, float) - np.asarray(simulated, float)),
+                   lw=0.6, color="C3")
+            r.set_ylabel(label(f"{sym} res.", unit))
+    ax[-1].set_xlabel(label("t", "s"))
     return ax
