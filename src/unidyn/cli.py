@@ -772,8 +772,8 @@ def _parser() -> argparse.ArgumentParser:
                        formatter_class=_Formatter, epilog=_examples(
                            "unidyn identify examples/log.csv --out out/id",
                            "unidyn identify examples/courier.mcap --out out/id-ros",
-                           "unidyn identify run1.bag run2/ --cmd /cmd_vel --odom /odom "
-                           "--cmd-timeout 0.5 --out out/id-bags",
+                           "unidyn identify examples/courier.mcap --cmd /cmd_vel --odom /odom "
+                           "--cmd-timeout 0.5 --out out/id-topics",
                            "unidyn identify examples/log.csv --delay auto --no-validate "
                            "--out out/id-delay"))
     i.add_argument("log", nargs="+", metavar="LOG",
