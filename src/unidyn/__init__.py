@@ -26,6 +26,7 @@ if TYPE_CHECKING:  # for readers and type checkers; at run time, loaded when fir
     from .model import NO_LIMITS, PAPER_LIMITS, Limits  # noqa: F401
     from .noise import NoiseSpec  # noqa: F401
     from .parameters import RobotParameters  # noqa: F401
+del TYPE_CHECKING  # only for the block above: not one of the package's names
 
 #: What ``unidyn.<name>`` loads on first use: (module, attribute or None for the module).
 #: Nothing heavy loads on ``import unidyn`` (numpy does when any of these is used), so

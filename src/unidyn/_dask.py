@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import os
 
+from ._errors import MissingDependency
 from ._validate import ValidationError
-from .files import MissingDependency
 
 __all__ = ["connect_dask", "run_on_dask"]
 

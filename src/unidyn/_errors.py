@@ -13,3 +13,15 @@ class NonFiniteSignalError(FloatingPointError):
 
 class MissingDependency(ImportError):
     """An optional dependency needed for the requested feature is not installed."""
+
+
+class SimulationInterrupted(KeyboardInterrupt):
+    """A run (or batch of runs) stopped by Ctrl-C. ``result`` is the computed part
+    of the (first) run, ``results`` that of every run (``None`` for a run not yet
+    started), each marked ``complete=False``."""
+
+    def __init__(self, message, result=None, results=None):
+        super().__init__(message)
+        self.results = list(results) if results is not None else [result]
+        self.result = result if result is not None else next(
+            (r for r in self.results if r is not None), None)

@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from ._validate import ValidationError, flag, positive, real, vector
+from .figstyle import as_text
 
 __all__ = ["Motion", "animate", "show", "DEFAULT_MAX_FRAMES", "MAX_FRAMES", "SUFFIXES"]
 
@@ -90,7 +91,6 @@ class Motion:
         sc = getattr(result, "scenario", None)
         a = getattr(sc, "a", 0.0) if sc is not None else 0.0
         if label is None:  # the scenario's name as written (a $ in it starts no mathtext)
-            from .figstyle import as_text
             label = (as_text(getattr(sc, "name", "") or getattr(sc, "case", ""))
                      if sc is not None else "")
         return cls(result.t, result.pose, getattr(result, "reference", None), a, label)

@@ -39,6 +39,7 @@ import warnings
 
 import numpy as np
 
+from ._errors import SimulationInterrupted
 from ._validate import ValidationError, integer
 from .closedloop import ClosedLoop
 from .equations import STATE, SWITCH_TOL, TRAJECTORY_KINDS, P, saturate
@@ -277,7 +278,7 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
     substeps = integer("substeps", substeps, 1, MAX_SUBSTEPS)
     if backend not in BACKENDS:
         raise ValidationError(f"backend must be one of {', '.join(BACKENDS)}; got {backend!r}")
-    from . import _kernels
+    from . import _kernels  # numba loads with _kernels
     compilable = all(getattr(s.trajectory, "kind", None) in TRAJECTORY_KINDS for s in scs)
     if backend == "numba" and not _kernels.AVAILABLE:
         raise ValidationError("backend='numba' needs numba (pip install unidyn[fast])")
@@ -317,7 +318,6 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
     finally:
         bar.close()
     if interrupted:
-        from .runner import SimulationInterrupted
         done = [r for r in results if r is not None]
         raise SimulationInterrupted(
             f"interrupted: {sum(r.complete for r in done)} of {len(scs)} run(s) complete; "
@@ -387,7 +387,7 @@ def _lane_groups(loop: ClosedLoop, m):
     """The runs of ``loop`` in groups of at most LANES that share their steps per
     interval and their reference (the compiled engine integrates a group in SIMD
     lanes), the costliest first: (runs (G, LANES), lanes used (G,), steps (G,))."""
-    from ._kernels import LANES
+    from ._kernels import LANES  # numba loads with _kernels
     ref = loop.P[:, P.trajectory:]
     keys = {}
     for i in range(loop.B):
@@ -404,7 +404,7 @@ def _lane_groups(loop: ClosedLoop, m):
 
 
 def _integrate_numba(run: _Run, bar):
-    from . import _kernels
+    from . import _kernels  # numba loads with _kernels
     loop = run.loop
     run.backend = "numba (compiled)"
     n = loop.steps
@@ -444,7 +444,7 @@ def _integrate_numba(run: _Run, bar):
 
 def _integrate(run: _Run, m: int, bar):
     """The numpy backend: fills the same arrays as the compiled kernel."""
-    from ._kernels import NONFINITE, OK, POSITION, SPEED_U, SPEED_W
+    from ._kernels import NONFINITE, OK, POSITION, SPEED_U, SPEED_W  # numba loads with _kernels
     loop = run.loop
     run.backend = "numpy"
     h = loop.Ts / m
@@ -508,7 +508,7 @@ def _split(loop, X, tb, h, k, depth, ks, row):
     and probes, in the same arithmetic); ks: the step's stages when it was computed
     and crosses one, else None. Returns (the state, RK4 steps computed, changes
     located)."""
-    from ._kernels import _dense_weights
+    from ._kernels import _dense_weights  # numba loads with _kernels
     _dense_weights = getattr(_dense_weights, "py_func", _dense_weights)  # plain Python here
     rows = np.array([row])
     U = 1 << depth
@@ -553,7 +553,7 @@ def _rk4(loop, X, t0, k, m, h, rows, work, splits):
     command) is split
     there (:func:`_split`). work and splits (per run of the batch) count the RK4
     steps beyond m and the changes located."""
-    from ._kernels import split_depth
+    from ._kernels import split_depth  # numba loads with _kernels
     depth = getattr(split_depth, "py_func", split_depth)(m, SPLIT_PARTS)  # plain Python here
     for j in range(m):
         tb = t0 + j * h
@@ -570,7 +570,7 @@ def _rk4(loop, X, t0, k, m, h, rows, work, splits):
 
 
 def _steps(run, loop, X, m, h, check, record, bar):
-    from ._kernels import OK, STEP
+    from ._kernels import OK, STEP  # numba loads with _kernels
     Ts, n, L = loop.Ts, loop.steps, run.L
     checked = np.isfinite(run.rate_max)
     for k in range(n):
@@ -664,7 +664,7 @@ def _results(run: _Run) -> list:
     """One Result per run of ``run``. A run that stopped keeps the samples up to
     its stop (a non-finite last sample is dropped; a run too stiff to go on keeps
     its samples logged before that) and is marked incomplete."""
-    from . import _kernels
+    from . import _kernels  # numba loads with _kernels
     loop, L = run.loop, run.L
     n = loop.steps
     out = []

@@ -41,7 +41,11 @@ from typing import Callable
 
 import numpy as np
 
+from . import robots
+from . import trajectories as traj
 from ._validate import ValidationError
+from .control import PAPER_GAMMA, PAPER_SIGMA
+from .scenario import Scenario
 
 __all__ = ["save_bd", "to_bd_dict", "block_parameters", "paper_fig2", "write_paper_fig2",
            "BdFileError", "FIG2_LAYOUT", "SUPPORTED_TYPES", "PAPER_FILES"]
@@ -183,7 +187,6 @@ def _seed(seed, where: str) -> dict:
 
 def _robot_value(params):
     """A preset robot by name, any other as six numbers."""
-    from . import robots
     try:
         if params.name in robots.names() and robots.get(params.name) == params:
             return params.name
@@ -193,7 +196,6 @@ def _robot_value(params):
 
 
 def _theta_value(theta):
-    from . import robots
     for name in robots.names():
         if np.array_equal(robots.get(name).theta, theta):
             return name
@@ -205,7 +207,7 @@ def _limit_or_none(x):
 
 
 def _dynamic_unicycle(b):
-    from .blocks import DynamicUnicycleWithVelocity
+    from .blocks import DynamicUnicycleWithVelocity  # bdsim: loaded when needed
     x0 = [float(v) for v in b._x0]
     if x0[3] == 0.0 and x0[4] == 0.0:
         x0 = x0[:3]
@@ -239,7 +241,6 @@ def _kinematic_controller(b):
 
 
 def _compensator(b):
-    from .control import PAPER_GAMMA, PAPER_SIGMA
     st = b.settings
     p = {"theta_hat0": _theta_value(st.theta_hat0), "ku": float(st.k[0]), "kw": float(st.k[1]),
          "lu": float(st.l[0]), "lw": float(st.l[1]), "adaptive": st.adaptive,
@@ -255,7 +256,6 @@ def _compensator(b):
 
 
 def _trajectory(b):
-    from . import trajectories as traj
     tr = b.trajectory
     if isinstance(tr, traj.FigureEight):
         return "FIGUREEIGHT", {"ax": tr.ax, "ay": tr.ay, "wx": tr.wx, "wy": tr.wy,
@@ -306,6 +306,7 @@ _BDSIM_TYPES = ("DEMUX", "MUX", "NULL", "CONSTANT", "GAIN")
 
 
 def _extractors() -> list[tuple[type, Callable]]:
+    # bdsim loads with the blocks: when a diagram is written, not on import
     from .blocks import (DynamicCompensator, DynamicUnicycle, KinematicController,
                          KinematicUnicycle, MeasurementNoise, TrajectorySource)
     from .blocks.controllers import SampledDynamicCompensator, SampledKinematicController
@@ -519,9 +520,8 @@ def paper_fig2(sim, n: int):
 
     :return: a :class:`unidyn.diagrams.Fig2` whose scenario is ``Scenario.paper(n)``
     """
-    from .blocks import DynamicUnicycle
+    from .blocks import DynamicUnicycle  # bdsim: loaded when a diagram is built
     from .diagrams import build_fig2
-    from .scenario import Scenario
     if n == 2:
         sc = Scenario.paper(2)
 
@@ -536,7 +536,7 @@ def paper_fig2(sim, n: int):
 
 def write_paper_fig2(folder) -> list[Path]:
     """Write the four ``.bd`` files of :data:`PAPER_FILES` into ``folder``."""
-    from .diagrams import new_simulator
+    from .diagrams import new_simulator  # bdsim: loaded when a diagram is built
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     return [save_bd(paper_fig2(new_simulator(), n), folder / name) for n, name in PAPER_FILES.items()]

@@ -443,7 +443,7 @@ def _cmd_sweep(args) -> int:
         table = format_fig11_claims(claims, title=f"**{title}**")
         from .result import write_atomic
         write_atomic(out / "claims.md", table + "\n")
-        from .plots import plot_fig11
+        from .paper import plot_fig11
         plot_fig11(run.rows, out / "fig11.png",
                    title=f"IAE, T = {base.T:g} s, noise " + ("off" if base.noise is None
                                                              else "on"))

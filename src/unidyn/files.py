@@ -30,7 +30,8 @@ import numpy as np
 
 from ._errors import MissingDependency
 from ._validate import ValidationError, integer, positive, real
-from .result import json_ready, write_atomic
+from .outdir import json_ready, write_atomic
+from .scenario import Scenario, plain_value
 
 __all__ = ["read_toml", "parse_toml_value", "read_scenario_table", "expand_range",
            "check_keys", "scenario_from_layers", "plain", "read_metrics", "write_sweep_record",
@@ -123,7 +124,6 @@ def read_scenario_table(path) -> dict:
 
 def plain(v):
     """Plain data for Scenario-typed values (:func:`unidyn.scenario.plain_value`)."""
-    from .scenario import plain_value  # here: scenario.py is loaded on first use
     return plain_value(v)
 
 
@@ -178,7 +178,6 @@ def check_keys(where: str, d, allow_label: bool = False) -> dict:
     """``d`` as plain data, after checking that every key is a Scenario field or one of
     :data:`SPECIAL_KEYS` (or ``label``, for a variant); an unknown key raises, naming
     the closest known one."""
-    from .scenario import Scenario
     if not isinstance(d, Mapping):
         raise ValidationError(f"{where} must be a table of scenario fields, got {d!r}")
     known = {f.name for f in dataclasses.fields(Scenario)} | set(SPECIAL_KEYS)
@@ -203,7 +202,6 @@ def _special(where: str, key: str, value):
 def scenario_from_layers(layers, name: str = ""):
     """The Scenario of a stack of layers [(where, dict)]: later layers override earlier ones;
     the special keys are applied last."""
-    from .scenario import Scenario
     fields, fields_from, special = {}, {}, {}
     for where, d in layers:
         for k, v in d.items():

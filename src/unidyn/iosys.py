@@ -42,6 +42,7 @@ from . import model, robots, trajectories
 from ._validate import ValidationError, nonnegative, positive
 from .control import LEAKAGE_FORMS, PAPER_GAMMA, PAPER_SIGMA
 from .model import NO_LIMITS, Limits
+from .scenario import Scenario
 
 __all__ = ["to_iosys", "kinematic_iosys", "velocity_iosys", "kinematic_controller",
            "compensator", "reference_iosys", "fig2_loop", "fig2_initial_state",
@@ -307,7 +308,6 @@ def fig2_loop(scenario=None, *, reference: bool = True, **changes):
         ``x_d, y_d`` when the reference is included, then ``theta_hat1..6`` for the
         adaptive case. Its initial state is :func:`fig2_initial_state`.
     """
-    from .scenario import Scenario
     sc = Scenario.paper(4) if scenario is None else scenario
     if not isinstance(sc, Scenario):
         raise ValidationError(f"scenario must be a unidyn.Scenario, got {type(sc).__name__}")
@@ -491,7 +491,6 @@ def tracking_loop(scenario=None, V: float = 0.3, **changes):
         and outputs ``e_x, e_y`` (h_d - h, m), ``u_ref, w_ref`` (commands), ``u, w``,
         ``psi``; its poles are those of the loop plus four at 0 (the reference generator)
     """
-    from .scenario import Scenario
     sc = Scenario.paper(2) if scenario is None else scenario
     if changes:
         sc = sc.replace(**changes)

@@ -41,6 +41,7 @@ import contextlib
 import errno
 import hashlib
 import json
+import math
 import os
 import shutil
 import tempfile
@@ -51,7 +52,7 @@ from pathlib import Path
 from ._validate import ValidationError
 
 __all__ = ["Stage", "staged_output", "FolderLock", "FolderInUse", "LOCK_NAME",
-           "check_manifest", "record_files", "output_folder", "write_atomic"]
+           "check_manifest", "record_files", "output_folder", "write_atomic", "json_ready"]
 
 #: The lock file that marks a folder as being written by a unidyn process.
 LOCK_NAME = ".unidyn.lock"
@@ -140,6 +141,19 @@ def _sha256(path: Path):
         for block in iter(lambda: fh.read(1 << 20), b""):
             h.update(block)
     return "sha256:" + h.hexdigest()
+
+
+def json_ready(value):
+    """Plain data with every non-finite float replaced by None, for strict JSON (a
+    scenario's infinite limit, "no limit", is written ``null``, which
+    :class:`unidyn.model.Limits` reads back as no limit)."""
+    if isinstance(value, dict):
+        return {k: json_ready(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_ready(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
 
 
 def write_atomic(path, text: str, more=()) -> None:

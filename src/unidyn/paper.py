@@ -7,27 +7,26 @@
 - Fig. 11: :func:`paper_fig11` is the sweep of the paper's Fig. 11 (IAE against the
   kinematic controller's gain kx = ky, four cases :data:`FIG11_CASES`), and
   :func:`fig11_claims` compares its metrics with what the paper says of them
-  (:func:`format_fig11_claims`; the figure is :func:`unidyn.plots.plot_fig11`).
+  (:func:`format_fig11_claims`), and :func:`plot_fig11` draws the figure.
 """
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
+from . import figstyle
 from ._validate import ValidationError
 from .batch import DEFAULT_SUBSTEPS
 from .files import read_metrics
 from .noise import PAPER_NOISE
-
-if TYPE_CHECKING:  # sweep imports this module
-    from .sweep import Sweep
+from .sweep import Sweep
 
 __all__ = ["Claim", "section5_claims", "format_claims", "paper_fig11", "fig11_claims",
-           "format_fig11_claims", "fig11_table", "Fig11Claim", "FIG11_CASES"]
+           "format_fig11_claims", "fig11_table", "Fig11Claim", "FIG11_CASES", "plot_fig11"]
 
 
 @dataclass(frozen=True)
@@ -118,7 +117,6 @@ def paper_fig11(T: float = 250.0, gains=None, noise=PAPER_NOISE, *, base=None,
         ``None`` for noise-free runs
     :param base: further Scenario fields for every point (e.g. ``{"vd_dot": "filter"}``)
     """
-    from .sweep import Sweep  # the sweep module re-exports this function
     if gains is None:
         gains = np.arange(0.5, 35.0 + 1e-9, 0.5)
     gains = [float(g) for g in np.atleast_1d(np.asarray(gains, dtype=float))]
@@ -262,3 +260,25 @@ def format_fig11_claims(claims, title: str | None = None) -> str:
         holds = "n/a" if c.holds is None else ("yes" if c.holds else "NO")
         rows.append(f"| {c.claim} | {c.criterion} | {c.measured} | {holds} |")
     return "\n".join(rows)
+
+
+def plot_fig11(metrics, path, title: str | None = None):
+    """IAE against k = kx = ky for the four cases, log y with plain tick labels (1, 2,
+    5, 10, 20), as the paper's Fig. 11. In unidyn's figure style (:mod:`unidyn.figstyle`)."""
+    import matplotlib.pyplot as plt  # here: matplotlib is optional and slow to import
+
+    ks, tab = fig11_table(metrics)
+    with figstyle.style():
+        fig, ax = plt.subplots(figsize=figstyle.size(1, 0.95))
+        for (lab, desc), mk in zip(FIG11_CASES.items(), ("o", "s", "^", "D")):
+            ys = [tab[lab][k] if math.isfinite(tab[lab][k]) else math.nan for k in ks]
+            ax.plot(ks, ys, "-", marker=mk, ms=2.5, markevery=max(1, len(ks) // 12),
+                    label=desc)
+        figstyle.plain_log_axis(ax, "y")
+        ax.set_xlabel("$k_x = k_y$ (1/s)")
+        ax.set_ylabel("IAE (m·s)")
+        ax.set_title(title or "IAE against the kinematic controller's gain (Fig. 11)")
+        ax.grid(True, which="major")
+        ax.grid(True, which="minor", axis="y", alpha=0.2)
+        figstyle.legend(ax, outside="below")
+        return figstyle.save(fig, path)

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._validate import ValidationError, nonnegative, positive, real
+from ._validate import ValidationError, nonnegative, positive, real, vector
 
 __all__ = ["RobotParameters"]
 
@@ -76,7 +76,6 @@ class RobotParameters:
     @classmethod
     def from_vector(cls, theta, name: str = "custom", source: str = "") -> "RobotParameters":
         """Build from a sequence of six numbers [theta1, ..., theta6]."""
-        from ._validate import vector
         t = vector("theta", theta, 6)
         return cls(*t.tolist(), name=name, source=source)
 

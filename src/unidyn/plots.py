@@ -13,9 +13,8 @@ y-limits from the data. :func:`save_figures` writes a run's figures:
   (Figs. 4b, 6b, 8b, 10b);
 - ``theta_hat.png`` (adaptive runs): each of the six estimates against its true value.
 
-A sweep's figures: :func:`plot_metrics` (a metric against the first numeric axis,
-``metrics.png``) and :func:`plot_fig11` (IAE against kx = ky for the four cases of
-the paper's Fig. 11, ``fig11.png``).
+A sweep's figure: :func:`plot_metrics` (a metric against the first numeric axis,
+``metrics.png``); the paper's Fig. 11 is drawn by :func:`unidyn.paper.plot_fig11`.
 """
 
 from __future__ import annotations
@@ -32,7 +31,7 @@ from .figstyle import REFERENCE, START, label as _unit
 
 __all__ = ["plot_path", "plot_error", "plot_positions", "plot_velocities", "plot_theta_hat",
            "compare_paths", "compare_errors", "save_figures", "reference_period",
-           "reference_once", "equal_limits", "plot_metrics", "plot_fig11", "run_title",
+           "reference_once", "equal_limits", "plot_metrics", "run_title",
            "CASE_TITLES"]
 
 #: A true parameter smaller than this fraction of the largest |theta_i| counts as
@@ -396,26 +395,3 @@ _AXIS_LABELS = {"kxy": "$k_x = k_y$ (1/s)", "kx": "$k_x$ (1/s)", "ky": "$k_y$ (1
                 "ku": "$k_u$ (1/s)", "kw": "$k_\\omega$ (1/s)", "a": "a (m)", "T": "T (s)",
                 "theta_hat_scale": "$\\hat\\theta(0)\\,/\\,\\theta$",
                 "adapt_from": "adaptation on at (s)", "seed": "noise seed"}
-
-
-def plot_fig11(metrics, path, title: str | None = None):
-    """IAE against k = kx = ky for the four cases, log y with plain tick labels (1, 2,
-    5, 10, 20), as the paper's Fig. 11. In unidyn's figure style (:mod:`unidyn.figstyle`)."""
-    import matplotlib.pyplot as plt
-
-    from .paper import FIG11_CASES, fig11_table
-    ks, tab = fig11_table(metrics)
-    with figstyle.style():
-        fig, ax = plt.subplots(figsize=figstyle.size(1, 0.95))
-        for (lab, desc), mk in zip(FIG11_CASES.items(), ("o", "s", "^", "D")):
-            ys = [tab[lab][k] if math.isfinite(tab[lab][k]) else math.nan for k in ks]
-            ax.plot(ks, ys, "-", marker=mk, ms=2.5, markevery=max(1, len(ks) // 12),
-                    label=desc)
-        figstyle.plain_log_axis(ax, "y")
-        ax.set_xlabel("$k_x = k_y$ (1/s)")
-        ax.set_ylabel("IAE (m·s)")
-        ax.set_title(title or "IAE against the kinematic controller's gain (Fig. 11)")
-        ax.grid(True, which="major")
-        ax.grid(True, which="minor", axis="y", alpha=0.2)
-        figstyle.legend(ax, outside="below")
-        return figstyle.save(fig, path)

@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import json
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from .outdir import staged_output, write_atomic
+from . import __version__, plots
+from .outdir import json_ready, staged_output, write_atomic
 
 __all__ = ["Result", "metrics", "distance", "write_atomic", "RESULT_FILES"]
 
@@ -158,7 +158,6 @@ class Result:
 
     def summary(self) -> dict:
         """What ``summary.json`` holds: scenario, metrics, provenance."""
-        from . import __version__
         sc = self.scenario
         notes = []
         out = {
@@ -232,39 +231,21 @@ class Result:
         write_atomic(folder / "timeseries.csv", header, more=rows())
         write_atomic(folder / "summary.json", self.to_json())
 
-    # plotting helpers (matplotlib is imported only when used)
+    # plotting helpers (matplotlib is imported only when one is called)
     def plot_path(self, ax=None, **kw):
-        from .plots import plot_path
-        return plot_path(self, ax=ax, **kw)
+        return plots.plot_path(self, ax=ax, **kw)
 
     def plot_error(self, ax=None, **kw):
-        from .plots import plot_error
-        return plot_error(self, ax=ax, **kw)
+        return plots.plot_error(self, ax=ax, **kw)
 
     def plot_positions(self, axes=None, **kw):
-        from .plots import plot_positions
-        return plot_positions(self, axes=axes, **kw)
+        return plots.plot_positions(self, axes=axes, **kw)
 
     def plot_velocities(self, axes=None, **kw):
-        from .plots import plot_velocities
-        return plot_velocities(self, axes=axes, **kw)
+        return plots.plot_velocities(self, axes=axes, **kw)
 
     def plot_theta_hat(self, ax=None, **kw):
-        from .plots import plot_theta_hat
-        return plot_theta_hat(self, ax=ax, **kw)
-
-
-def json_ready(value):
-    """Plain data with every non-finite float replaced by None, for strict JSON (a
-    scenario's infinite limit, "no limit", is written ``null``, which
-    :class:`unidyn.model.Limits` reads back as no limit)."""
-    if isinstance(value, dict):
-        return {k: json_ready(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [json_ready(v) for v in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
+        return plots.plot_theta_hat(self, ax=ax, **kw)
 
 
 def _finite_or_null(value, where: str, notes: list):

@@ -12,7 +12,7 @@ Exchange 44850). Use :func:`get` with one of :func:`names`::
 
 from __future__ import annotations
 
-from ._validate import ValidationError
+from ._validate import ValidationError, string_keys
 from .parameters import RobotParameters
 
 __all__ = ["get", "names", "SPEED_LIMITS"]
@@ -84,7 +84,6 @@ def resolve(robot, what: str = "robot") -> RobotParameters:
         except ValidationError as err:
             raise ValidationError(f"{what}: {err}") from None
     if isinstance(robot, dict):
-        from ._validate import string_keys
         string_keys(what, robot)
         keys = ("theta1", "theta2", "theta3", "theta4", "theta5", "theta6")
         unknown = sorted(set(robot) - set(keys) - {"name", "source"})

@@ -9,6 +9,7 @@ import time
 
 import numpy as np
 
+from ._errors import SimulationInterrupted
 from ._validate import NonFiniteSignalError, ValidationError, positive
 from .equations import saturate
 from .result import Result
@@ -25,18 +26,6 @@ class SimulationError(RuntimeError):
     def __init__(self, message, result=None):
         super().__init__(message)
         self.result = result
-
-
-class SimulationInterrupted(KeyboardInterrupt):
-    """A run (or batch of runs) stopped by Ctrl-C. ``result`` is the computed part
-    of the (first) run, ``results`` that of every run (``None`` for a run not yet
-    started), each marked ``complete=False``."""
-
-    def __init__(self, message, result=None, results=None):
-        super().__init__(message)
-        self.results = list(results) if results is not None else [result]
-        self.result = result if result is not None else next(
-            (r for r in self.results if r is not None), None)
 
 
 def _root_cause(err):
@@ -144,7 +133,7 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
     atol = positive("atol", atol)
     if timeout is not None:
         timeout = positive("timeout", timeout)
-    from .diagrams import build_fig2, new_simulator
+    from .diagrams import build_fig2, new_simulator  # bdsim: loaded when a run starts
 
     sim = new_simulator()
     fig = build_fig2(sim, scenario, **builder_args)

@@ -15,7 +15,8 @@ from functools import cached_property
 import numpy as np
 
 from . import robots, trajectories
-from ._validate import ValidationError, choice, nonnegative, positive, positive_vector, vector
+from ._validate import (ValidationError, choice, nonnegative, positive, positive_vector,
+                        string_keys, vector)
 from .control import LEAKAGE_FORMS, PAPER_GAMMA, PAPER_SIGMA
 from .model import Limits, PAPER_LIMITS
 from .noise import NoiseSpec, PAPER_NOISE
@@ -388,7 +389,6 @@ def _check_fields(data):
 
 
 def _build(what, cls, data):
-    from ._validate import string_keys
     string_keys(what, data)
     known = {f.name for f in dataclasses.fields(cls)}
     unknown = sorted(set(data) - known)

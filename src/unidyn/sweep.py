@@ -30,9 +30,9 @@ geometric range).
 
 Sweep files and ``metrics.csv`` are read and written by :mod:`unidyn.files`, the
 sweep figures are drawn by :mod:`unidyn.plots`, chunks run on Dask through
-:mod:`unidyn._dask`, and the paper's Fig. 11 sweep and its claims live in
+:mod:`unidyn._dask`, and the paper's Fig. 11 sweep, its claims and its figure live in
 :mod:`unidyn.paper` (:func:`~unidyn.paper.paper_fig11`,
-:func:`~unidyn.paper.fig11_claims`); their names are importable from here too.
+:func:`~unidyn.paper.fig11_claims`, :func:`~unidyn.paper.plot_fig11`).
 """
 
 from __future__ import annotations
@@ -51,20 +51,20 @@ from pathlib import Path
 
 import numpy as np
 
-from ._dask import run_on_dask
+from . import __version__
+from ._dask import connect_dask, run_on_dask
 from ._validate import ValidationError, choice, integer
-from .batch import DEFAULT_SUBSTEPS
+from .batch import DEFAULT_SUBSTEPS, MAX_SUBSTEPS, simulate_batch
 from .files import (ID_NAME, MAX_POINTS, METRICS, RECORD_NAME, cell, check_keys,
                     expand_range, finished_rows, is_number, plain, text, read_rows, read_sweep_id,
                     read_sweep_record, read_toml, rows_text, scenario_from_layers,
                     write_rows, write_sweep_id, write_sweep_record)
-from .outdir import FolderLock, check_manifest, output_folder, record_files, staged_output
-from .result import json_ready, write_atomic
+from .outdir import (FolderLock, check_manifest, json_ready, output_folder, record_files,
+                     staged_output, write_atomic)
+from .plots import plot_metrics
+from .runner import simulate
 
-__all__ = ["Sweep", "Point", "SweepRun", "run_sweep", "read_metrics", "plot_metrics",
-           "paper_fig11", "fig11_claims", "format_fig11_claims", "plot_fig11", "Fig11Claim",
-           "FIG11_CASES", "SPECIAL_KEYS", "METRICS", "ENGINES", "MissingDependency",
-           "read_toml", "sweep_id", "connect_dask", "FolderLock", "FolderInUse"]
+__all__ = ["Sweep", "Point", "SweepRun", "run_sweep", "sweep_id", "ENGINES"]
 
 #: ``"batch"``: :func:`unidyn.batch.simulate_batch`, one call per chunk (sampled-control
 #: points go through :func:`unidyn.simulate`); ``"bdsim"``: :func:`unidyn.simulate` per point.
@@ -120,7 +120,6 @@ class Sweep:
         if len(self.name) > MAX_NAME:
             raise ValidationError(f"name is {len(self.name)} characters long; at most "
                                   f"{MAX_NAME} are allowed (it titles the figures)")
-        from .batch import MAX_SUBSTEPS
         integer("substeps", self.substeps, 1, MAX_SUBSTEPS)
         s("substeps", int(self.substeps))
         s("base", check_keys("base", self.base))
@@ -304,7 +303,6 @@ def _run_chunk(points, engine: str, substeps: int) -> list:
 
     Runs wherever it is called (here or on a Dask worker) and returns only the
     small rows, not the time series."""
-    from .runner import simulate
     rows = [None] * len(points)
     batch = []
     for j, (index, params, sc) in enumerate(points):
@@ -318,7 +316,6 @@ def _run_chunk(points, engine: str, substeps: int) -> list:
             print(f"unidyn: warning: sweep point {index} failed: {err}", file=sys.stderr)
             rows[j] = _row(index, params, sc.case, {m: None for m in METRICS}, False)
     if batch:
-        from .batch import simulate_batch
         results = simulate_batch([points[j][2] for j in batch], substeps=substeps)
         for j, r in zip(batch, results):
             index, params, sc = points[j]
@@ -353,28 +350,18 @@ _SWEEP_RESULTS = ("metrics.csv", RECORD_NAME)
 _SWEEP_OWNED = ("metrics.csv", RECORD_NAME, "metrics.png", "claims.md", "fig11.png", ID_NAME)
 
 
-#: Scenario fields added after sweep ids were first written, with the value every
-#: earlier sweep had: left out of the id at that value, so that folders written
-#: before the field existed keep their id.
-FIELDS_ADDED_SINCE_IDS = {"log_dtype": "float64", "log_series": ["v_d", "v_ref", "theta_hat"]}
-
-
 def sweep_id(sweep: Sweep) -> str:
     """A hash of a sweep's full definition (its base, grid, variants, name and substeps,
     and the first point's complete scenario, so changed defaults count), the same
     whatever the engine: ``"sha256:..."``."""
     import hashlib
     first = sweep.points()[0].scenario.to_dict()
-    for field, value in FIELDS_ADDED_SINCE_IDS.items():
-        if first.get(field) == value:
-            del first[field]
     text = json.dumps({"sweep": sweep.to_dict(), "first": first},
                       sort_keys=True, separators=(",", ":"), default=str)
     return "sha256:" + hashlib.sha256(text.encode()).hexdigest()
 
 
 def _spec_record(sweep: Sweep, engine: str) -> dict:
-    from . import __version__
     return {"unidyn_version": __version__, "engine": engine, "points": len(sweep),
             "id": sweep_id(sweep), "columns": sweep.columns, "sweep": sweep.to_dict()}
 
@@ -497,7 +484,6 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
     if dask_address is None:
         client, close = None, None
     else:
-        from ._dask import connect_dask
         client, close = connect_dask(dask_address)
     created = not out.exists()
     try:
@@ -626,7 +612,6 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
     seconds = time.perf_counter() - t0
     write_sweep_record(out, record, finished=True, failed=failed)
     try:
-        from .plots import plot_metrics
         plot_metrics(sweep, rows, out / "metrics.png")
     except ImportError:  # no matplotlib: the data is what matters
         pass
@@ -634,16 +619,3 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
     record_files(out, "sweep", [n for n in _SWEEP_OWNED if (out / n).exists()], hashes=False)
     return SweepRun(out_dir=out, rows=rows, ran=len(new_rows), skipped=len(done),
                     seconds=seconds, failed=failed)
-
-
-# ------------------------------------------------------- names kept importable here
-# These moved to the module that does their job; scripts and tests that import them
-# from unidyn.sweep keep working.
-from ._dask import connect_dask  # noqa: E402,F401
-from .files import (SPECIAL_KEYS, MissingDependency, parse_toml_value,  # noqa: E402,F401
-                    read_metrics)
-from .noise import PAPER_NOISE  # noqa: E402,F401
-from .outdir import LOCK_NAME, FolderInUse  # noqa: E402,F401
-from .paper import (FIG11_CASES, Fig11Claim, fig11_claims,  # noqa: E402,F401
-                    format_fig11_claims, paper_fig11)
-from .plots import plot_fig11, plot_metrics  # noqa: E402,F401

@@ -15,7 +15,7 @@ from typing import Callable
 import numpy as np
 
 from . import equations as eq
-from ._validate import ValidationError, positive, real, vector
+from ._validate import ValidationError, positive, real, string_keys, vector
 
 __all__ = ["Trajectory", "FigureEight", "Circle", "Line", "FunctionTrajectory", "from_spec",
            "KINDS"]
@@ -236,7 +236,6 @@ def from_spec(spec) -> Trajectory:
     if not isinstance(spec, dict):
         raise ValidationError(f"trajectory must be a dict with 'type' ({', '.join(KINDS)}), "
                               f"a name or a Trajectory; got {spec!r}")
-    from ._validate import string_keys
     spec = dict(string_keys("trajectory", spec))
     kind = spec.pop("type", None)
     if not isinstance(kind, str):

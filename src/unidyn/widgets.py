@@ -25,8 +25,10 @@ import numpy as np
 
 from . import figstyle, robots
 from ._validate import ValidationError, positive
+from .batch import simulate_batch
 from .noise import PAPER_NOISE
 from .parameters import RobotParameters
+from .scenario import Scenario
 
 __all__ = ["LoopExplorer", "with_payload", "MASS_PARAMETERS"]
 
@@ -82,7 +84,6 @@ class LoopExplorer:
     def scenario(self, k: float, payload: float, noise: bool, case: int):
         """The :class:`~unidyn.Scenario` of one setting: ``Scenario.paper(case)`` with
         kx = ky = k, the loaded robot and the empty robot's estimate."""
-        from .scenario import Scenario
         if isinstance(case, bool) or case not in (1, 2, 3, 4):
             raise ValidationError(f"case must be 1, 2, 3 or 4, got {case!r}")
         if not isinstance(noise, (bool, np.bool_)):
@@ -103,7 +104,6 @@ class LoopExplorer:
         current value) on the batch engine and redraw; returns the
         :class:`~unidyn.Result`. ``seconds`` holds the time it took to simulate and to
         draw."""
-        from .batch import simulate_batch
         new = dict(self.settings)
         for name, value in (("k", k), ("payload", payload), ("noise", noise), ("case", case)):
             if value is not None:

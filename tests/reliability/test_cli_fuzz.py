@@ -31,7 +31,7 @@ from hypothesis import strategies as st
 from unidyn import robots
 from unidyn.cli import main
 from unidyn.scenario import CASES, Scenario
-from unidyn.sweep import SPECIAL_KEYS
+from unidyn.files import SPECIAL_KEYS
 
 pytestmark = pytest.mark.reliability
 

@@ -7,6 +7,7 @@ import math
 import numpy as np
 
 from unidyn._validate import NonFiniteSignalError, ValidationError
+from unidyn.model import Limits
 
 
 def as_vector(value, n: int, block, port: str, t: float) -> np.ndarray:
@@ -55,7 +56,6 @@ def check_blockargs(block, blockargs: dict) -> None:
 
 
 def limits_from_args(limits, speed_max, steer_max, accel_max, angular_accel_max):
-    from unidyn.model import Limits
     if limits is not None:
         if not isinstance(limits, Limits):
             raise ValidationError(f"limits must be a unidyn.Limits or None, got {limits!r}")

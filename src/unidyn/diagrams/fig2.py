@@ -94,6 +94,7 @@ def build_fig2(sim, scenario: Scenario, *, robot: Callable | None = None,
         reference source (outputs h_d, h_d_dot, h_d_ddot)
     :return: the wired :class:`Fig2`
     """
+    # bdsim loads with the blocks: when a diagram is built, not on import
     from unidyn.blocks import (DynamicCompensator, DynamicUnicycle, KinematicController,
                                KinematicUnicycle, MeasurementNoise, TrajectorySource)
     from unidyn.blocks.controllers import SampledDynamicCompensator, SampledKinematicController

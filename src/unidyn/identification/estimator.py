@@ -63,21 +63,18 @@ about 0.5..1.5; they describe the noise, not model error.
 
 from __future__ import annotations
 
-import json
 import math
 import warnings as _warnings_mod
-from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
 from .._validate import ValidationError, choice, integer, nonnegative, positive
 from ..model import regressor
-from ..outdir import staged_output, write_atomic
 from ..parameters import RobotParameters
 from ._simulate import COMMAND_CONVENTIONS, simulate_held, step_length
 from .logs import COLUMNS, TIME_UNITS, IdentificationWarning, _short, join_logs
-from .validation import ValidationReport, validation_report
+from .results import _NAMES, IdentificationResult
+from .validation import validation_report
 
 #: The ways of handling the velocity derivatives (see the module docstring).
 SMOOTHING_METHODS = ("filter", "savgol")
@@ -89,7 +86,6 @@ _WHITE_Q = 29.588
 # linear part) below which the robot looks saturated: logs made by Eq. (2) with
 # clipped commands give -0.7 to -0.85, unclipped ones stay within +/- 0.1
 _SATURATION_CORR = -0.3
-_NAMES = ("theta1", "theta2", "theta3", "theta4", "theta5", "theta6")
 # The rows of Eq. (11): which parameters each decoupled problem estimates.
 _ROW_PARAMS = ((0, 2, 3), (1, 4, 5))
 _Z95 = 1.959963984540054
@@ -384,143 +380,6 @@ def _lstsq(X: np.ndarray, y: np.ndarray, lag: int, E: np.ndarray | None = None):
     Minv = np.linalg.inv(M)
     cov_s = Minv @ S @ Minv * n / max(n - p, 1)
     return beta_s / scale, cov_s / np.outer(scale, scale), r, cond, ok
-
-
-# -------------------------------------------------------------------- the result
-
-@dataclass(frozen=True)
-class IdentificationResult:
-    """What :func:`identify` found.
-
-    :param theta: the identified parameters
-    :param stderr: standard errors of theta1..theta6 (output error: from the
-        Jacobian of the fit and the residual variance, widened by a Newey-West
-        correction when the residuals are not white; equation error: the
-        Newey-West corrected least-squares covariance)
-    :param ci95: 95 % confidence intervals, shape (6, 2), theta -/+ 1.96 stderr
-    :param residuals: shape (N, 2): measured minus simulated u and w (output
-        error), or the equation errors of the two rows of Eq. (11) (equation error)
-    :param t: the times of the N rows, s (pieces and logs one after the other)
-    :param condition_numbers: condition numbers of the column-scaled sensitivities
-        of the two channels (u: theta1, theta3, theta4; w: theta2, theta5, theta6)
-    :param warnings: plain-language problems found (poor excitation, sampling too
-        slow, coloured residuals, wrong command convention, non-physical values)
-    :param smoothing: ``"filter"`` or ``"savgol"`` (equation error), else None
-    :param window: the filter / fit window, s (equation error), else None
-    :param order: polynomial degree of the Savitzky-Golay fit, else None
-    :param n_samples: the number of rows N
-    :param fit_r2: coefficient of determination of each channel (row), <= 1
-    :param noise_std: the noise std on u and w: the residuals' (output error) or
-        the one used in the noise-bias correction (equation error)
-    :param method: ``"output-error"`` or ``"equation-error"``
-    :param commands: the command convention, ``"held"`` or ``"linear"``
-    :param delay: the input delay used or estimated, s
-    :param delay_stderr: its standard error when estimated, s
-    :param segments: the number of pieces (logs split at gaps) used
-    :param n_logs: the number of logs
-    :param whiteness: Ljung-Box statistics (10 lags) of the u and w residuals
-        (about 10 for white residuals; above 29.6 they are not white)
-    :param v0: the estimated initial [u, w] of each piece, shape (segments, 2)
-    :param validation: the in-sample :class:`ValidationReport` (``validate=True``)
-    """
-
-    theta: RobotParameters
-    stderr: np.ndarray
-    ci95: np.ndarray
-    residuals: np.ndarray
-    t: np.ndarray
-    condition_numbers: tuple
-    warnings: list = field(default_factory=list)
-    smoothing: str | None = None
-    window: float | None = None
-    order: int | None = None
-    n_samples: int = 0
-    fit_r2: tuple = (math.nan, math.nan)
-    noise_std: tuple = (0.0, 0.0)
-    method: str = "output-error"
-    commands: str = "held"
-    delay: float = 0.0
-    delay_stderr: float = 0.0
-    segments: int = 1
-    n_logs: int = 1
-    whiteness: tuple = (math.nan, math.nan)
-    v0: np.ndarray | None = None
-    validation: "ValidationReport | None" = None
-
-    @property
-    def theta_vector(self) -> np.ndarray:
-        """theta1..theta6 as an array."""
-        return self.theta.theta
-
-    def relative_stderr(self) -> np.ndarray:
-        """stderr / |theta| (inf where theta is 0)."""
-        th = np.abs(self.theta.theta)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return np.where(th > 0, self.stderr / th, np.inf)
-
-    def as_dict(self) -> dict:
-        """A JSON-ready dict: theta1..theta6 and name at the top level (as
-        :func:`unidyn.robots.resolve` reads them from a ``.json`` file), plus the
-        standard errors, intervals, condition numbers, warnings and settings."""
-        def num(x):
-            x = float(x)
-            return x if math.isfinite(x) else None
-        d = {k: float(v) for k, v in zip(_NAMES, self.theta.theta)}
-        d["name"] = self.theta.name
-        d["source"] = self.theta.source
-        d["stderr"] = {k: num(v) for k, v in zip(_NAMES, self.stderr)}
-        d["ci95"] = {k: [num(lo), num(hi)] for k, (lo, hi) in zip(_NAMES, self.ci95)}
-        d["condition_numbers"] = [num(c) for c in self.condition_numbers]
-        d["fit_r2"] = [num(c) for c in self.fit_r2]
-        d["warnings"] = list(self.warnings)
-        d["method"] = self.method
-        d["commands"] = self.commands
-        d["delay"] = float(self.delay)
-        d["delay_stderr"] = float(self.delay_stderr)
-        d["segments"] = int(self.segments)
-        d["n_logs"] = int(self.n_logs)
-        d["whiteness"] = [num(x) for x in self.whiteness]
-        d["smoothing"] = self.smoothing
-        d["window"] = None if self.window is None else float(self.window)
-        d["order"] = self.order
-        if self.validation is not None:
-            d["validation"] = self.validation.as_dict()
-        d["n_samples"] = int(self.n_samples)
-        d["noise_std"] = [num(x) for x in self.noise_std]
-        return d
-
-    def save(self, folder, overwrite: bool = False) -> Path:
-        """Write ``theta.json`` (see :meth:`as_dict`) into ``folder`` (created if
-        needed) and return its path. A folder holding an earlier identification is
-        refused unless ``overwrite``; then its ``theta.json``, ``validation.json`` and
-        ``validation.png`` are replaced or removed, nothing else (see
-        :mod:`unidyn.outdir`)."""
-        with staged_output(folder, kind="identify", overwrite=overwrite,
-                           results=("theta.json",), what="identification results",
-                           owned=("theta.json", "validation.json", "validation.png"),
-                           option="folder", flag="overwrite=True") as stage:
-            write_atomic(stage.path / "theta.json",
-                         json.dumps(self.as_dict(), indent=2, allow_nan=False) + "\n")
-        return Path(folder) / "theta.json"
-
-    def summary(self) -> str:
-        """A readable table of the estimates."""
-        lines = [f"{'':8s} {'estimate':>12s} {'stderr':>10s} {'95% CI':>27s}"]
-        for k, v, s, (lo, hi) in zip(_NAMES, self.theta.theta, self.stderr, self.ci95):
-            lines.append(f"{k:8s} {v:12.6g} {s:10.3g} [{lo:12.6g}, {hi:12.6g}]")
-        lines.append(f"{self.method}, commands {self.commands}, delay {self.delay:.4g} s"
-                     + (f" (stderr {self.delay_stderr:.2g} s)" if self.delay_stderr else "")
-                     + f"; {self.n_samples} samples in {self.segments} piece(s) of "
-                     f"{self.n_logs} log(s)")
-        lines.append(f"condition numbers: {self.condition_numbers[0]:.3g}, "
-                     f"{self.condition_numbers[1]:.3g}; R^2: {self.fit_r2[0]:.6f}, "
-                     f"{self.fit_r2[1]:.6f}; noise std {self.noise_std[0]:.3g} (u), "
-                     f"{self.noise_std[1]:.3g} (w)")
-        if self.validation is not None:
-            f = self.validation.fit
-            lines.append(f"in-sample simulation fit: u {f['u']:.1f} %, w {f['w']:.1f} %")
-        lines += [f"warning: {w}" for w in self.warnings]
-        return "\n".join(lines)
 
 
 # ------------------------------------------------------------------ identification

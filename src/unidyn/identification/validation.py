@@ -5,7 +5,6 @@ velocities the log measured, as numbers and as a figure.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -13,39 +12,9 @@ from .. import robots
 from .._validate import ValidationError, choice, nonnegative, positive, vector
 from ..figstyle import label, legend, size, styled, ylim_from_data
 from ..model import NO_LIMITS, Limits
-from ..parameters import RobotParameters
 from ._simulate import COMMAND_CONVENTIONS, simulate_held, simulate_stepwise
 from .logs import load_log, segments
-
-
-@dataclass(frozen=True)
-class ValidationReport:
-    """How well a model reproduces a log when simulated from its commands.
-
-    :param theta: the model simulated
-    :param t: time, s
-    :param u, w: measured velocities (the log)
-    :param u_sim, w_sim: simulated velocities
-    :param u_ref, w_ref: the logged commands the simulation was driven by
-    :param fit: NRMSE fit per channel, %, 100 (1 - ||y - yhat|| / ||y - mean(y)||)
-        (100 is perfect; 0 is no better than the mean; can be negative)
-    :param rmse: root-mean-square error per channel (m/s, rad/s)
-    """
-
-    theta: RobotParameters
-    t: np.ndarray
-    u: np.ndarray
-    w: np.ndarray
-    u_sim: np.ndarray
-    w_sim: np.ndarray
-    u_ref: np.ndarray
-    w_ref: np.ndarray
-    fit: dict
-    rmse: dict
-
-    def as_dict(self) -> dict:
-        """Fit numbers only, JSON-ready."""
-        return {"name": self.theta.name, "fit": dict(self.fit), "rmse": dict(self.rmse)}
+from .results import IdentificationResult, ValidationReport
 
 
 def nrmse_fit(y, yhat) -> float:
@@ -82,7 +51,6 @@ def validate(theta, log, columns=None, v0=None, limits: Limits = NO_LIMITS,
     :param time_unit: the unit of the log's time column, as for :func:`identify`
     :return: :class:`ValidationReport` with NRMSE fit (%) and RMSE per channel
     """
-    from .estimator import IdentificationResult   # the estimator validates too
     if isinstance(theta, IdentificationResult):
         commands = theta.commands if commands is None else commands
         delay = theta.delay if delay is None else delay
