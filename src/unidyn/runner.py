@@ -65,22 +65,19 @@ class GuardStop(ArithmeticError):
 
 
 class _Guard:
-    """Wraps the diagram's derivative so that every solver evaluation checks the
-    robot's state against ``Scenario.divergence_bounds``, counts the evaluations
-    per sample interval and watches the wall clock."""
+    """What the diagram's :class:`~unidyn.diagrams.monitor.RunMonitor` calls at every
+    evaluation: checks the robot's pose and velocities against
+    ``Scenario.divergence_bounds``, counts the evaluations per sample interval,
+    advances the progress bar and watches the wall clock."""
 
-    def __init__(self, bd, robot, sc, timeout, bar=None):
-        self.bd, self.robot, self.sc, self.bar = bd, robot, sc, bar
-        self.deriv = bd.deriv
+    def __init__(self, sc, timeout, bar=None):
+        self.sc, self.bar = sc, bar
         self.bounds = sc.divergence_bounds()
         self.k, self.count = -1, 0
         self.deadline = None if timeout is None else time.monotonic() + timeout
         self.timeout = timeout
-        # the robot's state is (x, y, psi[, u, w]) for unidyn's robot blocks
-        self.layout = getattr(robot, "type", "") in ("dynamicunicycle", "kinematicunicycle")
 
-    def __call__(self, t, *args, **kwargs):
-        yd = self.deriv(t, *args, **kwargs)
+    def __call__(self, t, pose, velocity=None):
         sc = self.sc
         k = int(t / sc.Ts + 1e-9)
         if k > self.k:  # a new sample interval (a probe of its end counts as the next)
@@ -93,25 +90,23 @@ class _Guard:
                 f"the solver needed more than {MAX_RHS_PER_SAMPLE} evaluations in the sample "
                 f"interval from t = {k * sc.Ts:.6g} s (a stiff or diverging loop); a stiff "
                 f"solver may resolve it: unidyn.simulate(..., method='LSODA')")
-        if self.layout:
-            x = self.bd._state_map.get(self.robot)
-            if x is not None:
-                _check_bounds(x, self.bounds, t)
+        _check_bounds(pose, velocity, self.bounds, t)
         if self.deadline is not None and time.monotonic() > self.deadline:
             raise GuardStop(f"wall-clock limit of {self.timeout:g} s reached at t = {t:.6g} s")
-        return yd
 
 
-def _check_bounds(x, b, t):
-    r = math.hypot(x[0], x[1])
+def _check_bounds(pose, velocity, b, t):
+    pose = np.ravel(pose)
+    r = math.hypot(pose[0], pose[1])
     if not r <= b[0]:
         raise GuardStop(f"diverged: the position |(x, y)| = {r:.3g} m is beyond {b[0]:.3g} m "
                         f"(1e6 times the reference's size) at t = {t:.6g} s")
-    if len(x) >= 5:
-        for j, (name, unit) in ((3, ("u", "m/s")), (4, ("w", "rad/s"))):
-            if not abs(x[j]) <= b[j - 2]:
-                raise GuardStop(f"diverged: |{name}| = {abs(x[j]):.3g} {unit} is beyond "
-                                f"{b[j - 2]:.3g} {unit} (1e6 times its limit, or what the "
+    if velocity is not None:
+        velocity = np.ravel(velocity)
+        for j, (name, unit) in ((0, ("u", "m/s")), (1, ("w", "rad/s"))):
+            if not abs(velocity[j]) <= b[j + 1]:
+                raise GuardStop(f"diverged: |{name}| = {abs(velocity[j]):.3g} {unit} is beyond "
+                                f"{b[j + 1]:.3g} {unit} (1e6 times its limit, or what the "
                                 f"controller asks for) at t = {t:.6g} s")
 
 
@@ -144,18 +139,11 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
     atol = positive("atol", atol)
     if timeout is not None:
         timeout = positive("timeout", timeout)
-    from .diagrams import build_fig2, new_simulator
+    from .diagrams import RunMonitor, build_fig2, new_simulator
 
     sim = new_simulator()
     fig = build_fig2(sim, scenario, **builder_args)
     roles = list(fig.watch)
-    said = io.StringIO()
-    try:
-        with contextlib.redirect_stdout(said):  # bdsim's notes (e.g. a user block's unused output)
-            fig.bd.compile()
-    except Exception as err:  # a real error: pass on what bdsim said about it
-        raise RuntimeError(f"bdsim could not compile the Fig. 2 diagram: {err}\n"
-                           f"{said.getvalue().strip()}") from err
     sc = scenario
     bar = None
     if progress is True or (progress is None and sc.steps >= 2000):
@@ -164,16 +152,20 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
         from tqdm import tqdm
         bar = tqdm(total=sc.steps, unit="sample", desc="unidyn bdsim", leave=False,
                    disable=None if progress is None else False, file=sys.stderr, mininterval=0.5)
-    fig.bd.deriv = _Guard(fig.bd, fig.blocks["robot"], sc, timeout, bar)
-    # bdsim hands its run state (whose tlist and plist log the watched signals) to
-    # BlockDiagram.start: keep it, so that a run that fails still gives back its log
-    started = []
-    bd_start = fig.bd.start
-
-    def start(simstate):
-        started.append(simstate)
-        return bd_start(simstate)
-    fig.bd.start = start
+    # the run guard is a block of the diagram: bdsim evaluates it with the others at
+    # every solver evaluation, and hands it the run state (whose tlist and plist log
+    # the watched signals) when the run starts, so a run that fails gives back its log
+    checked = [fig.watch[r] for r in ("pose", "velocity") if r in fig.watch]
+    guard = RunMonitor(_Guard(sc, timeout, bar), nin=len(checked), bd=fig.bd, name="run_guard")
+    for i, plug in enumerate(checked):
+        fig.bd.connect(plug, guard[i])
+    said = io.StringIO()
+    try:
+        with contextlib.redirect_stdout(said):  # bdsim's notes (e.g. a user block's unused output)
+            fig.bd.compile()
+    except Exception as err:  # a real error: pass on what bdsim said about it
+        raise RuntimeError(f"bdsim could not compile the Fig. 2 diagram: {err}\n"
+                           f"{said.getvalue().strip()}") from err
     failure = None
     interrupted = False
     try:
@@ -189,7 +181,7 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
         if bar is not None:
             bar.close()
         interrupted = isinstance(err, KeyboardInterrupt)
-        simstate = started[-1] if started else None
+        simstate = guard.simstate
         if getattr(simstate, "tlist", None) is None:  # failed while bdsim started the blocks
             simstate = None
         cause = err if interrupted else _root_cause(err)
