@@ -11,6 +11,11 @@ class NonFiniteSignalError(FloatingPointError):
     """A block received or produced NaN or infinity; the message says where and when."""
 
 
+class AccuracyWarning(UserWarning):
+    """A run finished, but the engine that ran it cannot vouch for its accuracy;
+    the message names the cause and what to change."""
+
+
 class MissingDependency(ImportError):
     """An optional dependency needed for the requested feature is not installed."""
 

@@ -40,6 +40,7 @@ import warnings
 import numpy as np
 
 from ._errors import SimulationInterrupted
+from ._errors import AccuracyWarning
 from ._validate import ValidationError, integer
 from .closedloop import ClosedLoop
 from .equations import STATE, SWITCH_TOL, TRAJECTORY_KINDS, P, saturate
@@ -631,10 +632,6 @@ _CAUSE = {
        "beyond what " + f"{MAX_SUBSTEPS:,}" + " RK4 steps per sample resolve; use a shorter "
        "Ts, or unidyn.simulate (the bdsim diagram, adaptive step)",
 }
-
-
-class AccuracyWarning(UserWarning):
-    """A batch run finished, but the engine cannot vouch for its accuracy."""
 
 
 def _unvouched(sc: Scenario, m_max: int, asked: int) -> str:

@@ -6,10 +6,11 @@ import contextlib
 import io
 import math
 import time
+import warnings
 
 import numpy as np
 
-from ._errors import SimulationInterrupted
+from ._errors import AccuracyWarning, SimulationInterrupted
 from ._validate import NonFiniteSignalError, ValidationError, positive
 from .equations import saturate
 from .result import Result
@@ -45,6 +46,14 @@ DEFAULT_ATOL = 1e-10
 #: Ts before the run is stopped as too stiff for it (the paper's runs need about
 #: 120, adaptation gains of 1000 about 720; RK45 makes six per step).
 MAX_RHS_PER_SAMPLE = 5_000
+#: Above this adaptation gain (largest element of ``Scenario.gamma``, Eq. 18) an
+#: adaptive run at a looser ``rtol`` than :data:`HIGH_GAIN_RTOL` is reported as not
+#: vouched for: where the acceleration limits clip, the solver steps across their
+#: kinks and theta_hat drifts from a converged solution (at gamma 1000, rtol 1e-8:
+#: off by about 1e-2; at rtol 1e-11: 2e-5; at gamma 100, rtol 1e-8: 7e-5).
+HIGH_GAIN = 100.0
+#: The relative tolerance that keeps high-gain adaptive runs converged.
+HIGH_GAIN_RTOL = 1e-11
 
 
 class GuardStop(ArithmeticError):
@@ -54,22 +63,19 @@ class GuardStop(ArithmeticError):
 
 
 class _Guard:
-    """Wraps the diagram's derivative so that every solver evaluation checks the
-    robot's state against ``Scenario.divergence_bounds``, counts the evaluations
-    per sample interval and watches the wall clock."""
+    """What the diagram's :class:`~unidyn.diagrams.monitor.RunMonitor` calls at every
+    evaluation: checks the robot's pose and velocities against
+    ``Scenario.divergence_bounds``, counts the evaluations per sample interval,
+    advances the progress bar and watches the wall clock."""
 
-    def __init__(self, bd, robot, sc, timeout, bar=None):
-        self.bd, self.robot, self.sc, self.bar = bd, robot, sc, bar
-        self.deriv = bd.deriv
+    def __init__(self, sc, timeout, bar=None):
+        self.sc, self.bar = sc, bar
         self.bounds = sc.divergence_bounds()
         self.k, self.count = -1, 0
         self.deadline = None if timeout is None else time.monotonic() + timeout
         self.timeout = timeout
-        # the robot's state is (x, y, psi[, u, w]) for unidyn's robot blocks
-        self.layout = getattr(robot, "type", "") in ("dynamicunicycle", "kinematicunicycle")
 
-    def __call__(self, t, *args, **kwargs):
-        yd = self.deriv(t, *args, **kwargs)
+    def __call__(self, t, pose, velocity=None):
         sc = self.sc
         k = int(t / sc.Ts + 1e-9)
         if k > self.k:  # a new sample interval (a probe of its end counts as the next)
@@ -82,26 +88,36 @@ class _Guard:
                 f"the solver needed more than {MAX_RHS_PER_SAMPLE} evaluations in the sample "
                 f"interval from t = {k * sc.Ts:.6g} s (a stiff or diverging loop); a stiff "
                 f"solver may resolve it: unidyn.simulate(..., method='LSODA')")
-        if self.layout:
-            x = self.bd._state_map.get(self.robot)
-            if x is not None:
-                _check_bounds(x, self.bounds, t)
+        _check_bounds(pose, velocity, self.bounds, t)
         if self.deadline is not None and time.monotonic() > self.deadline:
             raise GuardStop(f"wall-clock limit of {self.timeout:g} s reached at t = {t:.6g} s")
-        return yd
 
 
-def _check_bounds(x, b, t):
-    r = math.hypot(x[0], x[1])
+def _check_bounds(pose, velocity, b, t):
+    pose = np.ravel(pose)
+    r = math.hypot(pose[0], pose[1])
     if not r <= b[0]:
         raise GuardStop(f"diverged: the position |(x, y)| = {r:.3g} m is beyond {b[0]:.3g} m "
                         f"(1e6 times the reference's size) at t = {t:.6g} s")
-    if len(x) >= 5:
-        for j, (name, unit) in ((3, ("u", "m/s")), (4, ("w", "rad/s"))):
-            if not abs(x[j]) <= b[j - 2]:
-                raise GuardStop(f"diverged: |{name}| = {abs(x[j]):.3g} {unit} is beyond "
-                                f"{b[j - 2]:.3g} {unit} (1e6 times its limit, or what the "
+    if velocity is not None:
+        velocity = np.ravel(velocity)
+        for j, (name, unit) in ((0, ("u", "m/s")), (1, ("w", "rad/s"))):
+            if not abs(velocity[j]) <= b[j + 1]:
+                raise GuardStop(f"diverged: |{name}| = {abs(velocity[j]):.3g} {unit} is beyond "
+                                f"{b[j + 1]:.3g} {unit} (1e6 times its limit, or what the "
                                 f"controller asks for) at t = {t:.6g} s")
+
+
+def _unvouched(sc, rtol):
+    """Why a complete run's accuracy is not vouched for, or "" (see :data:`HIGH_GAIN`)."""
+    gamma = max(sc.gamma)
+    if sc.case != "adaptive" or gamma <= HIGH_GAIN or rtol <= HIGH_GAIN_RTOL:
+        return ""
+    return (f"complete, but its accuracy is not vouched for: at adaptation gain gamma up to "
+            f"{gamma:g} (above {HIGH_GAIN:g}) with rtol {rtol:g}, the solver steps across the "
+            f"kinks where the acceleration limits clip and theta_hat drifts from a converged "
+            f"solution; run it with unidyn.simulate(..., rtol={HIGH_GAIN_RTOL:g}, atol=1e-13) "
+            f"(scenario {sc.name or sc.case})")
 
 
 def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DEFAULT_ATOL,
@@ -126,6 +142,9 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
         diverges, the solver stalls, the wall-clock limit); its ``result`` attribute
         holds the samples logged before the failure, with ``complete=False``
     :raises SimulationInterrupted: on Ctrl-C, with the samples logged before it
+    :warns unidyn.batch.AccuracyWarning: for an adaptive run with adaptation gain
+        above :data:`HIGH_GAIN` at an ``rtol`` looser than about :data:`HIGH_GAIN_RTOL`
+        (the result's ``message`` says so too, naming the fix)
     """
     if not isinstance(scenario, Scenario):
         raise ValidationError(f"scenario must be a unidyn.Scenario, got {type(scenario).__name__}")
@@ -133,18 +152,11 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
     atol = positive("atol", atol)
     if timeout is not None:
         timeout = positive("timeout", timeout)
-    from .diagrams import build_fig2, new_simulator  # bdsim: loaded when a run starts
+    from .diagrams import RunMonitor, build_fig2, new_simulator  # bdsim: loaded when a run starts
 
     sim = new_simulator()
     fig = build_fig2(sim, scenario, **builder_args)
     roles = list(fig.watch)
-    said = io.StringIO()
-    try:
-        with contextlib.redirect_stdout(said):  # bdsim's notes (e.g. a user block's unused output)
-            fig.bd.compile()
-    except Exception as err:  # a real error: pass on what bdsim said about it
-        raise RuntimeError(f"bdsim could not compile the Fig. 2 diagram: {err}\n"
-                           f"{said.getvalue().strip()}") from err
     sc = scenario
     bar = None
     if progress is True or (progress is None and sc.steps >= 2000):
@@ -153,16 +165,20 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
         from tqdm import tqdm
         bar = tqdm(total=sc.steps, unit="sample", desc="unidyn bdsim", leave=False,
                    disable=None if progress is None else False, file=sys.stderr, mininterval=0.5)
-    fig.bd.deriv = _Guard(fig.bd, fig.blocks["robot"], sc, timeout, bar)
-    # bdsim hands its run state (whose tlist and plist log the watched signals) to
-    # BlockDiagram.start: keep it, so that a run that fails still gives back its log
-    started = []
-    bd_start = fig.bd.start
-
-    def start(simstate):
-        started.append(simstate)
-        return bd_start(simstate)
-    fig.bd.start = start
+    # the run guard is a block of the diagram: bdsim evaluates it with the others at
+    # every solver evaluation, and hands it the run state (whose tlist and plist log
+    # the watched signals) when the run starts, so a run that fails gives back its log
+    checked = [fig.watch[r] for r in ("pose", "velocity") if r in fig.watch]
+    guard = RunMonitor(_Guard(sc, timeout, bar), nin=len(checked), bd=fig.bd, name="run_guard")
+    for i, plug in enumerate(checked):
+        fig.bd.connect(plug, guard[i])
+    said = io.StringIO()
+    try:
+        with contextlib.redirect_stdout(said):  # bdsim's notes (e.g. a user block's unused output)
+            fig.bd.compile()
+    except Exception as err:  # a real error: pass on what bdsim said about it
+        raise RuntimeError(f"bdsim could not compile the Fig. 2 diagram: {err}\n"
+                           f"{said.getvalue().strip()}") from err
     failure = None
     interrupted = False
     try:
@@ -178,7 +194,7 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
         if bar is not None:
             bar.close()
         interrupted = isinstance(err, KeyboardInterrupt)
-        simstate = started[-1] if started else None
+        simstate = guard.simstate
         if getattr(simstate, "tlist", None) is None:  # failed while bdsim started the blocks
             simstate = None
         cause = err if interrupted else _root_cause(err)
@@ -224,13 +240,16 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
     theta_hat = signals.get("theta_hat")
     if theta_hat is None:
         theta_hat = np.tile(sc.theta_hat_initial, (len(t), 1))
+    unvouched = "" if failure is not None else _unvouched(sc, rtol)
+    if unvouched:
+        warnings.warn(unvouched, AccuracyWarning, stacklevel=2)
     c = lambda a: np.asarray(a, dtype=sc.log_dtype)  # noqa: E731
     kept = lambda k, a: c(a) if k in sc.log_series else None  # noqa: E731 (log_series)
     result = Result(scenario=sc, t=t, pose=c(signals["pose"]), velocity=c(velocity),
                     reference=c(signals["reference"]), v_d=kept("v_d", signals["v_d"]),
                     v_ref=kept("v_ref", signals["v_ref"]),
                     theta_hat=kept("theta_hat", theta_hat), engine="bdsim",
-                    complete=failure is None, message=failure or "",
+                    complete=failure is None, message=failure or unvouched,
                     backend=f"solve_ivp {method}")
     if interrupted:
         raise SimulationInterrupted(failure, result)

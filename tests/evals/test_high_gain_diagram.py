@@ -1,0 +1,49 @@
+"""At high adaptation gains the bdsim diagram's numbers (unidyn.simulate) are within
+their accuracy of a converged solution, or the run says it cannot vouch for them.
+
+The converged reference is the one of test_high_gain: scipy's DOP853 at rtol 1e-12
+on the same equations, restarted at every sample; an integrator independent of the
+diagram's blocks."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+import unidyn
+from unidyn.batch import AccuracyWarning
+from unidyn.scenario import Scenario
+
+from . import test_high_gain as reference
+
+pytestmark = pytest.mark.slow
+
+
+def _scenario(gamma):
+    return Scenario(gamma=[gamma] * 6, adapt_from=0.0, T=20.0, noise=None)
+
+
+def test_gamma_100_at_the_default_tolerances_is_within_its_accuracy_of_a_converged_solution():
+    sc = _scenario(100.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", AccuracyWarning)
+        r = unidyn.simulate(sc, progress=False)
+    assert r.complete and r.message == ""
+    err = np.max(np.abs(r.theta_hat - reference._converged_theta_hat(sc)))
+    assert err < 1e-4, err
+
+
+def test_gamma_1000_says_it_cannot_vouch_at_the_default_tolerances_and_is_converged_at_the_advised():
+    sc = _scenario(1000.0)
+    with pytest.warns(AccuracyWarning, match="not vouched.*rtol=1e-11"):
+        loose = unidyn.simulate(sc, progress=False)
+    assert loose.complete and "not vouched" in loose.message and "gamma" in loose.message
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", AccuracyWarning)
+        tight = unidyn.simulate(sc, rtol=1e-11, atol=1e-13, progress=False)
+    assert tight.complete and tight.message == ""
+    ref = reference._converged_theta_hat(sc)
+    # the warning is earned: the default run is measurably off, the advised one is not
+    assert np.max(np.abs(loose.theta_hat - ref)) > 1e-3
+    err = np.max(np.abs(tight.theta_hat - ref))
+    assert err < 5e-5, err
