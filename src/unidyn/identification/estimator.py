@@ -67,6 +67,7 @@ import math
 import warnings as _warnings_mod
 
 import numpy as np
+from scipy.optimize import least_squares
 
 from .._validate import ValidationError, choice, integer, nonnegative, positive
 from ..model import regressor
@@ -397,8 +398,8 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
     every log with the logged commands applied as the robot received them, and
     adjusts theta (and each piece's initial velocities, and the input delay if
     asked) so that the simulated velocities match the measured ones
-    (Levenberg-Marquardt on the normal equations, each channel weighted by its
-    noise level; derivatives by finite differences of the compiled simulation).
+    (scipy's bounded least squares, each channel weighted by its noise level;
+    derivatives by finite differences of the compiled simulation).
     It starts from a least-squares estimate: for held commands the exact
     discretisation of the linear part of Eq. (2) under a held input,
     u[k+1] = a u[k] + b u_ref[k] + c w[k]^2 with a = exp(-theta4 dt / theta1),
@@ -456,6 +457,29 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
         has one; the message lists the likely causes)
     :return: :class:`IdentificationResult`
     """
+    commands, method, smoothing, order, window, rel_stderr_max, gap, stamp_jitter = \
+        _checked_options(commands, method, smoothing, order, window, rel_stderr_max, name,
+                         gap, stamp_jitter, validate, check_commands)
+    lg = _read_logs((log,) + more_logs, columns, gap, time_unit, stamp_jitter, commands,
+                    delay, window, noise_std)
+    if method == "equation-error":
+        res = _identify_equation_error(lg, smoothing, window, order, rel_stderr_max, name)
+    else:
+        theta0, start_kind, m0 = _start(lg.D, lg.segs, lg.linear, lg.delay, lg.delay_auto,
+                                        lg.dt_med, smoothing, window, order, lg.su, lg.sw)
+        oe = _weighted_oe_fit(lg, theta0, m0 * lg.dt_med if lg.delay_auto else lg.delay)
+        stderr, warns = _oe_intervals(lg, oe, rel_stderr_max)
+        if check_commands:
+            warns += _command_check(lg, oe)
+        res = _oe_result(lg, oe, stderr, warns, start_kind, name)
+    if validate:
+        res = _with_validation(res, lg.D, lg.segs)
+    return _emit(res)
+
+
+def _checked_options(commands, method, smoothing, order, window, rel_stderr_max, name,
+                     gap, stamp_jitter, validate, check_commands):
+    """The options of :func:`identify` checked (one clear line for a bad one)."""
     commands = choice("commands", commands, COMMAND_CONVENTIONS)
     method = choice("method", method, METHODS)
     smoothing = choice("smoothing", smoothing, SMOOTHING_METHODS)
@@ -472,9 +496,40 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
     for flag, v in (("validate", validate), ("check_commands", check_commands)):
         if not isinstance(v, (bool, np.bool_)):
             raise ValidationError(f"{flag} must be True or False, got {_short(v)}")
-    logs = (log,) + more_logs
+    return commands, method, smoothing, order, window, rel_stderr_max, gap, stamp_jitter
+
+
+@dataclass
+class _Logs:
+    """The joined logs of one :func:`identify` call and what is read from them."""
+    D: dict                 # the joined columns (see join_logs)
+    segs: list              # (start, stop) rows of each piece
+    n_logs: int
+    commands: str
+    dt_med: float           # median time step, s
+    delay: float            # s (0 when it is to be estimated)
+    delay_auto: bool
+    su: float               # noise std of u and w
+    sw: float
+    stamp_jitter: float | None
+    warnings: list          # about the logs: missing rows, gaps, dropped rows
+
+    @property
+    def linear(self) -> bool:
+        return self.commands == "linear"
+
+    def description(self, delay) -> str:
+        n_used = sum(b - a for a, b in self.segs)
+        return (f"identified from {n_used} samples in {len(self.segs)} piece(s) of "
+                f"{self.n_logs} log(s), commands={self.commands!r}, delay={delay:g} s")
+
+
+def _read_logs(logs, columns, gap, time_unit, stamp_jitter, commands, delay, window,
+               noise_std) -> _Logs:
+    """Join the logs, check that they can be identified from, read the delay and
+    the noise levels, and note missing rows and gaps."""
     gap, stamp_jitter = _recorded_settings(logs, gap, stamp_jitter)
-    D, segs, _, sources = join_logs(logs, columns, gap, time_unit)
+    D, segs, _, _ = join_logs(logs, columns, gap, time_unit)
     t, u_ref, w_ref, u, w = (D[k] for k in COLUMNS)
     _check_excitation(u_ref, w_ref)
     dt_med = float(np.median(np.concatenate([np.diff(t[a:b]) for a, b in segs])))
@@ -503,57 +558,62 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
                      f"step): the log is split there into pieces, each with its own initial "
                      f"state")
     warns += D["notes"]     # rows dropped or skipped, short pieces not used
-    linear = commands == "linear"
-    n_used = sum(b - a for a, b in segs)
-    desc = (f"identified from {n_used} samples in {len(segs)} piece(s) of {len(logs)} log(s), "
-            f"commands={commands!r}, delay={delay:g} s")
+    return _Logs(D, segs, len(logs), commands, dt_med, delay, delay_auto, su, sw,
+                 stamp_jitter, warns)
 
-    if method == "equation-error":
-        fit = _equation_error(D, segs, smoothing, window, order, su, sw)
-        theta, cov, resid, keep_t, conds, r2, ew, win, uk, wk = fit
-        stderr = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-        _check_physical(theta, stderr)
-        warns += ew + _warnings(theta, stderr, conds, uk, wk, dt_med, rel_stderr_max)
-        if commands == "held" and not linear:
-            warns.append(
-                "the equation-error estimate treats the commands as smooth between samples; "
-                "for commands held between samples it is biased by about half a sample "
-                f"(theta1 by about theta4 dt / 2 = {theta[3] * dt_med / 2:.3g} s): use "
-                "method='output-error'")
-        rp = RobotParameters(*theta.tolist(), name=name,
-                             source=f"{desc}, method='equation-error', smoothing={smoothing!r}, "
-                                    f"window={win:g} s")
-        res = IdentificationResult(
-            theta=rp, stderr=stderr, ci95=_ci(theta, stderr), residuals=resid, t=keep_t,
-            condition_numbers=tuple(conds), warnings=warns, smoothing=smoothing, window=win,
-            order=order if smoothing == "savgol" else None, n_samples=int(keep_t.size),
-            fit_r2=tuple(r2), noise_std=(su, sw), method=method, commands=commands,
-            delay=delay, segments=len(segs), n_logs=len(logs))
-        if validate:
-            res = _with_validation(res, D, segs)
-        return _emit(res)
 
-    # ---- output error: start, fit, intervals, checks
-    theta0, start_kind, m0 = _start(D, segs, linear, delay, delay_auto, dt_med, smoothing,
-                                    window, order, su, sw)
-    if delay_auto:
-        delay = m0 * dt_med
+def _identify_equation_error(lg, smoothing, window, order, rel_stderr_max, name):
+    """Eq. (11) through the filter or the Savitzky-Golay fit, as a result."""
+    fit = _equation_error(lg.D, lg.segs, smoothing, window, order, lg.su, lg.sw)
+    theta, cov, resid, keep_t, conds, r2, ew, win, uk, wk = fit
+    stderr = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    _check_physical(theta, stderr)
+    warns = lg.warnings + ew + _warnings(theta, stderr, conds, uk, wk, lg.dt_med,
+                                         rel_stderr_max)
+    if not lg.linear:
+        warns.append(
+            "the equation-error estimate treats the commands as smooth between samples; "
+            "for commands held between samples it is biased by about half a sample "
+            f"(theta1 by about theta4 dt / 2 = {theta[3] * lg.dt_med / 2:.3g} s): use "
+            "method='output-error'")
+    rp = RobotParameters(*theta.tolist(), name=name,
+                         source=f"{lg.description(lg.delay)}, method='equation-error', "
+                                f"smoothing={smoothing!r}, window={win:g} s")
+    return IdentificationResult(
+        theta=rp, stderr=stderr, ci95=_ci(theta, stderr), residuals=resid, t=keep_t,
+        condition_numbers=tuple(conds), warnings=warns, smoothing=smoothing, window=win,
+        order=order if smoothing == "savgol" else None, n_samples=int(keep_t.size),
+        fit_r2=tuple(r2), noise_std=(lg.su, lg.sw), method="equation-error",
+        commands=lg.commands, delay=lg.delay, segments=len(lg.segs), n_logs=lg.n_logs)
+
+
+def _weighted_oe_fit(lg, theta0, delay):
+    """The output-error fit weighted by the noise levels; refitted once with the
+    residuals' own levels when they differ by more than 25 %."""
+    u, w = lg.D["u"], lg.D["w"]
     floor_u = 1e-9 * max(float(np.sqrt(np.mean(u * u))), 1e-9)
     floor_w = 1e-9 * max(float(np.sqrt(np.mean(w * w))), 1e-9)
-    sig = np.array([max(su, floor_u), max(sw, floor_w)])
-    oe = _oe_fit(D, segs, theta0, sig, linear, delay, delay_auto, dt_med)
-    rms = oe["rms"]
-    if np.any(np.abs(rms / sig - 1.0) > 0.25):
-        sig = np.maximum(rms, [floor_u, floor_w])
-        oe = _oe_fit(D, segs, oe["theta"], sig, linear, oe["delay"], delay_auto, dt_med,
-                     v0=oe["v0"])
+    sig = np.array([max(lg.su, floor_u), max(lg.sw, floor_w)])
+    oe = _oe_fit(lg.D, lg.segs, theta0, sig, lg.linear, delay, lg.delay_auto, lg.dt_med)
+    if np.any(np.abs(oe["rms"] / sig - 1.0) > 0.25):
+        sig = np.maximum(oe["rms"], [floor_u, floor_w])
+        oe = _oe_fit(lg.D, lg.segs, oe["theta"], sig, lg.linear, oe["delay"], lg.delay_auto,
+                     lg.dt_med, v0=oe["v0"])
+    return oe
+
+
+def _oe_intervals(lg, oe, rel_stderr_max):
+    """The standard errors of theta (widened for stamp jitter) and the warnings
+    about the estimate, starting with those about the logs."""
     theta = oe["theta"]
-    cov = oe["cov"]
-    stderr = np.sqrt(np.clip(np.diag(cov)[:6], 0.0, None))
+    stderr = np.sqrt(np.clip(np.diag(oe["cov"])[:6], 0.0, None))
     _check_physical(theta, stderr)
-    jitter = _stamp_jitter(t, segs) if stamp_jitter is None else stamp_jitter
-    if jitter > _JITTER_MIN * dt_med:
-        stderr, note = _jitter_widening(D, segs, oe, theta, stderr, linear, dt_med, jitter)
+    warns = list(lg.warnings)
+    t = lg.D["t"]
+    jitter = _stamp_jitter(t, lg.segs) if lg.stamp_jitter is None else lg.stamp_jitter
+    if jitter > _JITTER_MIN * lg.dt_med:
+        stderr, note = _jitter_widening(lg.D, lg.segs, oe, theta, stderr, lg.linear,
+                                        lg.dt_med, jitter)
         warns.append(note)
     idx = oe["rows"]
     for i in oe["dead"]:
@@ -561,45 +621,50 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
                      f"do not depend on it (or only through a combination with other "
                      f"parameters), so its value is arbitrary and its standard error is "
                      f"reported as inf")
-    warns += _warnings(theta, stderr, oe["conds"], u[idx], w[idx], dt_med, rel_stderr_max)
-    warns += oe["warnings"]
-    if check_commands:
-        other = "held" if linear else "linear"
-        alt = _oe_fit(D, segs, theta, oe["sig"], not linear, oe["delay"], False, dt_med,
-                      v0=oe["v0"], covariance=False)
-        gain = oe["cost"] - alt["cost"]
-        # an absolute floor (noise), and a relative one: a log that Eq. (2) does not
-        # fit (a saturating robot) can fit a little better either way
-        if gain > max(25.0, 1e-3 * idx.size, 0.02 * oe["cost"]):
-            if other == "held":
-                why = ("the commands are held between samples, or take effect later than "
-                       "their time stamps (see delay='auto')")
-            else:
-                why = ("the commands vary smoothly between samples, or take effect earlier "
-                       "than their time stamps (by about half a sample; delay cannot be "
-                       "negative, so delay='auto' cannot fix that: check how the commands "
-                       "and the velocities are time-stamped)")
-            warns.append(
-                f"the log fits clearly better with commands={other!r} (sum of squared "
-                f"normalised velocity errors {alt['cost']:.4g} against {oe['cost']:.4g}): "
-                f"{why}; with the wrong convention theta1 and theta2 are biased by about "
-                f"half a sample")
-    est_delay = oe["delay"]
+    warns += _warnings(theta, stderr, oe["conds"], lg.D["u"][idx], lg.D["w"][idx], lg.dt_med,
+                       rel_stderr_max)
+    return stderr, warns + oe["warnings"]
+
+
+def _command_check(lg, oe) -> list:
+    """A warning when the other command convention fits the log clearly better."""
+    other = "held" if lg.linear else "linear"
+    alt = _oe_fit(lg.D, lg.segs, oe["theta"], oe["sig"], not lg.linear, oe["delay"], False,
+                  lg.dt_med, v0=oe["v0"], covariance=False)
+    gain = oe["cost"] - alt["cost"]
+    # an absolute floor (noise), and a relative one: a log that Eq. (2) does not
+    # fit (a saturating robot) can fit a little better either way
+    if gain <= max(25.0, 1e-3 * oe["rows"].size, 0.02 * oe["cost"]):
+        return []
+    if other == "held":
+        why = ("the commands are held between samples, or take effect later than "
+               "their time stamps (see delay='auto')")
+    else:
+        why = ("the commands vary smoothly between samples, or take effect earlier "
+               "than their time stamps (by about half a sample; delay cannot be "
+               "negative, so delay='auto' cannot fix that: check how the commands "
+               "and the velocities are time-stamped)")
+    return [f"the log fits clearly better with commands={other!r} (sum of squared "
+            f"normalised velocity errors {alt['cost']:.4g} against {oe['cost']:.4g}): "
+            f"{why}; with the wrong convention theta1 and theta2 are biased by about "
+            f"half a sample"]
+
+
+def _oe_result(lg, oe, stderr, warns, start_kind, name):
+    """The :class:`IdentificationResult` of the output-error fit."""
+    theta, idx, est_delay = oe["theta"], oe["rows"], oe["delay"]
     rp = RobotParameters(*theta.tolist(), name=name,
-                         source=(f"{desc.replace(f'delay={delay:g} s', f'delay={est_delay:g} s')}"
-                                 f", method='output-error' from a {start_kind} start"))
-    res = IdentificationResult(
+                         source=f"{lg.description(est_delay)}, method='output-error' from a "
+                                f"{start_kind} start")
+    return IdentificationResult(
         theta=rp, stderr=stderr, ci95=_ci(theta, stderr), residuals=oe["residuals"],
-        t=t[idx], condition_numbers=tuple(oe["conds"]), warnings=warns,
+        t=lg.D["t"][idx], condition_numbers=tuple(oe["conds"]), warnings=warns,
         smoothing=None, window=None, order=None, n_samples=int(idx.size),
-        fit_r2=tuple(oe["r2"]), noise_std=tuple(float(x) for x in oe["rms"]), method=method,
-        commands=commands, delay=float(est_delay),
-        delay_stderr=float(oe["delay_stderr"]) if delay_auto else 0.0,
-        segments=len(segs), n_logs=len(logs), whiteness=tuple(oe["whiteness"]),
+        fit_r2=tuple(oe["r2"]), noise_std=tuple(float(x) for x in oe["rms"]),
+        method="output-error", commands=lg.commands, delay=float(est_delay),
+        delay_stderr=float(oe["delay_stderr"]) if lg.delay_auto else 0.0,
+        segments=len(lg.segs), n_logs=lg.n_logs, whiteness=tuple(oe["whiteness"]),
         v0=oe["v0"])
-    if validate:
-        res = _with_validation(res, D, segs)
-    return _emit(res)
 
 
 def _recorded_settings(logs, gap, stamp_jitter):
@@ -779,145 +844,151 @@ def _arx(D, segs, delay, auto, dt_med):
     return best[1], best[2]
 
 
-def _oe_fit(D, segs, theta0, sig, linear, delay, est_delay, dt_med, v0=None,
-            covariance=True, max_nfev=200):
-    """The output-error fit (see :func:`identify`). Returns a dict with theta,
-    delay, v0, cost (sum of squared normalised errors), rms per channel, rows,
-    residuals, and with ``covariance``: cov, conds, r2, whiteness, warnings."""
-    t, u_ref, w_ref, u, w = (D[k] for k in COLUMNS)
-    nseg = len(segs)
-    idx = np.concatenate([np.arange(a, b) for a, b in segs])
-    Y = np.stack([u[idx], w[idx]], axis=1)
-    hmax = step_length(theta0, dt_med)
-    if v0 is None:
-        v0 = np.array([[u[a], w[a]] for a, _ in segs])
-    nd = 1 if est_delay else 0
-    p0 = np.concatenate([theta0, [delay] if nd else [], np.asarray(v0, float).ravel()])
-    lb = np.full(p0.size, -np.inf)
-    ub = np.full(p0.size, np.inf)
-    lb[[0, 1, 3, 5]] = 1e-9
-    if nd:
-        lb[6], ub[6] = 0.0, 4.0 * dt_med
-        p0[6] = min(max(p0[6], 0.02 * dt_med), 3.98 * dt_med)
-    p0 = np.minimum(np.maximum(p0, lb + 1e-12), ub - 1e-12)
-    # the time constants the fit may explore: at least TAU_MIN_SAMPLES of a sample
-    # interval (a faster response settles within the sample and is not resolved;
-    # the simulation's step, a tenth of the time constant, stays bounded)
-    tau_min = TAU_MIN_SAMPLES * dt_med
-    for i, j in ((0, 3), (1, 5)):
-        p0[i] = max(p0[i], 1.001 * tau_min * p0[j])
+class _OutputErrorProblem:
+    """The output-error fit's parameter vector p = (theta, [delay], initial
+    velocities of each piece), its bounds, and its residuals and Jacobian.
 
-    def feasible(q):
-        return q[0] >= tau_min * q[3] and q[1] >= tau_min * q[5]
+    Bounds: theta1, theta2, theta4, theta6 > 0 and the estimated delay within
+    0..4 samples. The fit explores no time constant theta1 / theta4 or
+    theta2 / theta6 below ``TAU_MIN_SAMPLES`` sample intervals (a faster
+    response settles within the sample and is not resolved by the log; the
+    simulation's step, a tenth of the time constant, stays bounded): the
+    simulation holds such a theta at that limit, so the errors do not improve
+    past it.
+    """
 
-    buf = np.full((t.size, 2), np.nan)
+    def __init__(self, D, segs, theta0, sig, linear, delay, est_delay, dt_med, v0):
+        self.t, self.u_ref, self.w_ref, u, w = (D[k] for k in COLUMNS)
+        self.segs, self.sig, self.linear, self.delay = segs, sig, linear, delay
+        self.nd = 1 if est_delay else 0
+        self.dt_med = dt_med
+        self.idx = np.concatenate([np.arange(a, b) for a, b in segs])
+        self.pos = np.cumsum([0] + [b - a for a, b in segs])
+        self.Y = np.stack([u[self.idx], w[self.idx]], axis=1)
+        self.hmax = step_length(theta0, dt_med)
+        self.tau_min = TAU_MIN_SAMPLES * dt_med
+        self.buf = np.full((self.t.size, 2), np.nan)
+        if v0 is None:
+            v0 = np.array([[u[a], w[a]] for a, _ in segs])
+        p0 = np.concatenate([theta0, [delay] if self.nd else [],
+                             np.asarray(v0, float).ravel()])
+        self.lb = np.full(p0.size, -np.inf)
+        self.ub = np.full(p0.size, np.inf)
+        self.lb[[0, 1, 3, 5]] = 1e-9
+        if self.nd:
+            self.lb[6], self.ub[6] = 0.0, 4.0 * dt_med
+            p0[6] = min(max(p0[6], 0.02 * dt_med), 3.98 * dt_med)
+        p0 = np.minimum(np.maximum(p0, self.lb + 1e-12), self.ub - 1e-12)
+        for i, j in ((0, 3), (1, 5)):
+            p0[i] = max(p0[i], 1.001 * self.tau_min * p0[j])
+        self.p0 = p0
 
-    def unpack(p):
-        th = p[:6]
-        dl = p[6] if nd else delay
-        return th, dl, p[6 + nd:].reshape(nseg, 2)
+    def unpack(self, p):
+        """(theta held at the fastest time constant explored, delay, v0)."""
+        th = np.array(p[:6], dtype=float)
+        th[0] = max(th[0], self.tau_min * th[3])
+        th[1] = max(th[1], self.tau_min * th[5])
+        dl = p[6] if self.nd else self.delay
+        return th, dl, np.asarray(p[6 + self.nd:]).reshape(len(self.segs), 2)
 
-    def sim(p, which=None):
-        th, dl, vv = unpack(p)
-        if which is None:
-            simulate_held(th, t, u_ref, w_ref, segs, vv, dl, linear, hmax, out=buf)
-        else:
-            simulate_held(th, t, u_ref, w_ref, [segs[which]], vv[which:which + 1], dl,
-                           linear, hmax, out=buf)
-        return buf[idx]
+    def sim(self, p, which=None):
+        """The simulated (u, w) on the fitted rows (all pieces, or piece ``which``)."""
+        th, dl, vv = self.unpack(p)
+        segs = self.segs if which is None else [self.segs[which]]
+        vv = vv if which is None else vv[which:which + 1]
+        simulate_held(th, self.t, self.u_ref, self.w_ref, segs, vv, dl, self.linear,
+                      self.hmax, out=self.buf)
+        return self.buf[self.idx]
 
-    def fun(p):
-        E = (sim(p) - Y) / sig
-        return E.T.ravel()
+    def fun(self, p):
+        """The velocity errors, each channel divided by its noise level."""
+        return ((self.sim(p) - self.Y) / self.sig).T.ravel()
 
-    pos = np.cumsum([0] + [b - a for a, b in segs])
-
-    def jac(p):
-        base = sim(p).copy()
-        J = np.zeros((2 * idx.size, p.size))
+    def jac(self, p):
+        """Forward differences of :meth:`fun`; a piece's initial velocities act
+        on its own rows only, so they are varied one piece at a time."""
+        base = self.sim(p).copy()
+        n, nd, sig = self.idx.size, self.nd, self.sig
+        J = np.zeros((2 * n, p.size))
         for i in range(p.size):
             if i < 6:
                 h = 1e-7 * max(abs(p[i]), 1e-3)
             elif nd and i == 6:
-                h = 1e-4 * dt_med if p[i] + 1e-4 * dt_med <= ub[6] else -1e-4 * dt_med
+                h = 1e-4 * self.dt_med
+                h = h if p[i] + h <= self.ub[6] else -h
             else:
                 h = 1e-7 * max(abs(p[i]), 1e-2)
-            q = p.copy()
+            q = np.array(p, dtype=float)
             q[i] += h
             if i < 6 + nd:
-                dS = (sim(q) - base) / h
-                J[:, i] = (dS / sig).T.ravel()
+                J[:, i] = ((self.sim(q) - base) / h / sig).T.ravel()
             else:
                 s = (i - 6 - nd) // 2
-                a, b = pos[s], pos[s + 1]
-                dS = (sim(q, s)[a:b] - base[a:b]) / h
+                a, b = self.pos[s], self.pos[s + 1]
+                dS = (self.sim(q, s)[a:b] - base[a:b]) / h
                 J[a:b, i] = dS[:, 0] / sig[0]
-                J[idx.size + a:idx.size + b, i] = dS[:, 1] / sig[1]
+                J[n + a:n + b, i] = dS[:, 1] / sig[1]
         return J
 
-    p = _levenberg_marquardt(fun, jac, p0, lb, ub, max_nfev, feasible)
-    th, dl, vv = unpack(p)
+    def solve(self, p0, max_nfev):
+        """scipy's trust-region reflective least squares within the bounds,
+        each parameter scaled by its column of the Jacobian."""
+        sol = least_squares(self.fun, p0, jac=self.jac, bounds=(self.lb, self.ub),
+                            method="trf", x_scale="jac", ftol=1e-10, xtol=1e-10,
+                            gtol=1e-10, max_nfev=max_nfev)
+        th, dl, _ = self.unpack(sol.x)
+        p = np.array(sol.x)
+        p[:6] = th       # a time constant below the explored limit is reported at it
+        return p
+
+
+def _oe_fit(D, segs, theta0, sig, linear, delay, est_delay, dt_med, v0=None,
+            covariance=True, max_nfev=200):
+    """The output-error fit (see :func:`identify`). Returns a dict with theta,
+    delay, v0, cost (sum of squared normalised errors), rms per channel, rows,
+    residuals, and with ``covariance``: cov, conds, r2, whiteness, warnings,
+    dead, delay_stderr."""
+    prob = _OutputErrorProblem(D, segs, theta0, sig, linear, delay, est_delay, dt_med, v0)
+    p = prob.solve(prob.p0, max_nfev)
     # a faster robot than the start needs more RK4 steps: refine once
-    if step_length(th, dt_med) < 0.8 * hmax:
-        hmax = step_length(th, dt_med)
-        p = _levenberg_marquardt(fun, jac, p, lb, ub, max_nfev, feasible)
-        th, dl, vv = unpack(p)
-    S = sim(p)
-    R = Y - S
-    n = idx.size
-    npar = p.size
-    rms = np.sqrt(np.sum(R * R, axis=0) / max(n - npar / 2, 1))
-    out = {"theta": th.copy(), "delay": float(dl), "v0": vv.copy(), "rows": idx,
+    if step_length(p[:6], dt_med) < 0.8 * prob.hmax:
+        prob.hmax = step_length(p[:6], dt_med)
+        p = prob.solve(p, max_nfev)
+    th, dl, vv = prob.unpack(p)
+    S = prob.sim(p)
+    R = prob.Y - S
+    n = prob.idx.size
+    rms = np.sqrt(np.sum(R * R, axis=0) / max(n - p.size / 2, 1))
+    out = {"theta": th.copy(), "delay": float(dl), "v0": vv.copy(), "rows": prob.idx,
            "cost": float(np.sum((R / sig) ** 2)), "rms": rms, "sig": sig.copy(),
            "residuals": R}
-    if not covariance:
-        return out
-    J = jac(p)
+    if covariance:
+        out.update(_oe_covariance(prob, p, S, R, rms, th))
+    return out
+
+
+def _oe_covariance(prob, p, S, R, rms, th):
+    """The covariance of p at the solution, s^2 (J^T J)^-1 with J weighted by
+    each channel's residual level and s^2 the sum of squared normalised errors
+    over 2 n - (number of parameters); Newey-West when the errors are not white.
+    With the diagnostics read from the residuals: conds, r2, whiteness,
+    warnings (correlated errors, saturation), dead, delay_stderr."""
+    n, npar, nd = prob.idx.size, p.size, prob.nd
+    J = prob.jac(p)
     # the channels' own noise levels, not the weights used to fit
-    scale = sig / np.maximum(rms, 1e-300)
+    scale = prob.sig / np.maximum(rms, 1e-300)
     J[:n] *= scale[0]
     J[n:] *= scale[1]
     Z = R / rms                                   # normalised residuals
-    white, rho, lb_q = [], [], []
-    L = 10
-    for c in range(2):
-        num = np.zeros(L)
-        den = 0.0
-        for sidx in range(nseg):
-            z = Z[pos[sidx]:pos[sidx + 1], c]
-            den += float(z @ z)
-            for l in range(1, L + 1):
-                if z.size > l:
-                    num[l - 1] += float(z[l:] @ z[:-l])
-        r_ = num / max(den, 1e-300)
-        q = n * float(np.sum(r_ * r_))
-        rho.append(r_)
-        lb_q.append(q)
-        white.append(q <= _WHITE_Q)
+    rho, lb_q, white = _whiteness(Z, prob.pos)
     M = J.T @ J
     Minv, dead = _scaled_inverse(M)
     cov = Minv * (float(np.sum(Z * Z)) / max(2 * n - npar, 1))
     warns = []
     if not all(white):
-        # Newey-West (Bartlett) over a few of the slower time constant, per channel
-        tau = max(th[0] / th[3], th[1] / th[5])
-        lag = int(min(max(4 * tau / dt_med, 5), 200))
-        Sm = np.zeros_like(M)
-        for c in range(2):
-            for sidx in range(nseg):
-                a, b = pos[sidx], pos[sidx + 1]
-                # only theta, the delay and this piece's initial state act on its rows
-                cols = list(range(6 + nd)) + [6 + nd + 2 * sidx, 7 + nd + 2 * sidx]
-                g = J[c * n + a:c * n + b][:, cols] * Z[a:b, c][:, None]
-                Sb = g.T @ g
-                for l in range(1, min(lag, b - a - 1) + 1):
-                    G = g[l:].T @ g[:-l]
-                    Sb += (1.0 - l / (lag + 1.0)) * (G + G.T)
-                Sm[np.ix_(cols, cols)] += Sb
-        cov_nw = Minv @ Sm @ Minv
-        cov = np.where(np.eye(npar, dtype=bool), np.maximum(np.diag(cov), np.diag(cov_nw)),
-                       cov_nw)
+        cov = _newey_west(cov, Minv, J, Z, prob, th)
         big = max(float(np.max(np.abs(r))) for r in rho)
+        Y = prob.Y
         tiny = all(rms[c] < 1e-4 * max(float(np.std(Y[:, c])), 1e-300) for c in range(2))
         if big > 0.1 and not tiny:
             ch = " and ".join(k for k, ok in zip(("u", "w"), white) if not ok)
@@ -927,9 +998,80 @@ def _oe_fit(D, segs, theta0, sig, linear, delay, est_delay, dt_med, v0=None,
                 f"dynamics unexplained (an input delay, see delay='auto'; the other command "
                 f"convention; saturation or friction; filtered velocity measurements); the "
                 f"intervals allow for correlated errors but the estimate may be biased")
-    # saturation: errors that grow with the size of the velocity (an odd
-    # nonlinearity: the cube of the simulated velocity, beyond its linear part)
-    sat = []
+    sat, sat_warns = _saturation(S, R, prob.Y)
+    warns += sat_warns
+    conds = []
+    for c, cols in ((0, [0, 2, 3]), (1, [1, 4, 5])):
+        B = J[c * n:(c + 1) * n][:, cols]
+        nb = np.linalg.norm(B, axis=0)
+        sv = np.linalg.svd(B / np.where(nb > 0, nb, 1.0), compute_uv=False)
+        conds.append(float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf)
+    r2 = []
+    for c in range(2):
+        Yc = prob.Y[:, c]
+        ss = float(np.sum((Yc - Yc.mean()) ** 2))
+        r2.append(1.0 - float(R[:, c] @ R[:, c]) / ss if ss > 0 else math.nan)
+    cov[dead, :] = 0.0
+    cov[:, dead] = 0.0
+    cov[dead, dead] = math.inf
+    return dict(cov=cov, conds=conds, r2=r2, whiteness=[float(q) for q in lb_q],
+                warnings=warns, saturation=sat,
+                dead=[i for i in np.flatnonzero(dead) if i < 6],
+                delay_stderr=float(np.sqrt(max(cov[6, 6], 0.0))) if nd else 0.0)
+
+
+def _whiteness(Z, pos, L=10):
+    """Per channel: the residual autocorrelations at lags 1..L within the
+    pieces, the portmanteau statistic n sum rho^2, and whether it is below the
+    95 % point of chi^2(L). Returns (rho, q, white)."""
+    n = Z.shape[0]
+    rho, lb_q, white = [], [], []
+    for c in range(2):
+        num = np.zeros(L)
+        den = 0.0
+        for s in range(len(pos) - 1):
+            z = Z[pos[s]:pos[s + 1], c]
+            den += float(z @ z)
+            for lag in range(1, L + 1):
+                if z.size > lag:
+                    num[lag - 1] += float(z[lag:] @ z[:-lag])
+        r_ = num / max(den, 1e-300)
+        q = n * float(np.sum(r_ * r_))
+        rho.append(r_)
+        lb_q.append(q)
+        white.append(q <= _WHITE_Q)
+    return rho, lb_q, white
+
+
+def _newey_west(cov, Minv, J, Z, prob, th):
+    """The covariance allowing for correlated errors: Newey-West (Bartlett)
+    over a few of the slower time constant, per channel and piece; each
+    variance at least the white-noise one."""
+    n, nd, npar = prob.idx.size, prob.nd, J.shape[1]
+    tau = max(th[0] / th[3], th[1] / th[5])
+    lag = int(min(max(4 * tau / prob.dt_med, 5), 200))
+    Sm = np.zeros((npar, npar))
+    for c in range(2):
+        for s in range(len(prob.segs)):
+            a, b = prob.pos[s], prob.pos[s + 1]
+            # only theta, the delay and this piece's initial state act on its rows
+            cols = list(range(6 + nd)) + [6 + nd + 2 * s, 7 + nd + 2 * s]
+            g = J[c * n + a:c * n + b][:, cols] * Z[a:b, c][:, None]
+            Sb = g.T @ g
+            for k in range(1, min(lag, b - a - 1) + 1):
+                G = g[k:].T @ g[:-k]
+                Sb += (1.0 - k / (lag + 1.0)) * (G + G.T)
+            Sm[np.ix_(cols, cols)] += Sb
+    cov_nw = Minv @ Sm @ Minv
+    return np.where(np.eye(npar, dtype=bool), np.maximum(np.diag(cov), np.diag(cov_nw)),
+                    cov_nw)
+
+
+def _saturation(S, R, Y):
+    """Errors that grow with the size of the velocity (an odd nonlinearity: the
+    cube of the simulated velocity, beyond its linear part): the correlation
+    per channel and a warning for each channel below ``_SATURATION_CORR``."""
+    sat, warns = [], []
     for c in range(2):
         x = S[:, c]
         B = np.stack([np.ones_like(x), x], axis=1)
@@ -937,7 +1079,6 @@ def _oe_fit(D, segs, theta0, sig, linear, delay, est_delay, dt_med, v0=None,
         f = f - B @ np.linalg.lstsq(B, f, rcond=None)[0]
         nf, nr = float(np.linalg.norm(f)), float(np.linalg.norm(R[:, c]))
         sat.append(float(f @ R[:, c]) / (nf * nr) if nf > 0 and nr > 0 else 0.0)
-    out["saturation"] = sat
     for c, (k, unit) in enumerate((("u", "m/s"), ("w", "rad/s"))):
         if sat[c] < _SATURATION_CORR:
             big = float(np.max(np.abs(Y[:, c])))
@@ -948,22 +1089,7 @@ def _oe_fit(D, segs, theta0, sig, linear, delay, est_delay, dt_med, v0=None,
                 f"Eq. (2) has no such limit, so the fit trades accuracy at low speed for the "
                 f"clipped peaks; identify on a log whose commands stay within the robot's reach "
                 f"(see excitation()), or leave out the saturated stretches")
-    conds = []
-    for c, cols in ((0, [0, 2, 3]), (1, [1, 4, 5])):
-        B = J[c * n:(c + 1) * n][:, cols]
-        nb = np.linalg.norm(B, axis=0)
-        sv = np.linalg.svd(B / np.where(nb > 0, nb, 1.0), compute_uv=False)
-        conds.append(float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf)
-    r2 = []
-    for c in range(2):
-        ss = float(np.sum((Y[:, c] - Y[:, c].mean()) ** 2))
-        r2.append(1.0 - float(R[:, c] @ R[:, c]) / ss if ss > 0 else math.nan)
-    cov[dead, :] = 0.0
-    cov[:, dead] = 0.0
-    cov[dead, dead] = math.inf
-    out.update(cov=cov, conds=conds, r2=r2, whiteness=[float(q) for q in lb_q],
-               warnings=warns, dead=[i for i in np.flatnonzero(dead) if i < 6], delay_stderr=float(np.sqrt(max(cov[6, 6], 0.0))) if nd else 0.0)
-    return out
+    return sat, warns
 
 
 def _scaled_inverse(M, tol=1e-10):
@@ -994,56 +1120,6 @@ def _scaled_inverse(M, tol=1e-10):
         Ms = M[np.ix_(live, live)] / np.outer(d[live], d[live])
         Minv[np.ix_(live, live)] = np.linalg.inv(Ms) / np.outer(d[live], d[live])
     return Minv, dead
-
-
-def _levenberg_marquardt(fun, jac, p0, lb, ub, max_iter, feasible=None):
-    """Minimise ||fun(p)||^2 within lb < p < ub by Levenberg-Marquardt on the
-    column-scaled normal equations (the parameters are few and the residuals
-    many: the p x p normal matrix is cheap, where a QR or SVD of the tall
-    Jacobian is not). A step leaving the bounds is rejected like one that
-    raises the cost; a parameter whose bound is finite on both sides (the
-    delay) is clipped into them instead. ``feasible(q)``, when given, rejects
-    a step like a bound does."""
-    p = np.array(p0, dtype=float)
-    r = fun(p)
-    cost = float(r @ r)
-    lam = 1e-3
-    both = np.isfinite(lb) & np.isfinite(ub)
-    n = p.size
-    for _ in range(int(max_iter)):
-        J = jac(p)
-        A = J.T @ J
-        g = J.T @ r
-        d = np.sqrt(np.diag(A))
-        d[d == 0] = 1.0
-        As = A / np.outer(d, d)
-        gs = g / d
-        accepted = False
-        while lam < 1e12:
-            try:
-                step = -np.linalg.solve(As + lam * np.eye(n), gs) / d
-            except np.linalg.LinAlgError:
-                lam *= 10.0
-                continue
-            q = p + step
-            q[both] = np.minimum(np.maximum(q[both], lb[both]), ub[both])
-            if np.all(q[~both] > lb[~both]) and np.all(q[~both] < ub[~both]) and \
-                    (feasible is None or feasible(q)):
-                rq = fun(q)
-                cq = float(rq @ rq)
-                if np.isfinite(cq) and cq <= cost:
-                    accepted = True
-                    break
-            lam *= 4.0
-        if not accepted:
-            break
-        small = np.all(np.abs(q - p) <= 1e-10 * (np.abs(p) + 1e-6))
-        done = cost - cq <= 1e-13 * cost or small
-        p, r, cost = q, rq, cq
-        lam = max(lam / 4.0, 1e-12)
-        if done:
-            break
-    return p
 
 
 def _equation_error(D, segs, smoothing, window, order, su, sw):
