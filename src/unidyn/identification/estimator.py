@@ -65,6 +65,7 @@ from __future__ import annotations
 
 import math
 import warnings as _warnings_mod
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import least_squares
