@@ -19,7 +19,13 @@ import signal
 import sys
 import time
 
-import matplotlib
+from unidyn import process
+
+# first, before matplotlib (logging) and the pool register exit handlers: a Ctrl-C'd
+# run ends by SIGINT after them, so that a shell loop running this script stops too
+process.prepare_end()
+
+import matplotlib  # noqa: E402
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -201,12 +207,6 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    code = main()
-    if code == 130 and os.name != "nt":
-        # end by Ctrl-C's own signal, so that a shell script or loop running this stops
-        # too (a shell takes a plain exit as "handled"; its status is 130 either way)
-        sys.stdout.flush()
-        sys.stderr.flush()
-        signal.signal(signal.SIGINT, signal.SIG_DFL)
-        signal.raise_signal(signal.SIGINT)
-    sys.exit(code)
+    # status 130 (Ctrl-C) ends the process by SIGINT, once exit handlers ran and output
+    # is flushed: a shell takes a plain exit as "handled" and would go on with its loop
+    process.end(main())

@@ -423,11 +423,11 @@ def test_an_interrupt_lost_in_a_finaliser_is_sent_again():
     import time
     from types import SimpleNamespace
 
-    import unidyn.cli as c
+    from unidyn import process
     got = []
     previous = signal.signal(signal.SIGINT, lambda *a: got.append("int"))
     try:
-        c._unraisable(SimpleNamespace(exc_value=KeyboardInterrupt()))
+        process._unraisable(SimpleNamespace(exc_value=KeyboardInterrupt()))
         t_end = time.monotonic() + 5
         while not got and time.monotonic() < t_end:
             time.sleep(0.01)

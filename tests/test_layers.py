@@ -17,8 +17,11 @@ PACKAGE = "unidyn"
 #: Lowest first. A module may import its own layer or a lower one. A package's
 #: submodules sit in the package's layer unless listed themselves.
 LAYERS = {
-    # the paper's science, free of bdsim and of files (figstyle: the figure style)
+    # the paper's science, free of bdsim and of files (figstyle: the figure style;
+    # process: signals and exit status, standard library only, which the results
+    # folder asks how a SIGTERM ends)
     "science": ("unidyn", "unidyn._errors", "unidyn._validate", "unidyn._bdsim_path",
+                "unidyn.process",
                 "unidyn.equations", "unidyn.parameters", "unidyn.robots", "unidyn.model",
                 "unidyn.control", "unidyn.trajectories", "unidyn.noise",
                 "unidyn.properties", "unidyn._vecmath", "unidyn.figstyle"),

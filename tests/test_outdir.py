@@ -318,7 +318,7 @@ def test_sigterm_during_the_renames_is_held_back_then_delivered():
     """A SIGTERM while files are renamed into place reaches the handler that was
     there, after; the unidyn command's handler drops it once the results are in place
     (the command has finished, and says what it wrote), and gets it when they are not."""
-    from unidyn import cli
+    from unidyn import process
     got = []
     previous = signal.signal(signal.SIGTERM, lambda *a: got.append("term"))
     try:
@@ -326,18 +326,18 @@ def test_sigterm_during_the_renames_is_held_back_then_delivered():
             signal.raise_signal(signal.SIGTERM)
             assert got == []  # held back during the renames
         assert got == ["term"]  # then delivered to the handler that was there
-        signal.signal(signal.SIGTERM, cli._on_sigterm)
-        with outdir._interrupts_deferred():
-            signal.raise_signal(signal.SIGTERM)  # results in place: the command finishes
-        with pytest.raises(KeyboardInterrupt):
+        with process.command_signals():  # the unidyn command's handlers
             with outdir._interrupts_deferred():
-                signal.raise_signal(signal.SIGTERM)
-                raise OSError("a rename failed")  # not in place: the command stops
-        assert signal.getsignal(signal.SIGTERM) is cli._on_sigterm
+                signal.raise_signal(signal.SIGTERM)  # results in place: the command finishes
+            with pytest.raises(KeyboardInterrupt):
+                with outdir._interrupts_deferred():
+                    signal.raise_signal(signal.SIGTERM)
+                    raise OSError("a rename failed")  # not in place: the command stops
+            assert process.finishes_on_sigterm(signal.getsignal(signal.SIGTERM))
+        assert got == ["term"]  # and none reached the handler outside the command
     finally:
         signal.signal(signal.SIGTERM, previous)
-        cli._TERMINATED.clear()  # the command's records of a signal, for the next tests
-        cli._SIGNALLED.clear()
+        process._received.clear()  # the command's record of a signal, for the next tests
 
 
 def test_a_folder_the_command_wrote_is_replaced_whole(tmp_path):

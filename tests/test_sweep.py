@@ -15,6 +15,7 @@ import unidyn
 from unidyn import ValidationError, robots
 from unidyn import files, outdir
 from unidyn import sweep as sw
+from unidyn._errors import Interrupted
 from unidyn.batch import simulate_batch
 from unidyn.cli import main
 from unidyn.files import read_metrics, rows_text
@@ -190,7 +191,7 @@ def test_interrupted_sweep_resumes_with_identical_results(tmp_path, monkeypatch)
     monkeypatch.setattr(sw, "_run_chunk", crash_after_first_chunk)
     with pytest.raises(RuntimeError, match="simulated crash") as exc:
         run_sweep(s, tmp_path / "cut", chunk_size=2, progress=False)
-    assert "2 of 8 points are in" in exc.value.unidyn_detail  # what the CLI says was kept
+    assert any("2 of 8 points are in" in note for note in exc.value.__notes__)  # traceback
     kept = csv_rows(tmp_path / "cut")
     assert len(kept) == 1 + 2  # header and the first chunk
     assert json.loads((tmp_path / "cut" / "sweep.json").read_text())["finished"] is False
@@ -365,10 +366,10 @@ def test_an_interrupted_restart_keeps_the_old_rows(tmp_path, monkeypatch):
     for exc in (KeyboardInterrupt(),):
         restore()
         restore = crash_after(monkeypatch, 1, exc)
-        with pytest.raises(KeyboardInterrupt) as err:
+        with pytest.raises(Interrupted) as err:
             run_sweep(small_sweep(), out, chunk_size=2, resume=False, overwrite=True,
                       progress=False)
-        assert "is as it was (8 finished row(s)" in err.value.unidyn_detail
+        assert "is as it was (8 finished row(s)" in err.value.kept  # the command prints it
         assert {p.name: p.read_bytes() for p in out.iterdir() if p.name != "notes.txt"} == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["o"]  # no staging folder left
     restore()

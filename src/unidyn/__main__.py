@@ -2,15 +2,13 @@
 
 import sys
 
-try:
-    from .cli import script
-except KeyboardInterrupt:  # Ctrl-C while the package loads: nothing was started
-    print("unidyn: interrupted", file=sys.stderr, flush=True)
-    import os
-    import signal
-    if os.name != "nt":  # end by the signal, as the command does (unidyn.cli.script)
-        signal.signal(signal.SIGINT, signal.SIG_DFL)
-        signal.raise_signal(signal.SIGINT)
-    sys.exit(130)
+from . import process
 
-script()
+process.prepare_end()  # before anything registers exit handlers (see its docstring)
+try:
+    from .cli import entry
+except KeyboardInterrupt:  # Ctrl-C while the command line loads: nothing was started
+    print("unidyn: interrupted", file=sys.stderr, flush=True)
+    process.end(process.INTERRUPTED)
+
+process.run_command(entry)

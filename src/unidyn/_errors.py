@@ -1,6 +1,6 @@
 """The exception types that the command line catches, in a module that imports
 nothing heavy: the ``unidyn`` command loads it before numpy, so that its Ctrl-C
-handling is in place from the start (see :func:`unidyn.cli.entry`)."""
+handling is in place from the start (see :mod:`unidyn.process`)."""
 
 
 class ValidationError(ValueError):
@@ -30,3 +30,14 @@ class SimulationInterrupted(KeyboardInterrupt):
         self.results = list(results) if results is not None else [result]
         self.result = result if result is not None else next(
             (r for r in self.results if r is not None), None)
+
+
+class Interrupted(KeyboardInterrupt):
+    """Ctrl-C (or ``kill``, which the ``unidyn`` command turns into Ctrl-C) stopped a
+    job that says what it left behind: ``kept`` is one sentence on what is in the
+    output folder now, e.g. "3 of 8 points are in out/metrics.csv; run the same
+    command again to resume" (the command line prints it after "interrupted: ")."""
+
+    def __init__(self, kept: str):
+        super().__init__(kept)
+        self.kept = kept

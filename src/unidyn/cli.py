@@ -26,7 +26,8 @@ import sys
 import time
 from pathlib import Path
 
-from ._errors import MissingDependency, ValidationError
+from . import process
+from ._errors import Interrupted, MissingDependency, ValidationError
 
 __all__ = ["main"]
 
@@ -44,10 +45,6 @@ class _UsageError(Exception):
 
 class _RunFailed(Exception):
     """A run that produced nothing to write (one line, exit status 1)."""
-
-
-class _Interrupted(KeyboardInterrupt):
-    """Ctrl-C, with what it left behind (one line, exit status 130)."""
 
 
 class _Formatter(argparse.HelpFormatter):
@@ -249,10 +246,10 @@ def _cmd_run(args) -> int:
                             what="run results", owned=_RUN_ARTEFACTS)
     try:
         stage, result, wall, replaced = _run_staged(staging, sc, engine, out, animation)
-    except _Interrupted:  # interrupted, the computed part written: it says where
+    except Interrupted:  # interrupted, the computed part written: it says where
         raise
     except KeyboardInterrupt:
-        raise _Interrupted(f"{out} is as it was before this run") from None
+        raise Interrupted(f"{out} is as it was before this run") from None
     status = _run_summary(sc, out, stage, result, wall, replaced, animation)
     if bag is not None:
         _write_bag(result, bag)
@@ -309,7 +306,7 @@ def _run_staged(staging, sc, engine, out, animation):
             animation.animate(result, stage.path / "animation.gif")
     if interrupted:
         kept = (f"; {out} keeps its previous results" if stage.held else "")
-        raise _Interrupted(f"interrupted at t = {float(result.t[-1]):g} s of {sc.T:g} s; the "
+        raise Interrupted(f"interrupted at t = {float(result.t[-1]):g} s of {sc.T:g} s; the "
                            f"part computed is in {_shown(out, stage.final)} (timeseries.csv "
                            f"and summary.json, complete: "
                            f"false; no figures){kept}")
@@ -836,14 +833,6 @@ def main(argv=None) -> int:
         return int(args.func(args) or 0)
     except SystemExit as exc:  # --help, --version
         return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
-    except KeyboardInterrupt as err:
-        detail = str(err) if isinstance(err, _Interrupted) else getattr(err, "unidyn_detail", "")
-        detail = f": {detail}" if detail else ""
-        if _TERMINATED:  # SIGTERM (see entry): the same clean-up, the usual status
-            print(f"unidyn: terminated{detail}", file=sys.stderr)
-            return 128 + 15
-        print(f"unidyn: interrupted{detail}", file=sys.stderr)
-        return 130
     except _RunFailed as err:
         _err(err)
         return 1
@@ -865,152 +854,31 @@ def main(argv=None) -> int:
         _err("input nested too deeply to process")
         return 2
     except Exception as err:
-        if not (_SIGNALLED or _caused_by_interrupt(err)):
+        # Ctrl-C inside an import or a library's C code, reported as that library's error
+        status = process.interrupt_status(err)
+        if status is None:
             raise
-        # Ctrl-C inside an import or a library's C code, which reports it as an error of
-        # its own (numba's "Error calling __set_name__", matplotlib's "Invalid bounding
-        # box"): an interrupt all the same
-        print(f"unidyn: {'terminated' if _TERMINATED else 'interrupted'}", file=sys.stderr)
-        return 128 + 15 if _TERMINATED else 130
-
-
-def _caused_by_interrupt(err: BaseException) -> bool:
-    seen = set()
-    while err is not None and id(err) not in seen:
-        if isinstance(err, KeyboardInterrupt):
-            return True
-        seen.add(id(err))
-        err = err.__cause__ or err.__context__
-    return False
-
-
-def _unraisable(hook):
-    """A Ctrl-C (or SIGTERM) that lands in a finaliser or a weak reference's callback
-    cannot be raised there (Python prints "Exception ignored in ..." and goes on, the
-    interrupt lost): send it again, so that it stops the command where it can."""
-    import _thread
-    import os
-    import signal
-    if isinstance(hook.exc_value, KeyboardInterrupt):
-        # from another thread, a moment later: raised here, it would land in this hook
-        # again (and a threading.Thread waits for its start, where it could land too)
-        sig = signal.SIGTERM if _TERMINATED else signal.SIGINT
-        _thread.start_new_thread(_kill_soon, (os.getpid(), sig))
-    else:
-        sys.__unraisablehook__(hook)
-
-
-def _kill_soon(pid, sig):
-    import os
-    import time
-    time.sleep(0.01)
-    os.kill(pid, sig)
-
-
-#: Set when SIGTERM arrived (the console script only).
-_TERMINATED = []
-#: Set when SIGINT or SIGTERM arrived (the console script only).
-_SIGNALLED = []
-
-
-def _on_sigterm(signum, frame):
-    _TERMINATED.append(True)
-    _SIGNALLED.append(True)
-    raise KeyboardInterrupt
-
-
-def _on_sigint(signum, frame):
-    _SIGNALLED.append(True)
-    raise KeyboardInterrupt
-
-
-# a SIGTERM held back while results are swapped in is dropped once they are in place:
-# the command has finished and says so (unidyn.outdir._interrupts_deferred)
-_on_sigterm.unidyn_done_is_done = True
+        return status
+    except KeyboardInterrupt as err:  # Ctrl-C or kill: one line, with what was kept
+        return process.interrupt_status(err)
 
 
 def entry(argv=None) -> int:
     """Run the command line in this process as the ``unidyn`` command does, and return
-    its exit status: :func:`main` with the command's signal handling. SIGTERM
-    (``kill``) stops the command as Ctrl-C does, so it removes its staging folder and
-    temporary files (status 143); an interrupt that lands in a finaliser is sent again
-    (:func:`_unraisable`). The signal handlers and the unraisable hook it found are
-    restored on return, so that a script or a notebook can call it; only the ``unidyn``
-    command itself (:func:`script`) ends the process."""
-    import signal
-    import threading
-    if threading.current_thread() is not threading.main_thread():
-        return main(argv)  # signal handlers can only be set in the main thread
-    del _TERMINATED[:], _SIGNALLED[:]
-    found = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
-    hook = sys.unraisablehook
-    signal.signal(signal.SIGTERM, _on_sigterm)
-    if found[signal.SIGINT] is signal.default_int_handler:  # not if ignored
-        signal.signal(signal.SIGINT, _on_sigint)
-    sys.unraisablehook = _unraisable
-    try:
+    its exit status: :func:`main` with the command's signal handling
+    (:func:`unidyn.process.command_signals`): SIGTERM (``kill``) stops the command as
+    Ctrl-C does, so it removes its staging folder and temporary files (status 143).
+    The signal handlers found are restored on return, so that a script or a notebook
+    can call it; only the ``unidyn`` command itself (:func:`script`) ends the process."""
+    with process.command_signals():
         return main(argv)
-    finally:
-        for sig, handler in found.items():  # None: set outside Python; the default then
-            signal.signal(sig, signal.SIG_DFL if handler is None else handler)
-        sys.unraisablehook = hook
 
 
 def script(argv=None) -> None:
     """The ``unidyn`` console script and ``python -m unidyn``: :func:`entry`, then the
-    process ends with the command's status.
-
-    Ctrl-C is ignored while Python shuts down: the command's work is done and its
-    status stands (a Ctrl-C in the second or so that the interpreter takes to tear down
-    numba, matplotlib and friends would print a traceback from whatever finaliser it
-    lands in).
-
-    A command stopped by SIGINT or SIGTERM ends the process by that same signal, once
-    its output is flushed and Python's exit handlers have run. A shell then sees status
-    130 or 143 and, unlike for a plain ``exit(130)``, stops the loop or script that ran
-    the command (bash takes a plain exit as "the command handled Ctrl-C" and goes on).
-    This also makes the outcome the same however Python was started: under ``python
-    -m``, CPython ends the process by SIGINT, whatever status was asked for, once a
-    KeyboardInterrupt has passed through any ``exec``/``eval`` of a string (dataclasses
-    and named tuples make their methods so), even if it was then caught. Not on
-    Windows, which has no death by signal to report: the status says it there."""
-    import signal
-    try:
-        code = entry(argv)
-    except KeyboardInterrupt:  # in the moment between the command's end and the next line
-        code = 128 + 15 if _TERMINATED else 130
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    if code in (130, 128 + 15):
-        # objects the command left half built may fail in their finalisers: nothing to say
-        sys.unraisablehook = lambda hook: None
-        _end_by(signal.SIGTERM if code == 128 + 15 else signal.SIGINT)
-    sys.exit(code)
-
-
-def _end_by(sig) -> None:
-    """End the process by ``sig`` as Python would end it, but for the status: output
-    flushed, exit handlers run (returns on Windows)."""
-    import atexit
-    import os
-    import signal
-    if os.name == "nt":
-        return
-
-    def flush():
-        for stream in (sys.stdout, sys.stderr):
-            try:
-                stream.flush()
-            except (AttributeError, OSError, ValueError):  # None, or closed
-                pass
-    flush()
-    try:
-        atexit._run_exitfuncs()  # what Python runs at exit, in its order (and clears)
-    except Exception:  # pragma: no cover - a failing handler has said so already
-        pass
-    flush()
-    signal.signal(sig, signal.SIG_DFL)
-    signal.raise_signal(sig)
+    process ends with the command's status; stopped by Ctrl-C or ``kill``, it ends by
+    that signal (:func:`unidyn.process.end`), so that a shell loop running it stops."""
+    process.run_command(entry, argv)
 
 
 if __name__ == "__main__":  # pragma: no cover

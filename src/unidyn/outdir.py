@@ -50,6 +50,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ._validate import ValidationError
+from .process import finishes_on_sigterm
 
 __all__ = ["Stage", "staged_output", "FolderLock", "FolderInUse", "LOCK_NAME",
            "check_manifest", "record_files", "output_folder", "write_atomic", "json_ready"]
@@ -366,8 +367,9 @@ def _interrupts_deferred():
     so that a replacement is never cut in half. A Ctrl-C that came meanwhile is dropped
     once the new results are in place (the command has finished), and raised if they
     are not. A SIGTERM is delivered after to whatever handler was there before, except,
-    once the results are in place, to a handler marked ``unidyn_done_is_done`` (the
-    ``unidyn`` command's: its work is done, and it reports it as done)."""
+    once the results are in place, to the ``unidyn`` command's
+    (:func:`unidyn.process.finishes_on_sigterm`: its work is done, and it reports it
+    as done)."""
     import signal
     import threading
     if threading.current_thread() is not threading.main_thread():
@@ -384,7 +386,7 @@ def _interrupts_deferred():
         # None: a handler set outside Python, which cannot be restored; the default then
         signal.signal(signal.SIGINT, signal.SIG_DFL if previous is None else previous)
         signal.signal(signal.SIGTERM, signal.SIG_DFL if previous_term is None else previous_term)
-        if term and not (done and getattr(previous_term, "unidyn_done_is_done", False)):
+        if term and not (done and finishes_on_sigterm(previous_term)):
             signal.raise_signal(signal.SIGTERM)
         if caught and not done:
             raise KeyboardInterrupt

@@ -53,6 +53,7 @@ import numpy as np
 
 from . import __version__
 from ._dask import connect_dask, run_on_dask
+from ._errors import Interrupted
 from ._validate import ValidationError, choice, integer
 from .batch import DEFAULT_SUBSTEPS, MAX_SUBSTEPS, simulate_batch
 from .files import (ID_NAME, MAX_POINTS, METRICS, RECORD_NAME, cell, check_keys,
@@ -507,9 +508,8 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
                         run = _run_in(sweep, stage.path, record, engine, chunk_size,
                                       progress, client, t0, resume=False)
                 except BaseException as err:
-                    _detail(err, f"{out} is as it was ({_rows_named(rows_held)}); the new "
-                                 f"sweep's rows were discarded")
-                    raise
+                    raise _kept(err, f"{out} is as it was ({_rows_named(rows_held)}); the "
+                                     f"new sweep's rows were discarded")
                 run.out_dir = out
                 run.replaced = tuple(rows_held)
                 return run
@@ -536,12 +536,14 @@ def _refusal(out, state, detail, rows, resume) -> str:
             f"once this sweep has finished, or choose another output folder")
 
 
-def _detail(err: BaseException, text: str) -> None:
-    """Say on an exception what the sweep left behind (the command line prints it)."""
-    try:
-        err.unidyn_detail = text
-    except (AttributeError, TypeError):  # pragma: no cover - exceptions without a __dict__
-        pass
+def _kept(err: BaseException, text: str) -> BaseException:
+    """The exception to raise for ``err``, saying what the sweep left behind: Ctrl-C
+    becomes :class:`Interrupted` with ``text`` as its ``kept`` (the command line prints
+    it); any other error gets ``text`` as a note, shown with its traceback."""
+    if isinstance(err, KeyboardInterrupt):
+        return Interrupted(text)
+    err.add_note(text)
+    return err
 
 
 def _remove_if_empty(folder: Path) -> None:
@@ -598,11 +600,11 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
                     p.unlink()
                 except FileNotFoundError:
                     pass
-            _detail(err, f"no point had finished; nothing was written to {out}")
+            raise _kept(err, f"no point had finished; nothing was written to {out}")
         else:  # count what the file holds: Ctrl-C may land between a write and its count
-            _detail(err, f"{len(set(finished_rows(csv_path)))} of {len(sweep)} points are in "
-                         f"{out / 'metrics.csv'}; run the same command again to resume")
-        raise
+            raise _kept(err, f"{len(set(finished_rows(csv_path)))} of {len(sweep)} points "
+                             f"are in {out / 'metrics.csv'}; run the same command again "
+                             f"to resume")
     finally:
         bar.close()
 
