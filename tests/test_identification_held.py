@@ -23,7 +23,6 @@ The noise-free response of each log is simulated once and the noise seeds vary.
 from __future__ import annotations
 
 import functools
-import warnings
 
 import numpy as np
 import pytest
@@ -31,6 +30,8 @@ import pytest
 from unidyn import RobotParameters, ValidationError
 from unidyn import identification as ident
 from unidyn.identification._simulate import simulate_held
+
+from test_identification import identify  # warnings asserted, not printed
 
 NOISE = 0.01
 T = 120.0
@@ -43,18 +44,6 @@ ROBOTS = {
         Ie=0.0027, kPT=100.0, kDT=16.0, kPR=100.0, kDR=16.0, name="cart"),
 }
 POSITIVE = [0, 1, 3, 5]
-
-
-def identify(*logs, **kwargs):
-    """``ident.identify``, asserting that the warnings it issues are exactly its
-    result's ``warnings`` (which the tests check where they matter) instead of
-    letting them print in the test summary."""
-    with warnings.catch_warnings(record=True) as seen:
-        warnings.simplefilter("always", ident.IdentificationWarning)
-        res = ident.identify(*logs, **kwargs)
-    issued = [str(w.message) for w in seen if issubclass(w.category, ident.IdentificationWarning)]
-    assert issued == res.warnings
-    return res
 
 
 def reference_velocities(theta, t, u_ref, w_ref, v0=(0.0, 0.0), delay=0.0, linear=False):
