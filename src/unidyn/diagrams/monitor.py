@@ -20,7 +20,9 @@ class RunMonitor(FunctionBlock):
     the loop.
 
     :param monitor: ``monitor(t, *inputs)``, t in s
+    :type monitor: callable
     :param nin: number of inputs
+    :type nin: int
     :ivar simstate: bdsim's state of the current run (``None`` before it starts):
         ``t`` the time reached, ``tlist`` and ``plist`` the samples logged so far
         of the signals passed to ``BDSim.run(..., watch=)``
@@ -29,6 +31,7 @@ class RunMonitor(FunctionBlock):
     nout = 0
 
     def __init__(self, monitor: Callable, nin: int = 1, **blockargs):
+        """``blockargs`` are bdsim's block options (``name``, ``inputs``, ...)."""
         super().__init__(nin=nin, nout=0, **blockargs)
         self.monitor = monitor
         self.simstate = None
