@@ -14,7 +14,7 @@ from ._errors import AccuracyWarning, SimulationInterrupted
 from ._validate import NonFiniteSignalError, ValidationError, positive
 from .equations import saturate
 from .result import Result
-from .scenario import Scenario
+from .scenario import HIGH_GAIN, Scenario
 
 __all__ = ["simulate", "SimulationError", "SimulationInterrupted", "DEFAULT_RTOL", "DEFAULT_ATOL"]
 
@@ -46,12 +46,6 @@ DEFAULT_ATOL = 1e-10
 #: Ts before the run is stopped as too stiff for it (the paper's runs need about
 #: 120, adaptation gains of 1000 about 720; RK45 makes six per step).
 MAX_RHS_PER_SAMPLE = 5_000
-#: Above this adaptation gain (largest element of ``Scenario.gamma``, Eq. 18) an
-#: adaptive run at a looser ``rtol`` than :data:`HIGH_GAIN_RTOL` is reported as not
-#: vouched for: where the acceleration limits clip, the solver steps across their
-#: kinks and theta_hat drifts from a converged solution (at gamma 1000, rtol 1e-8:
-#: off by about 1e-2; at rtol 1e-11: 2e-5; at gamma 100, rtol 1e-8: 7e-5).
-HIGH_GAIN = 100.0
 #: The relative tolerance that keeps high-gain adaptive runs converged.
 HIGH_GAIN_RTOL = 1e-11
 
