@@ -302,8 +302,7 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
         for idx in groups.values():
             loop = ClosedLoop([scs[i] for i in idx])
             m = np.array([m_all[i] for i in idx], dtype=np.int64)
-            run = _Run(loop, m)
-            run.asked = int(substeps)  # what the caller chose; more is the engine's doing
+            run = _Run(loop, m, asked=int(substeps))
             try:
                 if use_numba:
                     _integrate_numba(run, bar)
@@ -356,8 +355,9 @@ class _Progress:
 class _Run:
     """The logged arrays of one group of runs, filled by either backend."""
 
-    def __init__(self, loop: ClosedLoop, m):
+    def __init__(self, loop: ClosedLoop, m, asked: int):
         self.loop, self.m = loop, m
+        self.asked = asked  # the steps per sample the caller chose; more is the engine's doing
         n, B = loop.steps, loop.B
         self.L = L = int(loop.scenarios[0].log_every)
         rows = n // L + 2  # every L-th sample, plus the one a run stops at

@@ -550,8 +550,6 @@ def _cmd_identify(args) -> int:
     for k in ("smoothing", "window", "name", "gap", "time_unit"):
         if getattr(args, k) is not None:
             kwargs[k] = getattr(args, k)
-    if args.gap is None and bags and len(bags) == len(logs):  # only recording gaps split
-        kwargs["gap"] = max(b["gap"] for b in bags)
     logs = [bags.pop(0) if is_bag(p) else p for p in logs]
     out = _out(args.out)
     owned = ("theta.json", "validation.json", "validation.png")

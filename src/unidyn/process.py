@@ -22,14 +22,12 @@ handling in place before numpy, numba or bdsim load.
 
 from __future__ import annotations
 
-import _thread
 import atexit
 import contextlib
 import os
 import signal
 import sys
 import threading
-import time
 
 from ._errors import Interrupted
 
@@ -66,17 +64,13 @@ def _unraisable(hook):
     cannot be raised there (Python prints "Exception ignored in ..." and goes on, the
     interrupt lost): send it again, so that it stops the command where it can."""
     if isinstance(hook.exc_value, KeyboardInterrupt):
-        # from another thread, a moment later: raised here, it would land in this hook
-        # again (and a threading.Thread waits for its start, where it could land too)
+        # from another thread, a moment later: raised here, it would land in this hook again
         sig = signal.SIGTERM if signal.SIGTERM in _received else signal.SIGINT
-        _thread.start_new_thread(_kill_soon, (os.getpid(), sig))
+        timer = threading.Timer(0.01, os.kill, (os.getpid(), sig))
+        timer.daemon = True
+        timer.start()
     else:
         sys.__unraisablehook__(hook)
-
-
-def _kill_soon(pid, sig):
-    time.sleep(0.01)
-    os.kill(pid, sig)
 
 
 @contextlib.contextmanager

@@ -26,8 +26,9 @@ from ..model import unicycle_deriv
 COMMAND_CONVENTIONS = ("held", "linear")
 
 
-def _sim_segments(theta, t, u_ref, w_ref, starts, stops, v0, delay, linear, hmax, out):
-    """Integrate Eq. (2) over each segment [starts[s], stops[s]) of a log, from
+def _sim_segments(theta, t, u_ref, w_ref, segments, v0, delay, linear, hmax, out):
+    """Integrate Eq. (2) over each segment [segments[s, 0], segments[s, 1]) of a log
+    (rows of the log's arrays), from
     the velocities v0[s], with the logged commands held from their time stamp to
     the next (``linear`` false) or interpolated linearly between them, delayed by
     ``delay`` seconds; writes the velocities at the time stamps into out (N, 2).
@@ -38,9 +39,9 @@ def _sim_segments(theta, t, u_ref, w_ref, starts, stops, v0, delay, linear, hmax
     segment's first time stamp (plus the delay) its first command is in force.
     """
     t1, t2, t3, t4, t5, t6 = theta[0], theta[1], theta[2], theta[3], theta[4], theta[5]
-    for s in range(starts.size):
-        a = starts[s]
-        b = stops[s]
+    for s in range(segments.shape[0]):
+        a = segments[s, 0]
+        b = segments[s, 1]
         u = v0[s, 0]
         w = v0[s, 1]
         out[a, 0] = u
@@ -130,14 +131,13 @@ def simulate_held(theta, t, u_ref, w_ref, segs, v0, delay=0.0, linear=False, hma
     most ``hmax`` s (default :func:`step_length`), see :func:`_sim_segments`.
     Rows outside the pieces are left as they are (NaN in a new ``out``)."""
     theta = np.ascontiguousarray(theta, dtype=float)
-    starts = np.array([a for a, _ in segs], dtype=np.int64)
-    stops = np.array([b for _, b in segs], dtype=np.int64)
+    segments = np.array(segs, dtype=np.int64).reshape(-1, 2)
     if hmax is None:
         steps = [np.diff(t[a:b]) for a, b in segs if b - a > 1]
         hmax = step_length(theta, float(np.median(np.concatenate(steps))) if steps else 1.0)
     if out is None:
         out = np.full((t.size, 2), np.nan)
-    _sim_compiled(theta, t, u_ref, w_ref, starts, stops,
+    _sim_compiled(theta, t, u_ref, w_ref, segments,
                   np.ascontiguousarray(v0, dtype=float).reshape(-1, 2), float(delay),
                   bool(linear), float(hmax), out)
     return out

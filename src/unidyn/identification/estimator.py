@@ -529,7 +529,7 @@ def _read_logs(logs, columns, gap, time_unit, stamp_jitter, commands, delay, win
                noise_std) -> _Logs:
     """Join the logs, check that they can be identified from, read the delay and
     the noise levels, and note missing rows and gaps."""
-    gap, stamp_jitter = _recorded_settings(logs, gap, stamp_jitter)
+    stamp_jitter = _recorded_jitter(logs, stamp_jitter)
     D, segs, _, _ = join_logs(logs, columns, gap, time_unit)
     t, u_ref, w_ref, u, w = (D[k] for k in COLUMNS)
     _check_excitation(u_ref, w_ref)
@@ -668,20 +668,18 @@ def _oe_result(lg, oe, stderr, warns, start_kind, name):
         v0=oe["v0"])
 
 
-def _recorded_settings(logs, gap, stamp_jitter):
-    """``gap`` and ``stamp_jitter`` where a log says them and the caller did not.
+def _recorded_jitter(logs, stamp_jitter):
+    """``stamp_jitter`` where every log says it and the caller did not.
 
     A log read from a ROS bag (:func:`~unidyn.identification.read_bag`) carries
-    its recording-gap threshold and ``stamp_jitter = 0``: its samples are at
-    their header stamps, irregular but exact, so no widening is due.
+    ``stamp_jitter = 0``: its samples are at their header stamps, irregular but
+    exact, so no widening is due. (Its recording-gap threshold is read by
+    :func:`~unidyn.identification.join_logs`.)
     """
-    said = [lg for lg in logs if isinstance(lg, dict) and "gap" in lg]
-    if said and len(said) == len(logs):
-        if gap is None:
-            gap = max(float(lg["gap"]) for lg in said)
-        if stamp_jitter is None and all("stamp_jitter" in lg for lg in said):
-            stamp_jitter = max(float(lg["stamp_jitter"]) for lg in said)
-    return gap, stamp_jitter
+    said = [lg for lg in logs if isinstance(lg, dict) and "stamp_jitter" in lg]
+    if stamp_jitter is None and said and len(said) == len(logs):
+        stamp_jitter = max(float(lg["stamp_jitter"]) for lg in said)
+    return stamp_jitter
 
 
 def _stamp_jitter(t, segs) -> float:

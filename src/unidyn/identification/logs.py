@@ -429,6 +429,13 @@ def _first_short(t, gap):
     return next(float(t[a]) for a, b in segments(t, gap) if b - a < MIN_SEGMENT)
 
 
+def recorded_gap(logs):
+    """The recording-gap threshold (s) the logs carry, where every one of them does
+    (logs read from ROS bags, whose ``"gap"`` entry :func:`read_bag` sets); else None."""
+    said = [float(lg["gap"]) for lg in logs if isinstance(lg, dict) and "gap" in lg]
+    return max(said) if said and len(said) == len(logs) else None
+
+
 def join_logs(logs, columns=None, gap=None, time_unit=None):
     """Read several logs of one robot and join them as :func:`identify` does.
 
@@ -441,7 +448,9 @@ def join_logs(logs, columns=None, gap=None, time_unit=None):
     :param logs: a sequence of logs (paths, mappings, ... as for :func:`load_log`)
     :param columns: mapping from t, u_ref, w_ref, u, w to the logs' own names
     :param gap: a time step longer than this (s) splits a log; default 1.4
-        times its median step (see :func:`segments`)
+        times its median step (see :func:`segments`), or, where every log was read
+        from a ROS bag (:func:`~unidyn.identification.read_bag`), the largest of
+        their recording-gap thresholds (their ``"gap"`` entries)
     :param time_unit: the unit of the logs' time column (see :func:`load_log`)
     :raises ValidationError: for a bad log (prefixed "log N:" when several logs
         are given and the log is not a file) or when no piece is long enough
@@ -454,6 +463,7 @@ def join_logs(logs, columns=None, gap=None, time_unit=None):
     """
     parts, segs, dropped, offset, sources, notes = [], [], 0, 0, [], []
     n_missing, n_gaps = 0, 0
+    gap = recorded_gap(logs) if gap is None else gap
     for i, lg in enumerate(logs):
         try:
             d, more = _load(lg, columns, time_unit)
