@@ -176,7 +176,7 @@ def test_saved_run_figures_name_the_run(adaptive_run, tmp_path, monkeypatch):
 
 
 def test_a_sweep_legend_says_what_each_variant_sets(tmp_path, monkeypatch):
-    from unidyn.plots import plot_metrics
+    from unidyn.sweep_plots import plot_metrics
     from unidyn.sweep import Sweep, run_sweep
     s = Sweep(base={"T": 0.3, "noise": "off"}, grid={"kxy": [1.0, 2.0]},
               variants=[{"label": "a", "case": "uncompensated"},
@@ -194,7 +194,7 @@ def test_a_sweep_with_long_legends_and_a_dollar_in_its_name_fits_its_figure(tmp_
     """Twelve lines whose variants set six fields each: every entry within 64
     characters, the legend inside the figure, the axes not squeezed away; a name with
     unbalanced mathtext is drawn as written."""
-    from unidyn.plots import plot_metrics
+    from unidyn.sweep_plots import plot_metrics
     from unidyn.sweep import Sweep, run_sweep
     sets = {"case": "compensated", "theta_hat_scale": 0.9, "ku": 3.0, "kw": 3.0, "lu": 0.8,
             "lw": 0.8}

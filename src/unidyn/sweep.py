@@ -62,7 +62,7 @@ from .files import (ID_NAME, MAX_POINTS, METRICS, RECORD_NAME, cell, check_keys,
                     write_rows, write_sweep_id, write_sweep_record)
 from .outdir import (FolderLock, check_manifest, json_ready, output_folder, record_files,
                      staged_output, write_atomic)
-from .plots import plot_metrics
+from .sweep_plots import plot_metrics
 from .runner import simulate
 
 __all__ = ["Sweep", "Point", "SweepRun", "run_sweep", "sweep_id", "ENGINES"]
@@ -441,7 +441,7 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
     - ``metrics.csv``: one row per finished point (columns :attr:`Sweep.columns`),
       appended and flushed after each chunk, rewritten sorted by index at the end;
       a point that did not complete has ``complete = false`` and empty metrics
-    - ``metrics.png``: IAE against the first numeric axis (:func:`unidyn.plots.plot_metrics`)
+    - ``metrics.png``: IAE against the first numeric axis (:func:`unidyn.sweeps.plots.plot_metrics`)
 
     Finished rows are never deleted without ``overwrite``:
 
