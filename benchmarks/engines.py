@@ -6,7 +6,7 @@
 Rows:
   1. one 200 s adaptive run (paper simulation 4) through the bdsim diagram of Fig. 2
   2. the same run through a bare bdsim loop: one block holding the whole closed loop
-     (the same equations, unidyn.closedloop) with the same noise clock and tolerances,
+     (the same equations, unidyn.engine.rhs) with the same noise clock and tolerances,
      i.e. what bdsim costs without our decomposition into blocks
   3. the same run through the batch engine (numba and numpy backends)
   4. the full Fig. 11 sweep (4 cases x 70 gains x 250 s) through the batch engine,
@@ -45,10 +45,11 @@ import numpy as np
 os.environ.setdefault("MPLBACKEND", "Agg")
 
 import unidyn  # noqa: E402
-from unidyn import _kernels, runner  # noqa: E402
-from unidyn.batch import DEFAULT_SUBSTEPS, simulate_batch  # noqa: E402
-from unidyn.closedloop import ClosedLoop  # noqa: E402
-from unidyn.scenario import Scenario  # noqa: E402
+from unidyn.engine import kernels as _kernels
+from unidyn.diagrams import simulate as runner  # noqa: E402
+from unidyn.engine.batch import DEFAULT_SUBSTEPS, simulate_batch  # noqa: E402
+from unidyn.engine.rhs import ClosedLoop  # noqa: E402
+from unidyn.model.scenario import Scenario  # noqa: E402
 
 
 def timed(f, repeat=1):
@@ -107,7 +108,7 @@ def bare_bdsim_run(sc, rtol, atol):
 
 
 def fig11_scenarios(T=250.0, noise=True):
-    theta = unidyn.robots.get("p3dx_laser").theta
+    theta = unidyn.model.robots.get("p3dx_laser").theta
     out = []
     for k in np.arange(0.5, 35.0 + 1e-9, 0.5):
         base = dict(T=T, kx=float(k), ky=float(k), **({} if noise else {"noise": None}))
@@ -122,7 +123,7 @@ MEMORY_PROBE = """
 import os, resource, sys, tempfile
 os.environ["MPLBACKEND"] = "Agg"
 from unidyn import Scenario
-from unidyn.batch import simulate_batch
+from unidyn.engine.batch import simulate_batch
 T, L, dtype = float(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
 series = tuple(s for s in sys.argv[4].split(",") if s) if sys.argv[4] != "all" else None
 more = {} if series is None else {"log_series": series}
@@ -154,10 +155,10 @@ print(len(r.t), base, run, written, sum(owners.values()))
 
 
 def rhs_rows():
-    """One right-hand side of the loop (unidyn.equations.loop_derivative) per run: compiled,
+    """One right-hand side of the loop (unidyn.model.equations.loop_derivative) per run: compiled,
     one run at a time (what the engine does), against numpy over 20,000 runs at once
     (runs as the vectorised dimension), on one core."""
-    from unidyn import equations as eq
+    from unidyn.model import equations as eq
     loop = ClosedLoop([Scenario.paper(4, T=1.0, noise=None)])
     rng = np.random.default_rng(0)
     B = 20000
@@ -188,13 +189,13 @@ TRANSCENDENTAL = ("sin", "cos", "tanh")
 
 def operation_counts():
     """The operations of one right-hand side of the loop (the reference of the figure
-    eight plus unidyn.equations.loop_derivative), counted by running the equations on
+    eight plus unidyn.model.equations.loop_derivative), counted by running the equations on
     an ndarray subclass that records every ufunc (and np.where) it goes through.
     Transcendental calls on the same argument are counted once (the compiler can share
     them: cos(psi) appears in Eqs. 1 and 10)."""
     import collections
 
-    from unidyn import equations as eq
+    from unidyn.model import equations as eq
     counts, seen = collections.Counter(), set()
 
     class Counting(np.ndarray):
@@ -227,13 +228,13 @@ def operation_counts():
 def machine_rates():
     """ns per operation on one core, compiled by numba: multiply-add over an L1-resident
     array (vectorised by the compiler), divide, and each transcendental function as the
-    engine evaluates it (unidyn._vecmath, vectorised by the compiler), and as the
+    engine evaluates it (unidyn.engine.vecmath, vectorised by the compiler), and as the
     maths library's scalar calls (``libm_sin``, ...: what numba makes of np.sin)."""
     import math
 
     import numba
 
-    from unidyn import _vecmath
+    from unidyn.engine import vecmath as _vecmath
 
     @numba.njit
     def mul_add(x, a, b, R):
@@ -289,7 +290,7 @@ def arithmetic_limit(ns_measured=None):
           + f"; this machine does a vectorised multiply-add in {rates['mul_add']:.3f} ns an "
           f"operation, a divide in {rates['divide']:.2f} ns, "
           + ", ".join(f"{k} in {rates[k]:.1f} ns" for k in TRANSCENDENTAL)
-          + " (unidyn._vecmath, vectorised; the maths library's scalar calls take "
+          + " (unidyn.engine.vecmath, vectorised; the maths library's scalar calls take "
           + ", ".join(f"{rates['libm_' + k]:.1f}" for k in TRANSCENDENTAL) + " ns). So a "
           f"right-hand side takes at least {rhs:.0f} ns ({t_trans:.0f} of them the "
           f"transcendental calls), and an RK4 run-step {step:.0f} ns"
@@ -352,7 +353,7 @@ import sys, time
 t0 = time.perf_counter()
 sys.path.insert(0, sys.argv[2])
 from unidyn import Scenario
-from unidyn.batch import simulate_batch
+from unidyn.engine.batch import simulate_batch
 if sys.argv[1] == "paper":
     runs = [Scenario.paper(4)]
 else:

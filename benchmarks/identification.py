@@ -226,7 +226,7 @@ def main():
                     help="excite within the paper's limits (0.75 m/s, 0.3 m/s^2) instead")
     args = ap.parse_args()
     warnings.simplefilter("ignore", ident.IdentificationWarning)
-    from unidyn.model import PAPER_LIMITS
+    from unidyn.model.unicycle import PAPER_LIMITS
     if not args.only_jitter:
         accuracy(args.seeds, PAPER_LIMITS if args.paper_limits else LIMITS)
         if not args.no_timing:

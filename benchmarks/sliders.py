@@ -1,4 +1,4 @@
-"""Redraw time of the live sliders (unidyn.widgets.LoopExplorer.update): one batch-engine
+"""Redraw time of the live sliders (unidyn.teaching.widgets.LoopExplorer.update): one batch-engine
 run of the paper's 200 s loop and the redraw of the path and error plots, for each
 control the sliders move. Prints the median of several calls per row.
 
@@ -11,8 +11,8 @@ import statistics
 import time
 
 import unidyn
-from unidyn import _kernels
-from unidyn.widgets import LoopExplorer
+from unidyn.engine import kernels as _kernels
+from unidyn.teaching.widgets import LoopExplorer
 
 
 def main(argv=None):

@@ -32,11 +32,11 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 import unidyn  # noqa: E402
-from unidyn import figstyle  # noqa: E402
-from unidyn.figstyle import REFERENCE, START, label  # noqa: E402
-from unidyn.outdir import staged_output  # noqa: E402
+from unidyn.results import figstyle  # noqa: E402
+from unidyn.results.figstyle import REFERENCE, START, label  # noqa: E402
+from unidyn.results.folders import staged_output  # noqa: E402
 from unidyn.paper import format_claims, section5_claims  # noqa: E402
-from unidyn.plots import (equal_limits, plot_error, plot_path, reference_once,  # noqa: E402
+from unidyn.results.plots import (equal_limits, plot_error, plot_path, reference_once,  # noqa: E402
                           save_figures)  # noqa: E402
 
 TITLES = {1: "1: kinematic robot (paper's Figs. 3-4)",

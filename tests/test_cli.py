@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from unidyn import robots
+from unidyn.model import robots
 from unidyn.cli import main
 
 TIMESERIES_COLUMNS = ["t", "x", "y", "psi", "u", "w", "x_d", "y_d", "u_d", "w_d", "u_ref",
@@ -278,12 +278,12 @@ def test_batch_engine_refuses_sampled_control(tmp_path, capsys):
 
 
 def test_keyboard_interrupt_exits_130(tmp_path, capsys, monkeypatch):
-    import unidyn.runner
+    import unidyn.diagrams.simulate
 
     def interrupted(*a, **k):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(unidyn.runner, "simulate", interrupted)
+    monkeypatch.setattr(unidyn.diagrams.simulate, "simulate", interrupted)
     code, _, err = run_cli(capsys, "run", "--T", "1", "--engine", "bdsim", "--out", tmp_path)
     assert code == 130
     assert "Traceback" not in err and "interrupted" in err
@@ -292,15 +292,15 @@ def test_keyboard_interrupt_exits_130(tmp_path, capsys, monkeypatch):
 def test_animate_reports_a_missing_module(tmp_path, capsys, monkeypatch):
     import unidyn
     monkeypatch.delattr(unidyn, "animation", raising=False)
-    monkeypatch.setitem(sys.modules, "unidyn.animation", None)
+    monkeypatch.setitem(sys.modules, "unidyn.teaching.animation", None)
     code, _, err = run_cli(capsys, "run", "--T", "1", "--animate", "--out", tmp_path)
     assert code == 2
-    assert_one_line_error(err, "--animate", "unidyn.animation")
+    assert_one_line_error(err, "--animate", "unidyn.teaching.animation")
     assert not (tmp_path / "summary.json").exists()  # checked before simulating
 
 
 def test_animate_writes_a_gif(tmp_path, capsys):
-    pytest.importorskip("unidyn.animation")
+    pytest.importorskip("unidyn.teaching.animation")
     code, _, _ = run_cli(capsys, "run", "--paper", "3", "--T", "1", "--engine", "batch",
                          "--animate", "--out", tmp_path)
     assert code == 0
@@ -381,7 +381,7 @@ def test_python_m_unidyn_and_console_script(tmp_path):
 
 
 def test_a_run_into_a_folder_being_written_is_refused(tmp_path, capsys):
-    from unidyn.outdir import FolderLock
+    from unidyn.results.folders import FolderLock
     out = tmp_path / "busy"
     out.mkdir()
     with FolderLock(out):  # as a sweep or another run holds it

@@ -42,7 +42,7 @@ def _block_classes():
     """Every bdsim block class defined in unidyn.blocks (robots, controllers, sources)."""
     from bdsim.components import Block
 
-    from unidyn.blocks import controllers, robots, sources
+    from unidyn.blocks import controllers, unicycles as robots, sources
     found = {}
     for mod in (robots, controllers, sources):
         for name, obj in vars(mod).items():

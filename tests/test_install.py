@@ -98,8 +98,8 @@ def test_python_started_in_the_checkout_imports_the_package_not_a_folder():
 
 def test_core_does_not_import_bdsim():
     r = _run("""
-        import sys, unidyn, unidyn.model, unidyn.control, unidyn.trajectories, unidyn.robots
-        import unidyn.scenario, unidyn.result
+        import sys, unidyn, unidyn.model.unicycle, unidyn.model.laws, unidyn.model.trajectories, unidyn.model.robots
+        import unidyn.model.scenario, unidyn.results.result
         print('bdsim' in sys.modules)
     """)
     assert r.returncode == 0 and r.stdout.strip() == "False", r.stdout + r.stderr
@@ -111,12 +111,12 @@ def test_import_is_light_and_the_core_is_reached_from_it():
     r = _run("""
         import sys, unidyn
         print('numpy' in sys.modules)
-        for name in ("model", "control", "trajectories", "robots", "parameters", "noise",
+        for name in ("model", "laws", "trajectories", "robots", "engine", "results",
                      "equations", "RobotParameters", "Limits", "NoiseSpec", "NO_LIMITS",
                      "PAPER_LIMITS", "ValidationError", *unidyn.__all__):
             getattr(unidyn, name)
         from unidyn import *
-        print(unidyn.parameters.RobotParameters is RobotParameters, issubclass(
+        print(unidyn.model.parameters.RobotParameters is RobotParameters, issubclass(
               ValidationError, ValueError), sorted(set(unidyn.__all__) - set(dir(unidyn))))
     """)
     assert r.returncode == 0, r.stdout + r.stderr

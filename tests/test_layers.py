@@ -17,23 +17,18 @@ PACKAGE = "unidyn"
 #: Lowest first. A module may import its own layer or a lower one. A package's
 #: submodules sit in the package's layer unless listed themselves.
 LAYERS = {
-    # the paper's science, free of bdsim and of files (figstyle: the figure style;
-    # process: signals and exit status, standard library only, which the results
-    # folder asks how a SIGTERM ends)
-    "science": ("unidyn", "unidyn._errors", "unidyn._validate", "unidyn._bdsim_path",
-                "unidyn.process",
-                "unidyn.equations", "unidyn.parameters", "unidyn.robots", "unidyn.model",
-                "unidyn.control", "unidyn.trajectories", "unidyn.noise",
-                "unidyn.properties", "unidyn._vecmath", "unidyn.figstyle"),
-    # blocks, diagrams and the engines, with what a run's result writes and draws
-    "simulation": ("unidyn.blocks", "unidyn.diagrams", "unidyn.scenario",
-                   "unidyn.closedloop", "unidyn._jit", "unidyn._kernels", "unidyn.batch",
-                   "unidyn.runner", "unidyn.result", "unidyn.outdir", "unidyn.files",
-                   "unidyn.plots"),
-    # sweeps, identification, bridges and teaching tools
-    "tools": ("unidyn.sweep", "unidyn._dask", "unidyn.identification", "unidyn.iosys",
-              "unidyn.animation", "unidyn.widgets", "unidyn.bdfile",
-              "unidyn.rosbag_writer"),
+    # what every part shares: the package's namespace, its exceptions and validators,
+    # how bdsim finds the blocks, signals and exit status (standard library only)
+    "base": ("unidyn", "unidyn._errors", "unidyn._validate", "unidyn._bdsim_path",
+             "unidyn.process"),
+    # the paper's science, free of bdsim and of files
+    "science": ("unidyn.model",),
+    # what a run gives back: the result, its folders, files and figures
+    "results": ("unidyn.results",),
+    # bdsim's blocks and diagrams, and the batch engine
+    "simulation": ("unidyn.blocks", "unidyn.diagrams", "unidyn.engine"),
+    # identification, sweeps, teaching tools and bridges
+    "tools": ("unidyn.identification", "unidyn.sweeps", "unidyn.teaching"),
     # the paper's reproductions
     "paper": ("unidyn.paper",),
     # the command line and the editor it starts

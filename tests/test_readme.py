@@ -428,7 +428,7 @@ def _epilog_commands():
     for name, sub in (subs[0].choices.items() if subs else []):
         for line in textwrap.dedent(sub.epilog or "").splitlines():
             line = line.strip().removeprefix("$ ")
-            # `unidyn edit` opens a window (tests/test_bdedit.py starts the editor)
+            # `unidyn edit` opens a window (tests/teaching/test_bdedit.py starts the editor)
             if line.startswith("unidyn ") and name != "edit":
                 found.append(pytest.param(name, line, id=f"{name}-{len(found)}",
                                           marks=[pytest.mark.slow]))

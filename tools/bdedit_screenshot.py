@@ -8,7 +8,7 @@ offscreen platform needs no display) and saves the scene, as bdedit's own
 
 bdedit 1.4 reads each block's saved width but keeps drawing it 100 px wide, where
 the port labels of blocks with labels on both sides overlap; the script applies
-the saved widths (written by ``unidyn.bdfile``) before rendering.
+the saved widths (written by ``unidyn.teaching.bdfile``) before rendering.
 """
 
 import os

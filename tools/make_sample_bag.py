@@ -29,7 +29,7 @@ from rosbags.typesys import Stores, get_typestore
 from scipy.integrate import solve_ivp
 
 from unidyn import RobotParameters
-from unidyn.equations import robot_acceleration
+from unidyn.model.equations import robot_acceleration
 from unidyn.identification import excitation
 
 ROBOT = RobotParameters(0.38, 0.22, 0.01, 1.04, 0.03, 1.06, name="courier")

@@ -53,7 +53,7 @@ def _param_docs(doc: str) -> dict[str, str]:
 
 
 def _default_text(f: dataclasses.Field) -> str:
-    from unidyn.scenario import plain_value
+    from unidyn.model.scenario import plain_value
     if f.default is not dataclasses.MISSING:
         value = f.default
     elif f.default_factory is not dataclasses.MISSING:
@@ -91,8 +91,8 @@ class ScenarioFields(SphinxDirective):
 #: habits that reST reads otherwise: ``|x|`` (a substitution to reST) and a field list
 #: that starts or ends without a blank line. Their docstrings are repaired in memory
 #: for the build, here only; a module that is clean needs no entry.
-REPAIRED_MODULES = ("unidyn.batch", "unidyn.result", "unidyn.plots", "unidyn.widgets",
-                    "unidyn.identification")
+REPAIRED_MODULES = ("unidyn.engine", "unidyn.results", "unidyn.teaching", "unidyn.sweeps",
+                    "unidyn.identification", "unidyn.process")
 _FIELD = re.compile(r"^\s*:(param|type|ivar|vartype|raises|returns?|rtype|seealso)\b")
 
 

@@ -8,7 +8,7 @@ drawn again only when it is missing or this script is newer.
 
 - ``step_responses.png``: every preset robot's velocities after a step of its
   commands from rest (u_ref = 0.3 m/s, w_ref = 0.5 rad/s), Eq. (2) as
-  :func:`unidyn.model.dynamics` computes it.
+  :func:`unidyn.model.unicycle.dynamics` computes it.
 """
 
 import sys
@@ -21,7 +21,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 
-from unidyn import figstyle, model, robots  # noqa: E402
+from unidyn.results import figstyle
+from unidyn.model import unicycle as model, robots  # noqa: E402
 
 U_REF, W_REF = 0.3, 0.5  # m/s, rad/s
 

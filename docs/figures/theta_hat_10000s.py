@@ -18,9 +18,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 import unidyn  # noqa: E402
-from unidyn import figstyle  # noqa: E402
-from unidyn.batch import simulate_batch  # noqa: E402
-from unidyn.trajectories import Circle  # noqa: E402
+from unidyn.results import figstyle  # noqa: E402
+from unidyn.engine.batch import simulate_batch  # noqa: E402
+from unidyn.model.trajectories import Circle  # noqa: E402
 
 T = 10_000.0
 CIRCLE = Circle(radius=1.0, omega=0.2, center=(0.0, -1.0), phase=np.pi / 2)  # through (0, 0)
@@ -36,7 +36,7 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", default=str(Path(__file__).with_suffix(".png")))
     args = p.parse_args(argv)
-    theta = unidyn.robots.get("p3dx_laser").theta
+    theta = unidyn.model.robots.get("p3dx_laser").theta
     keys = [(ref, lk) for ref in REFERENCES for lk in LEAKAGES]
     scenarios = [unidyn.Scenario.paper(4, T=T, adapt_from=0.0, leakage=lk,
                                        trajectory=REFERENCES[ref]) for ref, lk in keys]

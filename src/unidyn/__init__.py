@@ -2,76 +2,70 @@
 (Martins, Sarcinelli-Filho, Carelli, J Intell Robot Syst 2017) for bdsim and
 the Robotics Toolbox for Python.
 
-The numerical core (this package's modules) is pure numpy and usable without
-bdsim; the bdsim blocks live in :mod:`unidyn.blocks` and the Fig. 2 diagrams in
-:mod:`unidyn.diagrams`.
+Its parts, lowest layer first (a part imports only its own layer or lower ones):
+:mod:`unidyn.model` (the paper's science: pure numpy, no bdsim, no files);
+:mod:`unidyn.results` (what a run gives back, its files and figures);
+:mod:`unidyn.blocks`, :mod:`unidyn.diagrams` (bdsim) and :mod:`unidyn.engine` (the
+batch engine); :mod:`unidyn.identification`, :mod:`unidyn.sweeps` and
+:mod:`unidyn.teaching`; :mod:`unidyn.paper` (the paper's Section 5 and Fig. 11); and
+:mod:`unidyn.cli` (the ``unidyn`` command).
 """
 
 from . import _bdsim_path
-
-#: True only for type checkers (mypy and pyright read a local one as typing's, whose
-#: import adds 3 ms to the command's start-up, before its Ctrl-C handling)
-TYPE_CHECKING = False
 
 __version__ = "0.1.0"
 
 _bdsim_path.register()
 
-__all__ = ["ValidationError", "RobotParameters", "Limits", "NoiseSpec", "NO_LIMITS",
-           "PAPER_LIMITS", "robots", "model", "control", "trajectories", "__version__"]
+__all__ = ["Scenario", "simulate", "simulate_batch", "Result", "SimulationError",
+           "ValidationError", "RobotParameters", "Limits", "NoiseSpec", "NO_LIMITS",
+           "PAPER_LIMITS", "robots", "laws", "trajectories", "equations", "check_properties",
+           "rank_test", "to_iosys", "LoopExplorer", "__version__"]
 
-if TYPE_CHECKING:  # for readers and type checkers; at run time, loaded when first used
-    from . import control, model, robots, trajectories  # noqa: F401
-    from ._validate import ValidationError  # noqa: F401
-    from .model import NO_LIMITS, PAPER_LIMITS, Limits  # noqa: F401
-    from .noise import NoiseSpec  # noqa: F401
-    from .parameters import RobotParameters  # noqa: F401
-del TYPE_CHECKING  # only for the block above: not one of the package's names
 
 #: What ``unidyn.<name>`` loads on first use: (module, attribute or None for the module).
 #: Nothing heavy loads on ``import unidyn`` (numpy does when any of these is used), so
 #: the ``unidyn`` command starts with its Ctrl-C handling in place.
 _LAZY = {
     "ValidationError": ("_validate", "ValidationError"),
-    "RobotParameters": ("parameters", "RobotParameters"),
-    "Limits": ("model", "Limits"),
-    "NO_LIMITS": ("model", "NO_LIMITS"),
-    "PAPER_LIMITS": ("model", "PAPER_LIMITS"),
-    "NoiseSpec": ("noise", "NoiseSpec"),
-    "robots": ("robots", None),
-    "parameters": ("parameters", None),
-    "noise": ("noise", None),
-    "model": ("model", None),
-    "control": ("control", None),
-    "trajectories": ("trajectories", None),
-    # the scenario layer imports bdsim
-    "Scenario": ("scenario", "Scenario"),
-    "simulate": ("runner", "simulate"),
-    "SimulationError": ("runner", "SimulationError"),
-    "simulate_batch": ("batch", "simulate_batch"),
-    "Result": ("result", "Result"),
-    "properties": ("properties", None),
-    "animation": ("animation", None),
-    "batch": ("batch", None),
-    "check_properties": ("properties", "check_properties"),
-    "rank_test": ("properties", "rank_test"),
+    "RobotParameters": ("model.parameters", "RobotParameters"),
+    "Limits": ("model.unicycle", "Limits"),
+    "NO_LIMITS": ("model.unicycle", "NO_LIMITS"),
+    "PAPER_LIMITS": ("model.unicycle", "PAPER_LIMITS"),
+    "NoiseSpec": ("model.noise", "NoiseSpec"),
+    "Scenario": ("model.scenario", "Scenario"),
+    "robots": ("model.robots", None),
+    "laws": ("model.laws", None),
+    "trajectories": ("model.trajectories", None),
+    "equations": ("model.equations", None),
+    "check_properties": ("model.properties", "check_properties"),
+    "rank_test": ("model.properties", "rank_test"),
+    "Result": ("results.result", "Result"),
+    # the bdsim diagram of Fig. 2 (bdsim loads with it), and the batch engine
+    "simulate": ("diagrams.simulate", "simulate"),
+    "SimulationError": ("diagrams.simulate", "SimulationError"),
+    "simulate_batch": ("engine.batch", "simulate_batch"),
     # python-control and ipywidgets are optional (unidyn[control], unidyn[teach])
-    "to_iosys": ("iosys", "to_iosys"),
-    "iosys": ("iosys", None),
-    "widgets": ("widgets", None),
-    "LoopExplorer": ("widgets", "LoopExplorer"),
-    "equations": ("equations", None),
+    "to_iosys": ("teaching.iosys", "to_iosys"),
+    "LoopExplorer": ("teaching.widgets", "LoopExplorer"),
 }
 
 
 def __getattr__(name):
+    import importlib
     if name in _LAZY:
-        import importlib
         mod_name, attr = _LAZY[name]
         mod = importlib.import_module(f".{mod_name}", __name__)
         return mod if attr is None else getattr(mod, attr)
+    if name in _SUBPACKAGES:  # unidyn.engine.batch and the like without importing them first
+        return importlib.import_module(f".{name}", __name__)
     raise AttributeError(f"module 'unidyn' has no attribute {name!r}")
 
 
+#: The package's parts, by layer (lowest first), loaded on first use as ``unidyn.<part>``.
+_SUBPACKAGES = ("model", "results", "blocks", "diagrams", "engine", "identification",
+                "sweeps", "teaching", "paper", "cli", "process")
+
+
 def __dir__():
-    return sorted(set(globals()) | set(_LAZY))
+    return sorted(set(globals()) | set(_LAZY) | set(_SUBPACKAGES))

@@ -33,7 +33,7 @@ __all__ = ["main"]
 
 #: The longest scenario name a run accepts (it titles every figure).
 MAX_NAME = 200
-_RESULT_FILES = ("timeseries.csv", "summary.json")  # unidyn.result.RESULT_FILES
+_RESULT_FILES = ("timeseries.csv", "summary.json")  # unidyn.results.result.RESULT_FILES
 # everything a run writes: removed on --overwrite from a folder written before manifests
 _RUN_ARTEFACTS = _RESULT_FILES + ("path.png", "error.png", "positions.png", "velocities.png",
                                   "theta_hat.png", "animation.gif")
@@ -96,7 +96,7 @@ def _split_set(item: str):
     key = key.strip()
     if not sep or not key:
         raise ValidationError(f"--set expects KEY=VALUE, got {item!r}")
-    from .files import parse_toml_value
+    from .sweeps.sweep_files import parse_toml_value
     return key, parse_toml_value(value.strip())
 
 
@@ -120,7 +120,7 @@ def _apply_set(d: dict, key: str, value, item: str) -> dict:
 
 def _build_scenario(args):
     """The Scenario from --from / --paper / the file, then flags, then --set."""
-    from .scenario import Scenario
+    from .model.scenario import Scenario
     if args.from_ and (args.scenario or args.paper):
         raise _UsageError("--from cannot be combined with a scenario file or --paper")
     engine = None
@@ -128,7 +128,7 @@ def _build_scenario(args):
         path = Path(args.from_)
         if path.is_dir():
             path = path / "summary.json"
-        from .outdir import check_manifest
+        from .results.folders import check_manifest
         problem = check_manifest(path.parent, "run", [path.name])  # not two runs' files
         if problem:
             raise ValidationError(f"--from {args.from_}: {problem}")
@@ -149,7 +149,7 @@ def _build_scenario(args):
             raw = Scenario.paper(args.paper).to_dict()
             where = f"--paper {args.paper}"
         if args.scenario:
-            from .files import read_scenario_table
+            from .sweeps.sweep_files import read_scenario_table
             raw = {**raw, **read_scenario_table(Path(args.scenario))}
             where = str(args.scenario)
     try:
@@ -195,7 +195,7 @@ def _build_scenario(args):
 
 def _out(text: str) -> Path:
     """--out as given, once it is known to name a folder (or nothing yet)."""
-    from .outdir import output_folder
+    from .results.folders import output_folder
     output_folder(text)  # one line for an empty --out or a file
     return Path(text)
 
@@ -203,21 +203,21 @@ def _out(text: str) -> Path:
 def _shown(out: Path, final) -> Path:
     """Where results went, as the user named it: ``out`` when they went there (its
     link's target, for a symbolic link), else the folder's full path."""
-    from .outdir import output_folder
+    from .results.folders import output_folder
     return out if Path(final) == output_folder(out) else Path(final)
 
 
 def _import_animation():
     import importlib
     try:
-        animation = importlib.import_module(".animation", __package__)
+        animation = importlib.import_module(".teaching.animation", __package__)
     except ModuleNotFoundError as err:
-        if err.name == f"{__package__}.animation":
+        if err.name == f"{__package__}.teaching.animation":
             raise MissingDependency("--animate is not available: this installation has no "
-                                    "unidyn.animation module") from None
+                                    "unidyn.teaching.animation module") from None
         raise MissingDependency(f"--animate needs {err.name}, which is not installed") from None
     if not hasattr(animation, "animate"):
-        raise MissingDependency("--animate is not available: unidyn.animation has no animate()")
+        raise MissingDependency("--animate is not available: unidyn.teaching.animation has no animate()")
     return animation
 
 
@@ -229,7 +229,7 @@ def _listing(folder: Path, names) -> str:
 
 
 def _cmd_run(args) -> int:
-    from .outdir import staged_output
+    from .results.folders import staged_output
     sc, engine_from = _build_scenario(args)
     engine = args.engine or engine_from or "auto"
     if engine not in ("bdsim", "batch", "auto"):
@@ -260,12 +260,12 @@ def _bag_target(args):
     """--bag FILE.mcap checked before the run (None without --bag)."""
     if args.bag is None:
         return None
-    from .rosbag_writer import check_bag_target
+    from .results.rosbag import check_bag_target
     return check_bag_target(args.bag, args.overwrite)
 
 
 def _write_bag(result, bag) -> None:
-    from .rosbag_writer import write_run_bag
+    from .results.rosbag import write_run_bag
     write_run_bag(result, bag)
     print(f"written    {bag} (/cmd_vel, /odom, /reference)")
 
@@ -277,11 +277,11 @@ def _run_staged(staging, sc, engine, out, animation):
             print(f"unidyn: replacing {out}/ ({replaced}) once the new run is written; "
                   f"kept as they are if it fails or is interrupted", file=sys.stderr, flush=True)
         t0 = time.perf_counter()
-        from .runner import SimulationError, SimulationInterrupted, simulate
+        from .diagrams.simulate import SimulationError, SimulationInterrupted, simulate
         interrupted = False
         try:
             if engine == "batch":
-                from .batch import simulate_batch
+                from .engine.batch import simulate_batch
                 result = simulate_batch([sc])[0]
             else:
                 result = simulate(sc)
@@ -300,7 +300,7 @@ def _run_staged(staging, sc, engine, out, animation):
             stage.incomplete(result.message or "the run stopped early")
         result.save(stage.path)
         if not interrupted:  # after Ctrl-C the data only, at once: no figures
-            from .plots import save_figures
+            from .results.plots import save_figures
             save_figures(result, stage.path)
         if animation is not None and not interrupted:
             animation.animate(result, stage.path / "animation.gif")
@@ -351,7 +351,7 @@ def _short_name(name: str, limit: int = 80) -> str:
 
 def _parse_gains(text: str):
     """'0.5:35:0.5' (start:stop:step, stop included) or a TOML list '[1, 5, 23]'."""
-    from .files import expand_range, parse_toml_value
+    from .sweeps.sweep_files import expand_range, parse_toml_value
     if ":" in text:
         parts = text.split(":")
         if len(parts) != 3:
@@ -372,8 +372,8 @@ def _parse_gains(text: str):
 
 
 def _cmd_sweep(args) -> int:
-    from . import sweep as sw
-    from .noise import PAPER_NOISE
+    from .sweeps import sweep as sw
+    from .model.noise import PAPER_NOISE
     from .paper import fig11_claims, format_fig11_claims, paper_fig11
     if bool(args.sweep) == bool(args.paper_fig11):
         raise _UsageError("give either a sweep file or --paper-fig11")
@@ -399,13 +399,13 @@ def _cmd_sweep(args) -> int:
                 spec = dataclasses.replace(spec, substeps=args.substeps)
         except ValidationError as err:
             raise ValidationError(f"{args.sweep}: {err}") from None
-    from .outdir import record_files
+    from .results.folders import record_files
     out = _out(args.out)
     n = len(spec)
     if args.dask is None:
         client, close = None, None
     else:
-        from ._dask import connect_dask
+        from .sweeps.cluster import connect_dask
         client, close = connect_dask(args.dask, "--dask")
     try:
         print(f"sweep: {_short_name(spec.name or str(args.sweep))}: {n} points, engine "
@@ -438,7 +438,7 @@ def _cmd_sweep(args) -> int:
                  f"engine {args.engine}")
         claims = fig11_claims(run.rows)
         table = format_fig11_claims(claims, title=f"**{title}**")
-        from .result import write_atomic
+        from .results.result import write_atomic
         write_atomic(out / "claims.md", table + "\n")
         from .paper import plot_fig11
         plot_fig11(run.rows, out / "fig11.png",
@@ -452,7 +452,7 @@ def _cmd_sweep(args) -> int:
 
 
 def _cmd_robots(args) -> int:
-    from . import robots
+    from .model import robots
     names = robots.names()
     w = max(len(n) for n in names)
     head = f"{'name':{w}s} " + " ".join(f"{f'theta{i}':>10s}" for i in range(1, 7)) + "  source"
@@ -464,8 +464,8 @@ def _cmd_robots(args) -> int:
 
 
 def _cmd_properties(args) -> int:
-    from . import robots
-    from .properties import check_properties
+    from .model import robots
+    from .model.properties import check_properties
     robot = robots.resolve(args.robot, "robot")
     print(check_properties(robot, args.u_max))
     return 0
@@ -513,7 +513,7 @@ def _cli_words(text: str) -> str:
 def _cmd_identify(args) -> int:
     import warnings
     from . import identification as ident
-    from .outdir import staged_output
+    from .results.folders import staged_output
     logs = [Path(p) for p in args.log]
     for p in logs:
         if not p.exists():
@@ -602,7 +602,7 @@ def _cmd_identify(args) -> int:
                 json.dumps({**report.as_dict(), "log": [_source(vlog)] if vlog else
                             [_source(p) for p in logs], "in_sample": vlog is None},
                            indent=2, allow_nan=False) + "\n")
-            from .figstyle import save
+            from .results.figstyle import save
             axes = ident.plot_validation(report)
             save(axes[0].figure, stage.path / "validation.png")
     final = out  # an identification is never partial: it is where it was asked for

@@ -18,12 +18,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import figstyle
+from .results import figstyle
 from ._validate import ValidationError
-from .batch import DEFAULT_SUBSTEPS
-from .files import read_metrics
-from .noise import PAPER_NOISE
-from .sweep import Sweep
+from .engine.batch import DEFAULT_SUBSTEPS
+from .sweeps.sweep_files import read_metrics
+from .model.noise import PAPER_NOISE
+from .sweeps.sweep import Sweep
 
 __all__ = ["Claim", "section5_claims", "format_claims", "paper_fig11", "fig11_claims",
            "format_fig11_claims", "fig11_table", "Fig11Claim", "FIG11_CASES", "plot_fig11"]
@@ -176,7 +176,7 @@ def _fig11_rows(metrics) -> tuple[list, dict, list]:
 def fig11_table(metrics) -> tuple[list, dict]:
     """``(ks, table)``: the gains kx = ky every case has a complete point for, and the IAE
     by case label (:data:`FIG11_CASES`) and gain; points that did not complete are left
-    out. ``metrics``: rows of :func:`~unidyn.files.read_metrics` or a metrics.csv path."""
+    out. ``metrics``: rows of :func:`~unidyn.sweeps.sweep_files.read_metrics` or a metrics.csv path."""
     ks, table, _ = _fig11_rows(metrics)
     return ks, table
 
@@ -264,7 +264,7 @@ def format_fig11_claims(claims, title: str | None = None) -> str:
 
 def plot_fig11(metrics, path, title: str | None = None):
     """IAE against k = kx = ky for the four cases, log y with plain tick labels (1, 2,
-    5, 10, 20), as the paper's Fig. 11. In unidyn's figure style (:mod:`unidyn.figstyle`)."""
+    5, 10, 20), as the paper's Fig. 11. In unidyn's figure style (:mod:`unidyn.results.figstyle`)."""
     import matplotlib.pyplot as plt  # here: matplotlib is optional and slow to import
 
     ks, tab = fig11_table(metrics)

@@ -55,7 +55,7 @@ def finishes_on_sigterm(handler) -> bool:
     """Whether ``handler`` is the command's SIGTERM handler, which reports a command
     whose results are in place as finished: a SIGTERM held back while results were
     moved into place is then dropped rather than delivered (see
-    :func:`unidyn.outdir.staged_output`)."""
+    :func:`unidyn.results.folders.staged_output`)."""
     return handler is _on_signal
 
 

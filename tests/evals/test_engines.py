@@ -4,17 +4,17 @@ import numpy as np
 import pytest
 
 import unidyn
-from unidyn import _kernels
-from unidyn.batch import simulate_batch
-from unidyn.closedloop import ClosedLoop
-from unidyn.scenario import Scenario
-from unidyn.trajectories import Circle, Line
+from unidyn.engine import kernels as _kernels
+from unidyn.engine.batch import simulate_batch
+from unidyn.engine.rhs import ClosedLoop
+from unidyn.model.scenario import Scenario
+from unidyn.model.trajectories import Circle, Line
 
 
 def _fig11_cases(k, T, noise=None):
     """The four cases of Fig. 11 at gain k (the paper's Section 5)."""
     base = dict(T=T, kx=k, ky=k, noise=noise)
-    theta = unidyn.robots.get("p3dx_laser").theta
+    theta = unidyn.model.robots.get("p3dx_laser").theta
     return [Scenario(case="uncompensated", **base),
             Scenario(case="compensated", theta_hat0=0.9 * theta, **base),
             Scenario(case="adaptive", theta_hat0=0.9 * theta, adapt_from=0.0, **base),
@@ -56,7 +56,7 @@ def test_compiled_kernel_rhs_equals_the_numpy_closed_loop(rhs):
 def test_the_written_out_lane_tuples_cover_the_state_and_the_parameter_table():
     """The compiled engine's tuples, written out by hand, against the lengths the
     equations define and the lane-minor layout (value i of lane b at i * LANES + b)."""
-    L, ns, npar = _kernels.LANES, len(unidyn.equations.STATE), len(unidyn.equations.LOOP_PARAMETERS)
+    L, ns, npar = _kernels.LANES, len(unidyn.model.equations.STATE), len(unidyn.model.equations.LOOP_PARAMETERS)
     rng = np.random.default_rng(1)
     A = rng.normal(size=npar * L)
     for b in range(L):
@@ -151,7 +151,7 @@ def test_switching_adaptation_on_mid_run_is_a_first_order_event_for_fixed_steps(
     # Switching the update on at t = adapt_from makes the right-hand side jump.
     # bdsim's adaptive solver resolves the jump; a fixed RK4 step that touches it
     # carries an error proportional to the step, so the agreement improves
-    # linearly with substeps (documented in unidyn.batch).
+    # linearly with substeps (documented in unidyn.engine.batch).
     sc = Scenario.paper(4, T=10.0, adapt_from=5.0, noise=None)
     rd = unidyn.simulate(sc, rtol=1e-12, atol=1e-14)
     errs = [np.max(np.abs(simulate_batch([sc], substeps=m)[0].pose[:, :2] - rd.pose[:, :2]))

@@ -6,8 +6,8 @@ from scipy.integrate import solve_ivp
 
 import unidyn
 from unidyn import NO_LIMITS
-from unidyn.closedloop import ClosedLoop
-from unidyn.scenario import Scenario
+from unidyn.engine.rhs import ClosedLoop
+from unidyn.model.scenario import Scenario
 
 TOL = dict(rtol=1e-10, atol=1e-12)
 

@@ -2,7 +2,7 @@
 converged solution, or the run says it cannot vouch for them.
 
 The converged reference is scipy's DOP853 at rtol 1e-12 on the same equations
-(:class:`unidyn.closedloop.ClosedLoop`, noise-free), restarted at every sample as the
+(:class:`unidyn.engine.rhs.ClosedLoop`, noise-free), restarted at every sample as the
 diagram is; an independent integrator of the loop, not the engine's RK4."""
 
 import warnings
@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from unidyn.batch import AccuracyWarning, simulate_batch
-from unidyn.closedloop import ClosedLoop
-from unidyn.scenario import Scenario
+from unidyn.engine.batch import AccuracyWarning, simulate_batch
+from unidyn.engine.rhs import ClosedLoop
+from unidyn.model.scenario import Scenario
 
 pytestmark = pytest.mark.slow
 

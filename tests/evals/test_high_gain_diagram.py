@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import unidyn
-from unidyn.batch import AccuracyWarning
-from unidyn.scenario import Scenario
+from unidyn.engine.batch import AccuracyWarning
+from unidyn.model.scenario import Scenario
 
 from . import test_high_gain as reference
 

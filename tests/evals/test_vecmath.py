@@ -1,4 +1,4 @@
-"""The compiled engine's sin, cos and tanh (unidyn._vecmath): numpy's values to a
+"""The compiled engine's sin, cos and tanh (unidyn.engine.vecmath): numpy's values to a
 few units in the last place over the whole range the engine meets, the identities
 they must keep, numpy's special values, and no call into the maths library left in
 the engine's loop over SIMD lanes (which would stop the compiler vectorising it)."""
@@ -10,9 +10,10 @@ import pytest
 
 numba = pytest.importorskip("numba")
 
-from unidyn import _kernels, _vecmath, equations  # noqa: E402
-from unidyn.closedloop import ClosedLoop  # noqa: E402
-from unidyn.scenario import Scenario  # noqa: E402
+from unidyn.engine import kernels as _kernels, vecmath as _vecmath
+from unidyn.model import equations  # noqa: E402
+from unidyn.engine.rhs import ClosedLoop  # noqa: E402
+from unidyn.model.scenario import Scenario  # noqa: E402
 
 
 @numba.njit

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from unidyn.trajectories import FigureEight, FunctionTrajectory
+from unidyn.model.trajectories import FigureEight, FunctionTrajectory
 
 F8 = FigureEight()
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from unidyn import NoiseSpec, Scenario
-from unidyn.batch import simulate_batch
+from unidyn.engine.batch import simulate_batch
 
 pytestmark = pytest.mark.reliability
 
@@ -50,7 +50,7 @@ def test_runs_side_by_side_in_simd_lanes_are_each_run_alone():
     (groups of up to _kernels.LANES): 11 such runs are a full group and a partial one,
     computed by the vectorised loop and its scalar remainder; each run's numbers are
     still those of the run alone, bit for bit."""
-    from unidyn import _kernels
+    from unidyn.engine import kernels as _kernels
     if not _kernels.AVAILABLE:
         pytest.skip("numba not installed")
     base = Scenario.paper(3, T=3.0)

@@ -28,10 +28,10 @@ import pytest
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
-from unidyn import robots
+from unidyn.model import robots
 from unidyn.cli import main
-from unidyn.scenario import CASES, Scenario
-from unidyn.files import SPECIAL_KEYS
+from unidyn.model.scenario import CASES, Scenario
+from unidyn.sweeps.sweep_files import SPECIAL_KEYS
 
 pytestmark = pytest.mark.reliability
 

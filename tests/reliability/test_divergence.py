@@ -9,9 +9,9 @@ import pytest
 
 import unidyn
 from unidyn import Scenario, SimulationError, ValidationError
-from unidyn.batch import (MAX_SUBSTEPS, AccuracyWarning, fastest_rate, simulate_batch,
+from unidyn.engine.batch import (MAX_SUBSTEPS, AccuracyWarning, fastest_rate, simulate_batch,
                           stable_substeps)
-from unidyn.model import NO_LIMITS
+from unidyn.model.unicycle import NO_LIMITS
 
 pytestmark = pytest.mark.reliability
 
@@ -57,7 +57,7 @@ def test_gamma_1000_matches_the_diagram():
     assert np.abs(r.pose - d.pose).max() < 1e-4
 
 
-@pytest.mark.filterwarnings("ignore::unidyn.batch.AccuracyWarning")  # asserted below
+@pytest.mark.filterwarnings("ignore::unidyn.engine.batch.AccuracyWarning")  # asserted below
 def test_gamma_1e6_completes_with_the_step_it_needs_and_1e9_is_refused_naming_gamma():
     sc = _gamma(1e6, T=3.0)
     r, = simulate_batch([sc])

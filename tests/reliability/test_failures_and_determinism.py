@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 import unidyn
-from unidyn.batch import simulate_batch
+from unidyn.engine.batch import simulate_batch
 from unidyn.cli import main
-from unidyn.scenario import Scenario
+from unidyn.model.scenario import Scenario
 
 pytestmark = pytest.mark.reliability
 
@@ -41,7 +41,7 @@ def test_a_failure_while_bdsim_starts_the_blocks_is_passed_on(error, monkeypatch
     def start(self, simstate):
         raise error
     monkeypatch.setattr(bdm.BlockDiagram, "start", start)
-    from unidyn.runner import SimulationInterrupted
+    from unidyn.diagrams.simulate import SimulationInterrupted
     expected = SimulationInterrupted if isinstance(error, KeyboardInterrupt) else RuntimeError
     with pytest.raises(expected) as info:
         unidyn.simulate(Scenario.paper(2, T=1.0), progress=False)
@@ -103,7 +103,7 @@ def test_results_record_version_scenario_and_seed(tmp_path):
 
 
 def test_an_interrupted_write_leaves_no_file_that_looks_complete(tmp_path, monkeypatch):
-    from unidyn import outdir as result_mod  # where results are written atomically
+    from unidyn.results import folders as result_mod  # where results are written atomically
     r = simulate_batch([Scenario.paper(1, T=1.0)])[0]
 
     def broken_replace(src, dst):

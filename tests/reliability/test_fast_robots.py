@@ -5,12 +5,12 @@ import pytest
 
 import unidyn
 from unidyn import RobotParameters
-from unidyn.batch import fastest_rate, simulate_batch, stable_substeps
-from unidyn.scenario import Scenario
+from unidyn.engine.batch import fastest_rate, simulate_batch, stable_substeps
+from unidyn.model.scenario import Scenario
 
 pytestmark = pytest.mark.reliability
 
-KHEPERA = unidyn.robots.get("khepera3")
+KHEPERA = unidyn.model.robots.get("khepera3")
 t = KHEPERA.theta
 # ten times faster: both time constants (theta1, theta2, and the coupling terms) / 10
 FAST = RobotParameters(t[0] / 10, t[1] / 10, t[2] / 10, t[3], t[4] / 10, t[5], name="khepera3_x10")
@@ -51,7 +51,7 @@ def test_fast_robots_agree_between_the_diagram_and_the_batch_engine(robot, n):
     # at the step the engine picks (|lambda h| <= 0.5) RK4 is accurate to a few 1e-5 m here
     assert np.max(np.abs(rb.pose[:, :2] - rd.pose[:, :2])) < 5e-5
     # and converges to the diagram with a finer step (the switch-on of adaptation
-    # is a first-order event for fixed steps, see unidyn.batch)
+    # is a first-order event for fixed steps, see unidyn.engine.batch)
     fine = simulate_batch([sc], substeps=20 * rb.substeps)[0]
     assert np.max(np.abs(fine.pose[:, :2] - rd.pose[:, :2])) < (2e-6 if n == 4 else 1e-7)
 

@@ -23,16 +23,18 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 import unidyn
-from unidyn import Limits, NoiseSpec, RobotParameters, _kernels, model, robots, trajectories
-from unidyn.batch import simulate_batch, stable_substeps
-from unidyn.control import LEAKAGE_FORMS
-from unidyn.scenario import CASES, PAPER_GAMMA, PAPER_SIGMA, Scenario
+from unidyn import Limits, NoiseSpec, RobotParameters
+from unidyn.engine import kernels as _kernels
+from unidyn.model import unicycle as model, robots, trajectories
+from unidyn.engine.batch import simulate_batch, stable_substeps
+from unidyn.model.laws import LEAKAGE_FORMS
+from unidyn.model.scenario import CASES, PAPER_GAMMA, PAPER_SIGMA, Scenario
 
 # random scenarios can reach gains where the batch engine warns that it cannot vouch
 # for its accuracy (tests/reliability/test_divergence.py asserts that warning); the
 # tests here check finiteness, independence and limits, which hold either way
 pytestmark = [pytest.mark.reliability,
-              pytest.mark.filterwarnings("ignore::unidyn.batch.AccuracyWarning")]
+              pytest.mark.filterwarnings("ignore::unidyn.engine.batch.AccuracyWarning")]
 
 #: hypothesis examples per property (the README quotes these numbers)
 MAX_EXAMPLES = {

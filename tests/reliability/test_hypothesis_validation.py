@@ -30,10 +30,11 @@ import pytest
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
-from unidyn import RobotParameters, ValidationError, robots
-from unidyn.control import LEAKAGE_FORMS
-from unidyn.scenario import ALWAYS_LOGGED, LOG_DTYPES, OPTIONAL_SERIES
-from unidyn.scenario import CASES, CONTROL_MODES, VD_DOT_METHODS, Scenario
+from unidyn import RobotParameters, ValidationError
+from unidyn.model import robots
+from unidyn.model.laws import LEAKAGE_FORMS
+from unidyn.model.scenario import ALWAYS_LOGGED, LOG_DTYPES, OPTIONAL_SERIES
+from unidyn.model.scenario import CASES, CONTROL_MODES, VD_DOT_METHODS, Scenario
 
 pytestmark = pytest.mark.reliability
 
@@ -365,7 +366,7 @@ def _scenario_targets():
 
 def _block(cls_name, **fixed):
     def build(param, value):
-        from unidyn.blocks import controllers, robots as robot_blocks, sources
+        from unidyn.blocks import controllers, unicycles as robot_blocks, sources
         cls = (getattr(robot_blocks, cls_name, None) or getattr(controllers, cls_name, None)
                or getattr(sources, cls_name))
         bd, clock = _diagram()
@@ -434,7 +435,7 @@ def test_block_parameter_table_is_complete():
     """BLOCK_PARAMETERS lists every explicit constructor parameter of every block."""
     import inspect
 
-    from unidyn.blocks import controllers, robots as robot_blocks, sources
+    from unidyn.blocks import controllers, unicycles as robot_blocks, sources
     for cls_name, (_, params) in BLOCK_PARAMETERS.items():
         cls = (getattr(robot_blocks, cls_name, None) or getattr(controllers, cls_name, None)
                or getattr(sources, cls_name))
@@ -621,7 +622,7 @@ def test_scenario_from_dict_with_non_string_field_names_raises_validation_error(
 def test_misspelt_block_keywords_fail_loudly():
     """A misspelt keyword is not swallowed by **blockargs (bdsim raises ValueError)."""
     from unidyn.blocks.controllers import DynamicCompensator, KinematicController
-    from unidyn.blocks.robots import DynamicUnicycle
+    from unidyn.blocks.unicycles import DynamicUnicycle
     bd, _ = _diagram()
     for cls, kw in ((DynamicUnicycle, "speedmax"), (KinematicController, "kxx"),
                     (DynamicCompensator, "gama")):

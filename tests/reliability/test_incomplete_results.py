@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 import unidyn
-from unidyn.batch import simulate_batch
-from unidyn.result import Result
-from unidyn.scenario import Scenario
+from unidyn.engine.batch import simulate_batch
+from unidyn.results.result import Result
+from unidyn.model.scenario import Scenario
 
 pytestmark = pytest.mark.reliability
 
@@ -83,7 +83,7 @@ def test_a_run_without_limits_is_saved_and_read_back(tmp_path, limits):
 
 
 def test_a_sweep_without_limits_writes_strict_json_and_resumes(tmp_path):
-    from unidyn.sweep import Sweep, run_sweep
+    from unidyn.sweeps.sweep import Sweep, run_sweep
     sw = Sweep(base={"T": 0.5, "noise": "off", "case": "kinematic",
                      "limits": {"speed_max": float("inf"), "steer_max": 1.745}},
                grid={"kx": [1.0, 2.0]})
@@ -96,7 +96,7 @@ def test_a_sweep_without_limits_writes_strict_json_and_resumes(tmp_path):
 
 def test_a_changed_sweep_without_limits_names_only_what_changed(tmp_path):
     from unidyn import ValidationError
-    from unidyn.sweep import Sweep, run_sweep
+    from unidyn.sweeps.sweep import Sweep, run_sweep
     base = {"T": 0.5, "noise": "off", "case": "kinematic", "limits": {"speed_max": float("inf")}}
     run_sweep(Sweep(base=base, grid={"kx": [1.0]}), tmp_path / "s", progress=False)
     with pytest.raises(ValidationError, match="differs in base.T") as err:

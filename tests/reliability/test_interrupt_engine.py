@@ -16,8 +16,8 @@ SCRIPT = textwrap.dedent("""
     import faulthandler, signal, sys
     faulthandler.register(signal.SIGUSR1)  # the test asks where it is, if it hangs
     from unidyn import Scenario
-    from unidyn.batch import simulate_batch
-    from unidyn.runner import SimulationInterrupted
+    from unidyn.engine.batch import simulate_batch
+    from unidyn.diagrams.simulate import SimulationInterrupted
 
     started = []
     def progress(done, total):
@@ -82,8 +82,8 @@ def test_ctrl_c_after_the_last_sample_leaves_a_complete_run(backend):
     """A Ctrl-C that comes once every sample is computed still interrupts the call, but
     the run it leaves is complete (it was "interrupted at t = T of T", incomplete)."""
     from unidyn import Scenario
-    from unidyn.batch import simulate_batch
-    from unidyn.runner import SimulationInterrupted
+    from unidyn.engine.batch import simulate_batch
+    from unidyn.diagrams.simulate import SimulationInterrupted
 
     def progress(done, total):
         if done >= total:

@@ -9,8 +9,9 @@ runs share a call."""
 import numpy as np
 import pytest
 
-from unidyn import batch, equations
-from unidyn.batch import simulate_batch
+from unidyn.engine import batch
+from unidyn.model import equations
+from unidyn.engine.batch import simulate_batch
 from unidyn.paper import paper_fig11
 
 pytestmark = pytest.mark.reliability
@@ -105,7 +106,7 @@ def test_both_backends_split_the_same_steps():
 def test_runs_split_in_a_group_are_the_runs_alone_bit_for_bit():
     """A lane whose step is split leaves its SIMD group for that step; its numbers and
     its neighbours' are those of each run alone."""
-    from unidyn import _kernels
+    from unidyn.engine import kernels as _kernels
     if not _kernels.AVAILABLE:
         pytest.skip("numba not installed")
     scs = [_fig11(c, k, 10.0, noise=True) for c in "abd" for k in (2.0, 9.0, 20.0, 35.0)]

@@ -5,7 +5,7 @@ import pytest
 
 import unidyn
 from unidyn import Scenario
-from unidyn.batch import simulate_batch
+from unidyn.engine.batch import simulate_batch
 
 pytestmark = pytest.mark.reliability
 
@@ -79,8 +79,8 @@ def test_the_held_noise_drawn_in_windows_is_the_noise_drawn_whole(backend, monke
     """The engine draws the held noise a window at a time (a long run keeps only the
     window in memory); with windows of 3 samples the runs are bit for bit those with
     the whole noise in one window, and the noise is that of held_sequence."""
-    import unidyn.closedloop as cl
-    from unidyn.noise import held_sequence, noise_seeds
+    import unidyn.engine.rhs as cl
+    from unidyn.model.noise import held_sequence, noise_seeds
     scs = [Scenario.paper(4, T=3.0, adapt_from=1.0), Scenario.paper(2, T=3.0,
            noise={"seed": 5})]
     whole = simulate_batch(scs, backend=backend)
@@ -174,7 +174,7 @@ def test_a_log_of_the_essential_series_takes_under_100_bytes_a_sample(dtype):
 def test_files_and_figures_of_a_run_without_some_series(tmp_path):
     import json
 
-    from unidyn.plots import save_figures
+    from unidyn.results.plots import save_figures
     r, = simulate_batch([Scenario.paper(4, T=5.0, adapt_from=1.0, log_series=["v_ref"])])
     r.save(tmp_path)
     header = (tmp_path / "timeseries.csv").read_text().splitlines()[0].split(",")
@@ -206,5 +206,5 @@ def test_log_series_is_validated_and_read_back():
 
 
 def test_the_error_of_integer_arrays_is_a_float():
-    from unidyn.result import distance
+    from unidyn.results.result import distance
     assert distance(np.array([[0, 0], [1, 1]]), np.array([[3, 4], [1, 1]])).tolist() == [5.0, 0.0]

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 import unidyn
-from unidyn.batch import simulate_batch
-from unidyn.scenario import Scenario
-from unidyn.trajectories import Circle
+from unidyn.engine.batch import simulate_batch
+from unidyn.model.scenario import Scenario
+from unidyn.model.trajectories import Circle
 
 # thousands of simulated seconds per run: the whole-system tier
 pytestmark = [pytest.mark.reliability, pytest.mark.slow]

@@ -202,8 +202,8 @@ def test_a_full_disk_names_the_file_and_keeps_the_earlier_results(tmp_path):
 
 def test_save_from_python_keeps_the_command_lines_rule(tmp_path):
     from unidyn import ValidationError
-    from unidyn.batch import simulate_batch
-    from unidyn.scenario import Scenario
+    from unidyn.engine.batch import simulate_batch
+    from unidyn.model.scenario import Scenario
     out = tmp_path / "R"
     assert cli(tmp_path, "run", "--case", "adaptive", "--T", "1", "--out", out)[0] == 0
     (out / "mine.txt").write_text("mine\n")

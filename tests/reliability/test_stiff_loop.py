@@ -9,14 +9,15 @@ import numpy as np
 import pytest
 
 import unidyn
-from unidyn import Scenario, equations
-from unidyn.batch import simulate_batch
-from unidyn.closedloop import ClosedLoop
-from unidyn.model import NO_LIMITS
+from unidyn import Scenario
+from unidyn.model import equations
+from unidyn.engine.batch import simulate_batch
+from unidyn.engine.rhs import ClosedLoop
+from unidyn.model.unicycle import NO_LIMITS
 
 pytestmark = pytest.mark.reliability
 
-P3DX = unidyn.robots.get("p3dx_laser")
+P3DX = unidyn.model.robots.get("p3dx_laser")
 
 
 def _far(c, **kw):
@@ -90,7 +91,7 @@ def test_both_backends_refine_the_same_intervals():
 def test_runs_refined_in_a_group_are_the_runs_alone_bit_for_bit():
     """A run that takes an interval with finer steps leaves its SIMD group for it; its
     numbers (and its neighbours') are those of each run alone."""
-    from unidyn import _kernels
+    from unidyn.engine import kernels as _kernels
     if not _kernels.AVAILABLE:
         pytest.skip("numba not installed")
     pts = [_far(c, T=2.0) for c in (1.0, 60.0, 2.0, 100.0, 3.0, 150.0, 1.5, 80.0, 2.5)]

@@ -25,12 +25,12 @@ import pytest
 import unidyn
 from unidyn import ValidationError
 from unidyn.cli import main
-from unidyn.scenario import Scenario
+from unidyn.model.scenario import Scenario
 
 pytestmark = pytest.mark.reliability
 
 ROOT = Path(__file__).resolve().parents[2]
-PACKAGE_DIRS = ("src/unidyn",)   # blocks/ and diagrams/ are links into it
+PACKAGE_DIRS = ("src/unidyn",)
 
 PAYLOADS = [
     "__import__('os').system('touch PWNED')",
@@ -90,7 +90,7 @@ def _warm_up(tmp_path_factory):
     f.write_text("[grid]\nkxy = [1]\n")
     assert main(["sweep", str(f), "--out", str(d / "o3"), "--T", "0.3", "--no-progress"]) == 0
     import unidyn.blocks.controllers  # noqa: F401
-    import unidyn.blocks.robots  # noqa: F401
+    import unidyn.blocks.unicycles  # noqa: F401
     import unidyn.blocks.sources  # noqa: F401
 
 
@@ -220,7 +220,7 @@ def test_code_in_a_robot_file_is_rejected(capsys, sandbox, payload):
                                           "--T", "0.5", "--engine", "batch"])
         _rejected(status, err, shown)
     with pytest.raises(ValidationError, match="theta1 must be a real number"):
-        unidyn.robots.resolve(str(values))
+        unidyn.model.robots.resolve(str(values))
     _nothing_ran(work, calls)
 
 
@@ -284,7 +284,7 @@ def test_code_as_a_name_is_kept_as_a_label(capsys, sandbox):
 @pytest.mark.parametrize("payload", PAYLOADS, ids=PAYLOAD_IDS)
 def test_code_in_the_python_api_is_rejected(sandbox, payload):
     from unidyn.blocks.controllers import DynamicCompensator, SampledDynamicCompensator
-    from unidyn.blocks.robots import DynamicUnicycle
+    from unidyn.blocks.unicycles import DynamicUnicycle
     from unidyn.blocks.sources import TrajectorySource
     from unidyn.diagrams import new_simulator
     work, calls = sandbox
@@ -303,8 +303,8 @@ def test_code_in_the_python_api_is_rejected(sandbox, payload):
                   lambda: SampledDynamicCompensator(clock, vd_dot=payload, bd=bd),
                   lambda: TrajectorySource(payload, bd=bd),
                   lambda: TrajectorySource({"type": payload}, bd=bd),
-                  lambda: unidyn.robots.get(payload),
-                  lambda: unidyn.trajectories.from_spec(payload)):
+                  lambda: unidyn.model.robots.get(payload),
+                  lambda: unidyn.model.trajectories.from_spec(payload)):
         with pytest.raises(ValidationError) as err:
             build()
         assert payload in str(err.value)

@@ -5,7 +5,7 @@ upper-cased class name (``bd.DYNAMICUNICYCLE(...)``), and can also be built
 directly (``DynamicUnicycle(..., bd=bd)``).
 """
 
-from .robots import DynamicUnicycle, DynamicUnicycleWithVelocity, KinematicUnicycle
+from .unicycles import DynamicUnicycle, DynamicUnicycleWithVelocity, KinematicUnicycle
 from .controllers import (DynamicCompensator, DynamicCompensatorWithRateInput,
                           KinematicController, KinematicControllerWithRate)
 from .sources import FigureEight, Circle, Line, TrajectorySource, MeasurementNoise, SensorNoise

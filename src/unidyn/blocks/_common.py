@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from unidyn._validate import NonFiniteSignalError, ValidationError
-from unidyn.model import Limits
+from unidyn.model.unicycle import Limits
 
 
 def as_vector(value, n: int, block, port: str, t: float) -> np.ndarray:

@@ -8,11 +8,11 @@ from collections.abc import Sequence
 import numpy as np
 from bdsim.components import Clock, ContinuousBlock, FunctionBlock, SampledBlock
 
-from unidyn import control, robots
-from unidyn.control import PAPER_GAMMA, PAPER_SIGMA
+from ..model import laws, robots
+from unidyn.model.laws import PAPER_GAMMA, PAPER_SIGMA
 from unidyn._validate import ValidationError, choice, flag, nonnegative, positive, positive_vector, vector
 
-from unidyn.parameters import RobotParameters
+from unidyn.model.parameters import RobotParameters
 
 from ._common import as_vector, check_blockargs, check_clock, check_finite, check_fixed_blockargs
 
@@ -80,10 +80,10 @@ class KinematicController(FunctionBlock):
                         \dot y_d + l_y \tanh(k_y \tilde y / l_y) \end{bmatrix} \qquad \text{Eq. (10)}
 
     With ``rate=True`` the block also outputs :math:`\dot v_d`, Eq. (10)
-    differentiated along the motion (see :func:`unidyn.control.kinematic_control_rate`),
+    differentiated along the motion (see :func:`unidyn.model.laws.kinematic_control_rate`),
     for the compensator's ``vd_dot="input"``.
 
-    :seealso: :class:`SampledKinematicController`, :func:`unidyn.control.kinematic_control`
+    :seealso: :class:`SampledKinematicController`, :func:`unidyn.model.laws.kinematic_control`
     """
 
     nin = 3
@@ -125,12 +125,12 @@ class KinematicController(FunctionBlock):
         h_d = as_vector(inports[0], 2, self, "h_d", t)
         h_d_dot = as_vector(inports[1], 2, self, "h_d_dot", t)
         q = as_vector(inports[2], 3, self, "q", t)
-        v_d = control.kinematic_control(h_d, h_d_dot, q[:2], q[2], self.a, self.k, self.l)
+        v_d = laws.kinematic_control(h_d, h_d_dot, q[:2], q[2], self.a, self.k, self.l)
         if not self.rate:
             return [v_d]
         h_d_ddot = as_vector(inports[3], 2, self, "h_d_ddot", t)
         v = as_vector(inports[4], 2, self, "v", t)
-        v_d_dot = control.kinematic_control_rate(h_d, h_d_dot, h_d_ddot, q[:2], q[2], v,
+        v_d_dot = laws.kinematic_control_rate(h_d, h_d_dot, h_d_ddot, q[:2], q[2], v,
                                                  self.a, self.k, self.l)
         return [v_d, v_d_dot]
 
@@ -215,7 +215,7 @@ class SampledKinematicController(SampledBlock):
         h_d = as_vector(inports[0], 2, self, "h_d", t)
         h_d_dot = as_vector(inports[1], 2, self, "h_d_dot", t)
         q = as_vector(inports[2], 3, self, "q", t)
-        return control.kinematic_control(h_d, h_d_dot, q[:2], q[2], self.a, self.k, self.l)
+        return laws.kinematic_control(h_d, h_d_dot, q[:2], q[2], self.a, self.k, self.l)
 
 
 class _CompensatorSettings:
@@ -232,16 +232,16 @@ class _CompensatorSettings:
         if np.any(self.sigma < 0):
             raise ValidationError(f"every element of sigma must be >= 0, got {self.sigma.tolist()}")
         self.adapt_from = nonnegative("adapt_from", adapt_from)
-        self.leakage = choice("leakage", leakage, control.LEAKAGE_FORMS)
+        self.leakage = choice("leakage", leakage, laws.LEAKAGE_FORMS)
 
     def command(self, v_d, v_d_dot, v, theta_hat):
-        G = control.compensation_regressor(v_d, v_d_dot, v, self.k, self.l)
-        return G, control.compensation(G, theta_hat)
+        G = laws.compensation_regressor(v_d, v_d_dot, v, self.k, self.l)
+        return G, laws.compensation(G, theta_hat)
 
     def rate(self, t, G, v_d, v, theta_hat):
-        if not self.adaptive or not control.adaptation_on(t, self.adapt_from):
+        if not self.adaptive or not laws.adaptation_on(t, self.adapt_from):
             return np.zeros(6)
-        return control.adaptation_rate(G, v_d - v, theta_hat, self.gamma, self.sigma, self.leakage)
+        return laws.adaptation_rate(G, v_d - v, theta_hat, self.gamma, self.sigma, self.leakage)
 
 
 
@@ -570,7 +570,7 @@ class KinematicControllerWithRate(KinematicController):
 
     :class:`KinematicController` with ``rate=True``, as a block whose ports never
     change (so that bdedit draws it). Output 0 is Eq. (10); output 1 is Eq. (10)
-    differentiated along the motion (:func:`unidyn.control.kinematic_control_rate`),
+    differentiated along the motion (:func:`unidyn.model.laws.kinematic_control_rate`),
     the :math:`\dot v_d` of the compensator's Eq. (12):
 
     .. math::
@@ -663,7 +663,7 @@ class DynamicCompensatorWithRateInput(DynamicCompensator):
     form :math:`\gamma G^T\tilde v - \Sigma\hat\theta` (``"fx44850"``) or by Eq. (18)
     without leakage (``"none"``): the paper's fourth simulation.
 
-    :seealso: :class:`DynamicCompensator`, :func:`unidyn.control.compensation`
+    :seealso: :class:`DynamicCompensator`, :func:`unidyn.model.laws.compensation`
     """
 
     nin = 3

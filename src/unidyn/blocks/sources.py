@@ -7,7 +7,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from bdsim.components import Clock, SampledBlock, SourceBlock
 
-from unidyn import trajectories as traj
+from unidyn.model import trajectories as traj
 from unidyn._validate import ValidationError, integer, nonnegative, positive, vector
 
 from ._common import check_blockargs, check_clock, check_fixed_blockargs
@@ -16,7 +16,7 @@ class TrajectorySource(SourceBlock):
     r"""
     :blockname:`TRAJECTORYSOURCE`
 
-    Reference trajectory from any ``unidyn.trajectories.Trajectory`` or user callable.
+    Reference trajectory from any ``unidyn.model.trajectories.Trajectory`` or user callable.
 
     :inputs: 0
     :outputs: 3
@@ -43,7 +43,7 @@ class TrajectorySource(SourceBlock):
             - :math:`\ddot h_d`, desired acceleration, m/s² (label ``h_d_ddot``)
 
     A callable ``f(t) -> (h_d, h_d_dot)`` is wrapped in
-    :class:`unidyn.trajectories.FunctionTrajectory`; its second derivative is
+    :class:`unidyn.model.trajectories.FunctionTrajectory`; its second derivative is
     then a central difference unless ``acceleration`` is given.
 
     .. math:: (h_d(t), \dot h_d(t), \ddot h_d(t))
@@ -382,7 +382,7 @@ class SensorNoise(MeasurementNoise):
     The generator is ``numpy.random.default_rng`` of ``seed``, or with ``stream = k``
     of the k-th stream spawned from ``seed``
     (``numpy.random.SeedSequence(seed, spawn_key=(k,))``): the streams of
-    :func:`unidyn.noise.noise_seeds`, 0 for the position and 1 for the velocity
+    :func:`unidyn.model.noise.noise_seeds`, 0 for the position and 1 for the velocity
     noise of a run with that seed.
 
     .. math:: s_{meas}(t) = s(t) + \eta_k, \quad t_k \le t < t_{k+1}

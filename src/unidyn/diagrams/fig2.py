@@ -18,8 +18,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-from unidyn.noise import noise_seeds
-from unidyn.scenario import Scenario
+from unidyn.model.noise import noise_seeds
+from unidyn.model.scenario import Scenario
 
 __all__ = ["Fig2", "build_fig2", "new_simulator"]
 

@@ -49,7 +49,7 @@ The workflow, all pure numpy/scipy (nothing here imports bdsim)::
     >>> print(res.summary())                  # table, warnings  # doctest: +SKIP
     >>> res.save("out/p3dx")                  # out/p3dx/theta.json  # doctest: +SKIP
 
-``theta.json`` is read back by ``unidyn.robots.resolve("out/p3dx/theta.json")``.
+``theta.json`` is read back by ``unidyn.model.robots.resolve("out/p3dx/theta.json")``.
 
 The package is split by job: :mod:`~unidyn.identification.logs` reads and
 checks logs, :mod:`~unidyn.identification.estimator` holds the output-error and

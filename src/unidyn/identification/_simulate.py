@@ -17,10 +17,10 @@ import math
 
 import numpy as np
 
-from .._jit import AVAILABLE as FAST
-from .._jit import jit
-from ..equations import point_velocity, robot_acceleration
-from ..model import unicycle_deriv
+from ..engine.jit import AVAILABLE as FAST
+from ..engine.jit import jit
+from ..model.equations import point_velocity_components, robot_acceleration
+from ..model.unicycle import unicycle_deriv
 
 #: How the logged commands act between their time stamps.
 COMMAND_CONVENTIONS = ("held", "linear")
@@ -168,7 +168,7 @@ def simulate_stepwise(theta, t, u_ref, w_ref, x0, limits, linear, delay):
         # Eqs. (1)-(2) with a = 0 on scalars (far less overhead than on arrays)
         c = command(tt)
         u, w, psi = x[3], x[4], x[2]
-        xd, yd = point_velocity(psi, u, w, 0.0)
+        xd, yd = point_velocity_components(psi, u, w, 0.0)
         return [xd, yd, w, *robot_acceleration(u, w, c[0], c[1], t1, t2, t3, t4, t5, t6)]
 
     r = ode(rhs).set_integrator("dop853", rtol=1e-10, atol=1e-12, nsteps=100000)

@@ -9,9 +9,9 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from .. import robots
+from ..model import robots
 from .._validate import ValidationError, choice, integer, nonnegative, positive, real, vector
-from ..model import NO_LIMITS, PAPER_LIMITS, Limits, unicycle_deriv
+from ..model.unicycle import NO_LIMITS, PAPER_LIMITS, Limits, unicycle_deriv
 from ._simulate import COMMAND_CONVENTIONS, simulate_stepwise
 from .logs import load_log
 
@@ -55,7 +55,7 @@ def excitation(T: float, dt: float, robot=None, limits: Limits = PAPER_LIMITS,
     :param dt: sample interval, s, > 0 and <= T / 20
     :param robot: optional robot (name, :class:`RobotParameters` or six numbers);
         it sets theta4 and theta6 above and the default f_max
-    :param limits: :class:`unidyn.model.Limits` to respect (speed limits must be
+    :param limits: :class:`unidyn.model.unicycle.Limits` to respect (speed limits must be
         finite); default the paper's ``PAPER_LIMITS``
     :param kind: ``"multisine"`` or ``"prbs"``
     :param seed: integer seed of the phases / sequences, >= 0
@@ -81,7 +81,7 @@ def excitation(T: float, dt: float, robot=None, limits: Limits = PAPER_LIMITS,
     if isinstance(limits, Mapping):
         limits = Limits(**limits)
     if not isinstance(limits, Limits):
-        raise ValidationError(f"limits must be a unidyn.model.Limits, got {limits!r}")
+        raise ValidationError(f"limits must be a unidyn.model.unicycle.Limits, got {limits!r}")
     for k in ("speed_max", "steer_max"):
         if not math.isfinite(getattr(limits, k)):
             raise ValidationError(f"limits.{k} must be finite to size the excitation, got inf")
@@ -259,7 +259,7 @@ def simulate_log(robot, excitation, noise_std: float = 0.0, seed: int = 0, x0=No
 
     The commands are interpolated between their samples by a cubic spline through
     them (smooth, and equal to the logged command at every time stamp), and the
-    model :func:`unidyn.model.unicycle_deriv` is integrated by
+    model :func:`unidyn.model.unicycle.unicycle_deriv` is integrated by
     ``scipy.integrate.solve_ivp`` (LSODA, rtol 1e-9, atol 1e-11). Seeded white
     Gaussian noise of std ``noise_std`` is then added to the logged u and w
     (m/s and rad/s alike); the commands and the pose are logged without noise.
@@ -289,7 +289,7 @@ def simulate_log(robot, excitation, noise_std: float = 0.0, seed: int = 0, x0=No
     noise_std = nonnegative("noise_std", noise_std)
     seed = integer("seed", seed, 0)
     if not isinstance(limits, Limits):
-        raise ValidationError(f"limits must be a unidyn.model.Limits, got {limits!r}")
+        raise ValidationError(f"limits must be a unidyn.model.unicycle.Limits, got {limits!r}")
     need = ("t", "u_ref", "w_ref")
     if not isinstance(excitation, Mapping) or any(k not in excitation for k in need):
         have = list(excitation) if isinstance(excitation, Mapping) else type(excitation).__name__

@@ -71,8 +71,8 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from .._validate import ValidationError, choice, integer, nonnegative, positive
-from ..model import regressor
-from ..parameters import RobotParameters
+from ..model.unicycle import regressor
+from ..model.parameters import RobotParameters
 from ._simulate import COMMAND_CONVENTIONS, simulate_held, step_length
 from .logs import COLUMNS, TIME_UNITS, IdentificationWarning, _short, join_logs
 from .results import _NAMES, IdentificationResult
@@ -171,7 +171,7 @@ def _filter_weights(t, half, chunk=2048):
 
 
 def _eq11_columns(v, v_dot):
-    """The regressor Y(v, v') of Eq. (11), :func:`unidyn.model.regressor`, with each
+    """The regressor Y(v, v') of Eq. (11), :func:`unidyn.model.unicycle.regressor`, with each
     row reduced to the columns of its own parameters (``_ROW_PARAMS``): shape
     (..., 2, 3), row 1 [u', -w^2, u] (theta1, theta3, theta4), row 2
     [w', u w, w] (theta2, theta5, theta6). Every regressor the estimators form
@@ -193,7 +193,7 @@ def _filtered_eq11(parts, smooth, slope):
     """The regressor of Eq. (11) through the filter K, K * Y(v, v'), without
     differentiating the data; shape (rows, 2, 3) as :func:`_eq11_columns`.
 
-    :func:`unidyn.model.regressor` cannot be called on (v, v') here because v'
+    :func:`unidyn.model.unicycle.regressor` cannot be called on (v, v') here because v'
     is not available: the noisy samples must not be differenced. Y is linear in
     v' and its v' entries do not depend on v, so Y(v, v') = Y(v, 0) + Y(0, v'),
     and K * v' = K' * v (integration by parts). Hence

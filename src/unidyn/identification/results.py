@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..outdir import staged_output, write_atomic
-from ..parameters import RobotParameters
+from ..results.folders import staged_output, write_atomic
+from ..model.parameters import RobotParameters
 
 __all__ = ["IdentificationResult", "ValidationReport"]
 
@@ -122,7 +122,7 @@ class IdentificationResult:
 
     def as_dict(self) -> dict:
         """A JSON-ready dict: theta1..theta6 and name at the top level (as
-        :func:`unidyn.robots.resolve` reads them from a ``.json`` file), plus the
+        :func:`unidyn.model.robots.resolve` reads them from a ``.json`` file), plus the
         standard errors, intervals, condition numbers, warnings and settings."""
         def num(x):
             x = float(x)
@@ -156,7 +156,7 @@ class IdentificationResult:
         needed) and return its path. A folder holding an earlier identification is
         refused unless ``overwrite``; then its ``theta.json``, ``validation.json`` and
         ``validation.png`` are replaced or removed, nothing else (see
-        :mod:`unidyn.outdir`)."""
+        :mod:`unidyn.results.folders`)."""
         with staged_output(folder, kind="identify", overwrite=overwrite,
                            results=("theta.json",), what="identification results",
                            owned=("theta.json", "validation.json", "validation.png"),

@@ -8,10 +8,10 @@ import math
 
 import numpy as np
 
-from .. import robots
+from ..model import robots
 from .._validate import ValidationError, choice, nonnegative, positive, vector
-from ..figstyle import label, legend, size, styled, ylim_from_data
-from ..model import NO_LIMITS, Limits
+from ..results.figstyle import label, legend, size, styled, ylim_from_data
+from ..model.unicycle import NO_LIMITS, Limits
 from ._simulate import COMMAND_CONVENTIONS, simulate_held, simulate_stepwise
 from .logs import load_log, segments
 from .results import IdentificationResult, ValidationReport
@@ -62,7 +62,7 @@ def validate(theta, log, columns=None, v0=None, limits: Limits = NO_LIMITS,
     if gap is not None:
         gap = positive("gap", gap)
     if not isinstance(limits, Limits):
-        raise ValidationError(f"limits must be a unidyn.model.Limits, got {limits!r}")
+        raise ValidationError(f"limits must be a unidyn.model.unicycle.Limits, got {limits!r}")
     d = load_log(log, columns, time_unit)
     segs = segments(d["t"], gap)
     return validation_report(rp, d, segs, commands, delay,

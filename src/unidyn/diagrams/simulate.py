@@ -1,0 +1,252 @@
+"""Run a :class:`~unidyn.Scenario` through the bdsim diagram of Fig. 2."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import math
+import time
+import warnings
+
+import numpy as np
+
+from .._errors import AccuracyWarning, SimulationInterrupted
+from .._validate import NonFiniteSignalError, ValidationError, positive
+from ..model.equations import saturate
+from ..results.result import Result
+from ..model.scenario import HIGH_GAIN, Scenario
+
+__all__ = ["simulate", "SimulationError", "SimulationInterrupted", "DEFAULT_RTOL", "DEFAULT_ATOL"]
+
+
+class SimulationError(RuntimeError):
+    """A run stopped early (e.g. a non-finite signal). ``result`` holds what was
+    computed up to the failure, marked ``complete=False``; the message says when,
+    where and for which scenario."""
+
+    def __init__(self, message, result=None):
+        super().__init__(message)
+        self.result = result
+
+
+def _root_cause(err):
+    seen = []
+    e = err
+    while e is not None and e not in seen:
+        seen.append(e)
+        e = e.__cause__ or e.__context__
+    for e in seen:
+        if isinstance(e, (NonFiniteSignalError, ValidationError, GuardStop)):
+            return e
+    return seen[-1]
+
+DEFAULT_RTOL = 1e-8
+DEFAULT_ATOL = 1e-10
+#: The most right-hand-side evaluations the solver may make in one sample interval
+#: Ts before the run is stopped as too stiff for it (the paper's runs need about
+#: 120, adaptation gains of 1000 about 720; RK45 makes six per step).
+MAX_RHS_PER_SAMPLE = 5_000
+#: The relative tolerance that keeps high-gain adaptive runs converged.
+HIGH_GAIN_RTOL = 1e-11
+
+
+class GuardStop(ArithmeticError):
+    """The diagram's run guard stopped the run: a state beyond its divergence
+    bound, more solver work per sample than :data:`MAX_RHS_PER_SAMPLE`, or the
+    wall-clock limit."""
+
+
+class _Guard:
+    """What the diagram's :class:`~unidyn.diagrams.monitor.RunMonitor` calls at every
+    evaluation: checks the robot's pose and velocities against
+    ``Scenario.divergence_bounds``, counts the evaluations per sample interval,
+    advances the progress bar and watches the wall clock."""
+
+    def __init__(self, sc, timeout, bar=None):
+        self.sc, self.bar = sc, bar
+        self.bounds = sc.divergence_bounds()
+        self.k, self.count = -1, 0
+        self.deadline = None if timeout is None else time.monotonic() + timeout
+        self.timeout = timeout
+
+    def __call__(self, t, pose, velocity=None):
+        sc = self.sc
+        k = int(t / sc.Ts + 1e-9)
+        if k > self.k:  # a new sample interval (a probe of its end counts as the next)
+            if self.bar is not None and self.k >= 0:
+                self.bar.update(min(k, sc.steps) - min(self.k, sc.steps))
+            self.k, self.count = k, 0
+        self.count += 1
+        if self.count > MAX_RHS_PER_SAMPLE:
+            raise GuardStop(
+                f"the solver needed more than {MAX_RHS_PER_SAMPLE} evaluations in the sample "
+                f"interval from t = {k * sc.Ts:.6g} s (a stiff or diverging loop); a stiff "
+                f"solver may resolve it: unidyn.simulate(..., method='LSODA')")
+        _check_bounds(pose, velocity, self.bounds, t)
+        if self.deadline is not None and time.monotonic() > self.deadline:
+            raise GuardStop(f"wall-clock limit of {self.timeout:g} s reached at t = {t:.6g} s")
+
+
+def _check_bounds(pose, velocity, b, t):
+    pose = np.ravel(pose)
+    r = math.hypot(pose[0], pose[1])
+    if not r <= b[0]:
+        raise GuardStop(f"diverged: the position |(x, y)| = {r:.3g} m is beyond {b[0]:.3g} m "
+                        f"(1e6 times the reference's size) at t = {t:.6g} s")
+    if velocity is not None:
+        velocity = np.ravel(velocity)
+        for j, (name, unit) in ((0, ("u", "m/s")), (1, ("w", "rad/s"))):
+            if not abs(velocity[j]) <= b[j + 1]:
+                raise GuardStop(f"diverged: |{name}| = {abs(velocity[j]):.3g} {unit} is beyond "
+                                f"{b[j + 1]:.3g} {unit} (1e6 times its limit, or what the "
+                                f"controller asks for) at t = {t:.6g} s")
+
+
+def _unvouched(sc, rtol):
+    """Why a complete run's accuracy is not vouched for, or "" (see :data:`HIGH_GAIN`)."""
+    gamma = max(sc.gamma)
+    if sc.case != "adaptive" or gamma <= HIGH_GAIN or rtol <= HIGH_GAIN_RTOL:
+        return ""
+    return (f"complete, but its accuracy is not vouched for: at adaptation gain gamma up to "
+            f"{gamma:g} (above {HIGH_GAIN:g}) with rtol {rtol:g}, the solver steps across the "
+            f"kinks where the acceleration limits clip and theta_hat drifts from a converged "
+            f"solution; run it with unidyn.simulate(..., rtol={HIGH_GAIN_RTOL:g}, atol=1e-13) "
+            f"(scenario {sc.name or sc.case})")
+
+
+def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DEFAULT_ATOL,
+             method: str = "RK45", timeout: float | None = None, progress=None,
+             **builder_args) -> Result:
+    """Simulate ``scenario`` with bdsim (Fig. 2 diagram, :func:`unidyn.diagrams.build_fig2`).
+
+    The continuous states are integrated by ``scipy.integrate.solve_ivp``
+    (``method``) with relative and absolute tolerances ``rtol``, ``atol``;
+    results are sampled every ``scenario.Ts``.
+
+    :param timeout: wall-clock limit of the run, s (``None``: none). Whatever the
+        limit, the run stops with :class:`SimulationError` when the robot's state
+        leaves :meth:`~unidyn.Scenario.divergence_bounds` or the solver needs more
+        than :data:`MAX_RHS_PER_SAMPLE` evaluations in one sample interval
+    :param progress: ``None`` (default: a tqdm progress bar on stderr for runs of
+        2000 samples or more, only when stderr is a terminal), ``True`` or ``False``
+    :param builder_args: factories passed to :func:`unidyn.diagrams.build_fig2`
+        (``robot=``, ``controller=``, ``compensator=``, ``trajectory=``)
+    :return: :class:`Result`
+    :raises SimulationError: if the run stops early (a block meets a NaN, the state
+        diverges, the solver stalls, the wall-clock limit); its ``result`` attribute
+        holds the samples logged before the failure, with ``complete=False``
+    :raises SimulationInterrupted: on Ctrl-C, with the samples logged before it
+    :warns unidyn.engine.batch.AccuracyWarning: for an adaptive run with adaptation gain
+        above :data:`HIGH_GAIN` at an ``rtol`` looser than about :data:`HIGH_GAIN_RTOL`
+        (the result's ``message`` says so too, naming the fix)
+    """
+    if not isinstance(scenario, Scenario):
+        raise ValidationError(f"scenario must be a unidyn.Scenario, got {type(scenario).__name__}")
+    rtol = positive("rtol", rtol)
+    atol = positive("atol", atol)
+    if timeout is not None:
+        timeout = positive("timeout", timeout)
+    from . import RunMonitor, build_fig2, new_simulator  # bdsim: loaded when a run starts
+
+    sim = new_simulator()
+    fig = build_fig2(sim, scenario, **builder_args)
+    roles = list(fig.watch)
+    sc = scenario
+    bar = None
+    if progress is True or (progress is None and sc.steps >= 2000):
+        import sys
+
+        from tqdm import tqdm
+        bar = tqdm(total=sc.steps, unit="sample", desc="unidyn bdsim", leave=False,
+                   disable=None if progress is None else False, file=sys.stderr, mininterval=0.5)
+    # the run guard is a block of the diagram: bdsim evaluates it with the others at
+    # every solver evaluation, and hands it the run state (whose tlist and plist log
+    # the watched signals) when the run starts, so a run that fails gives back its log
+    checked = [fig.watch[r] for r in ("pose", "velocity") if r in fig.watch]
+    guard = RunMonitor(_Guard(sc, timeout, bar), nin=len(checked), bd=fig.bd, name="run_guard")
+    for i, plug in enumerate(checked):
+        fig.bd.connect(plug, guard[i])
+    said = io.StringIO()
+    try:
+        with contextlib.redirect_stdout(said):  # bdsim's notes (e.g. a user block's unused output)
+            fig.bd.compile()
+    except Exception as err:  # a real error: pass on what bdsim said about it
+        raise RuntimeError(f"bdsim could not compile the Fig. 2 diagram: {err}\n"
+                           f"{said.getvalue().strip()}") from err
+    failure = None
+    interrupted = False
+    try:
+        # bdsim prints a report of a failing block; the exception carries it to the user
+        with contextlib.redirect_stdout(io.StringIO()):
+            out = sim.run(fig.bd, T=sc.T, dt=sc.Ts, watch=[fig.watch[r] for r in roles],
+                          solver=method, solver_args=dict(rtol=rtol, atol=atol, max_step=sc.Ts))
+        t = np.asarray(out.t, dtype=float)
+        y = out[".ywatch"]
+        if bar is not None:
+            bar.close()
+    except (Exception, KeyboardInterrupt) as err:  # keep what bdsim logged before the failure
+        if bar is not None:
+            bar.close()
+        interrupted = isinstance(err, KeyboardInterrupt)
+        simstate = guard.simstate
+        if getattr(simstate, "tlist", None) is None:  # failed while bdsim started the blocks
+            simstate = None
+        cause = err if interrupted else _root_cause(err)
+        t_stop = getattr(simstate, "t", None)
+        t_stop = float("nan") if t_stop is None else t_stop
+        failure = (f"{sc.name or sc.case}: interrupted at t = {t_stop:.6g} s" if interrupted else
+                   f"{sc.name or sc.case}: run stopped at t = {t_stop:.6g} s: "
+                   f"{type(cause).__name__}: {cause}")
+        if simstate is None:  # it failed before the run started
+            if interrupted:
+                raise SimulationInterrupted(failure) from err
+            if isinstance(cause, GuardStop):
+                raise SimulationError(failure) from err
+            raise
+        t = np.asarray(simstate.tlist, dtype=float)
+        y = [list(p) for p in simstate.plist]
+        n = min([len(t)] + [len(p) for p in y])
+        t, y = t[:n], [p[:n] for p in y]
+    if len(t) == 0:
+        if interrupted:
+            raise SimulationInterrupted(failure)
+        raise SimulationError(failure or "no samples", None)
+    signals = {r: np.asarray(y[i], dtype=float).reshape(len(t), -1) for i, r in enumerate(roles)}
+    # bdsim restarts integration at clock ticks and may log a tick twice: keep
+    # the last sample at each grid time and check that the grid is complete
+    grid = np.round(t / sc.Ts).astype(int)
+    keep = np.r_[grid[1:] != grid[:-1], True]
+    t, grid = t[keep], grid[keep]
+    signals = {k: v[keep] for k, v in signals.items()}
+    expected = sc.steps + 1 if failure is None else len(grid)
+    if not np.array_equal(grid, np.arange(len(grid))) or len(grid) != expected:
+        raise RuntimeError(f"bdsim returned {len(grid)} samples, expected {expected} "
+                           f"on a grid of step {sc.Ts}")
+    if sc.log_every > 1:  # every log_every-th sample, and the last one of a failed run
+        keep = grid % sc.log_every == 0
+        keep[-1] |= failure is not None
+        grid = grid[keep]
+        signals = {k: v[keep] for k, v in signals.items()}
+    t = grid * sc.Ts
+    velocity = signals.get("velocity")
+    if velocity is None:  # kinematic robot: v = v_d clipped to the speed limits
+        velocity = saturate(signals["v_d"], sc.limits.speed)
+    theta_hat = signals.get("theta_hat")
+    if theta_hat is None:
+        theta_hat = np.tile(sc.theta_hat_initial, (len(t), 1))
+    unvouched = "" if failure is not None else _unvouched(sc, rtol)
+    if unvouched:
+        warnings.warn(unvouched, AccuracyWarning, stacklevel=2)
+    c = lambda a: np.asarray(a, dtype=sc.log_dtype)  # noqa: E731
+    kept = lambda k, a: c(a) if k in sc.log_series else None  # noqa: E731 (log_series)
+    result = Result(scenario=sc, t=t, pose=c(signals["pose"]), velocity=c(velocity),
+                    reference=c(signals["reference"]), v_d=kept("v_d", signals["v_d"]),
+                    v_ref=kept("v_ref", signals["v_ref"]),
+                    theta_hat=kept("theta_hat", theta_hat), engine="bdsim",
+                    complete=failure is None, message=failure or unvouched,
+                    backend=f"solve_ivp {method}")
+    if interrupted:
+        raise SimulationInterrupted(failure, result)
+    if failure is not None:
+        raise SimulationError(failure, result)
+    return result

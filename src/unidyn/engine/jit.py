@@ -1,0 +1,258 @@
+"""numba, where installed: :func:`jit` of a function that calls the paper's
+equations (:mod:`unidyn.model.equations`), and the same function as plain Python where
+numba is absent (``pip install unidyn[fast]`` for the compiled one).
+
+Every public function of :mod:`unidyn.model.equations` is registered with numba's
+``register_jitable`` (inlined into its callers): it stays the plain function for
+Python callers and becomes compilable inside compiled code, so the engines compile
+the equations the rest of the library runs, not a copy of them.
+
+**The on-disk cache.** numba (``cache=True``) keys a cached function on its own
+source file only, not on the files of the functions it inlines (numba's documented
+limitation): a kernel cached beside ``_kernels.py`` would keep running an edited
+:mod:`unidyn.model.equations` as it was. So the package's compiled functions are cached
+in a folder of their own per version of the compiled sources
+(:data:`COMPILED_SOURCES`, hashed into :data:`STAMP`):
+``<cache>/unidyn-numba/<STAMP>``, where ``<cache>`` is ``NUMBA_CACHE_DIR`` if the user
+set it, else the user's cache folder. numba is pointed there through its documented
+``NUMBA_CACHE_DIR`` while the package's functions are declared (the user's own
+functions keep numba's usual place). Folders of older versions beyond
+:data:`KEEP_VERSIONS` are removed.
+
+numba writes its cache without a lock between processes (numba issues #4807 and
+#10128: a process that loads files two processes wrote at once can crash). The first
+call of each compiled entry point in a process, where numba loads or compiles it, is
+made under a ``filelock`` lock of the version folder (:class:`Compiled`); processes
+that start together (pytest-xdist workers, a Dask cluster) then load what the first
+one wrote.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import os
+import shutil
+import sys
+from pathlib import Path
+
+from ..model import equations
+
+try:  # numba is optional
+    import numba
+    from numba.extending import register_jitable
+    AVAILABLE = True
+except ImportError:  # pragma: no cover - exercised where numba is absent
+    numba = None
+    AVAILABLE = False
+
+if AVAILABLE:
+    import numpy as np
+    from numba.core import types
+    from numba.extending import overload
+
+    from . import vecmath
+
+    _OVERLOADED = (equations.select, equations.sin, equations.cos, equations.tanh)
+    # called, not inlined: a whole loop evaluation that a caller makes several times
+    # (inlined, each copy costs numba's compiler seconds)
+    _CALLED = (equations.loop_acceleration, equations.loop_step_rate)
+    for _name in equations.__all__:
+        _f = getattr(equations, _name)
+        if (callable(_f) and getattr(_f, "__module__", None) == equations.__name__
+                and _f not in _OVERLOADED):
+            register_jitable(inline="never" if _f in _CALLED else "always")(_f)
+
+    def _elementary(function, vectorisable, ufunc):
+        """Compile function (equations.sin, ...) of a float64 as the vectorisable
+        intrinsic, of anything else (an array, a float32) as numpy's ufunc."""
+        @overload(function, inline="always")
+        def _compiled(x):
+            if x == types.float64:
+                return lambda x: vectorisable(x)
+            return lambda x: ufunc(x)
+
+    _elementary(equations.sin, vecmath.sin, np.sin)
+    _elementary(equations.cos, vecmath.cos, np.cos)
+    _elementary(equations.tanh, vecmath.tanh, np.tanh)
+
+    @overload(equations.select)
+    def _select(condition, a, b):
+        """equations.select compiled: a branch on scalars (np.where would allocate a 0-d
+        array per call), np.where on arrays."""
+        if (isinstance(condition, types.Boolean) and isinstance(a, types.Number)
+                and isinstance(b, types.Number)):
+            return lambda condition, a, b: a if condition else b
+        return lambda condition, a, b: np.where(condition, a, b)
+
+
+#: The package's files whose code the compiled functions run: the equations and
+#: elementary functions they inline, the overloads here, and the compiled functions.
+COMPILED_SOURCES = ("model/equations.py", "engine/vecmath.py", "engine/jit.py",
+                    "engine/kernels.py", "identification/_simulate.py")
+#: Versions of the compiled code whose cache folders are kept (switching between a few
+#: versions, as between git branches, compiles none of them again).
+KEEP_VERSIONS = 3
+
+
+def sources_stamp() -> str:
+    """A short hash of :data:`COMPILED_SOURCES`: the version of the code compiled
+    (read through the package's loader, so a zipped install has one too)."""
+    from importlib.resources import files
+    h = hashlib.sha256()
+    for name in COMPILED_SOURCES:
+        h.update(files("unidyn").joinpath(name).read_bytes())
+    return h.hexdigest()[:12]
+
+
+STAMP = sources_stamp()
+
+
+def cache_root() -> Path:
+    """Where the versions' cache folders lie: ``$NUMBA_CACHE_DIR/unidyn-numba`` if the
+    user set numba's cache folder, else ``unidyn-numba`` in the user's cache folder."""
+    base = os.environ.get("NUMBA_CACHE_DIR")
+    if not base:
+        if sys.platform == "win32":
+            base = os.environ.get("LOCALAPPDATA") or Path.home() / "AppData" / "Local"
+        elif sys.platform == "darwin":
+            base = Path.home() / "Library" / "Caches"
+        else:
+            base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "unidyn-numba"
+
+
+def remove_other_versions(root: Path, keep: int = KEEP_VERSIONS):
+    """Remove the version folders in ``root`` but :data:`STAMP`'s and those of the
+    keep - 1 other versions used most recently (a process still running a removed
+    version compiles it again if it needs it)."""
+    try:
+        folders = [f for f in root.iterdir() if f.is_dir() and f.name != STAMP]
+        folders.sort(key=lambda f: f.stat().st_mtime, reverse=True)
+    except OSError:
+        return
+    for f in folders[keep - 1:]:
+        shutil.rmtree(f, ignore_errors=True)
+
+
+def _version_folder():
+    """This version's cache folder, created (and touched: used now), or None where no
+    folder can be written: then nothing is cached and each process compiles."""
+    folder = cache_root() / STAMP
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        os.utime(folder)
+        probe = folder / ".writable"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError:
+        return None
+    remove_other_versions(folder.parent)
+    return folder
+
+
+CACHE_FOLDER = _version_folder() if AVAILABLE else None
+
+
+@contextlib.contextmanager
+def _numba_cache_dir(folder):
+    """numba's documented NUMBA_CACHE_DIR set to folder while the package's functions
+    are declared (numba reads it when a function with cache=True is declared)."""
+    before = os.environ.get("NUMBA_CACHE_DIR")
+    os.environ["NUMBA_CACHE_DIR"] = str(folder)
+    numba.config.reload_config()
+    try:
+        yield
+    finally:
+        if before is None:
+            del os.environ["NUMBA_CACHE_DIR"]
+        else:
+            os.environ["NUMBA_CACHE_DIR"] = before
+        numba.config.reload_config()
+
+
+#: Said once per process on stderr (a terminal) before a compile of the engine.
+NOTICE = ("unidyn: compiling {what}, once per install and version "
+          "(a minute or so; later runs load it from the cache) ...")
+_noticed = []
+
+
+def _kind(a):
+    """What numba compiles a call's argument a for (its type, dtype and dimensions;
+    those of the items of a tuple)."""
+    if isinstance(a, tuple):
+        return (type(a).__name__,) + tuple(_kind(x) for x in a)
+    return type(a).__name__, str(getattr(a, "dtype", "")), getattr(a, "ndim", 0)
+
+
+class Compiled:
+    """A compiled entry point (called from Python): the dispatcher, whose first call per
+    argument types in this process (where numba loads or compiles and caches it) holds
+    a ``filelock`` lock of the cache folder. A call that compiles (no marker of an
+    earlier compile in the folder) first says so on a terminal (:data:`NOTICE`)."""
+
+    def __init__(self, dispatcher, name, what):
+        self.dispatcher, self.name, self.what = dispatcher, name, what
+        self.ready, self.cached = set(), None
+        self.__doc__ = dispatcher.__doc__
+
+    def __call__(self, *args):
+        key = _kind(args)
+        if key in self.ready or CACHE_FOLDER is None:
+            out = self.dispatcher(*args)
+            self.ready.add(key)
+            return out
+        try:
+            from filelock import FileLock
+        except ImportError:  # numba installed without the fast extra: no lock between processes
+            FileLock = contextlib.nullcontext
+        marker = CACHE_FOLDER / f"{self.name}-{hashlib.sha256(repr(key).encode()).hexdigest()[:8]}.ready"
+        with FileLock(str(CACHE_FOLDER / "compile.lock")):
+            if not marker.exists() and not _noticed and sys.stderr is not None and sys.stderr.isatty():
+                _noticed.append(True)
+                print(NOTICE.format(what=self.what), file=sys.stderr, flush=True)
+            out = self.dispatcher(*args)
+            marker.touch()
+        self.ready.add(key)
+        return out
+
+    def compiled(self) -> bool:
+        """Whether this process called it already, or a process had compiled it into the
+        cache folder (a marker of its first call there) when this process first asked."""
+        if self.ready:
+            return True
+        if self.cached is None:  # looked at once per process: a process keeps one engine
+            self.cached = CACHE_FOLDER is not None and any(CACHE_FOLDER.glob(f"{self.name}-*.ready"))
+        return self.cached
+
+    @property
+    def py_func(self):
+        return self.dispatcher.py_func
+
+
+def jit(f=None, *, parallel: bool = False, inline: bool = False, entry: str = ""):
+    """``numba.njit(cache=True, nogil=True)`` of f; f itself without numba.
+
+    ``parallel=True``: numba's threads over ``numba.prange``; ``inline=True``: f is
+    inlined into its compiled callers (as the equations are), which saves a call
+    with reference counting of its array arguments at every right-hand side;
+    ``entry``: f is called from Python (:class:`Compiled`); what it is, for the notice
+    of its compile (``"the batch engine"``).
+    Division by zero gives inf or NaN as in numpy (``error_model="numpy"``), which the
+    engines' checks for non-finite states then report."""
+    def wrap(g):
+        if not AVAILABLE:
+            return g
+        options = dict(nogil=True, parallel=parallel, error_model="numpy",
+                       inline="always" if inline else "never")
+        if CACHE_FOLDER is None:
+            compiled = numba.njit(**options)(g)
+        else:
+            with _numba_cache_dir(CACHE_FOLDER):
+                compiled = numba.njit(cache=True, **options)(g)
+        return Compiled(compiled, g.__qualname__, entry) if entry else compiled
+    return wrap if f is None else wrap(f)
+
+
+#: numba.prange where numba is installed, else range.
+prange = numba.prange if AVAILABLE else range

@@ -1,0 +1,213 @@
+r"""The closed loop of Fig. 2 as one pure right-hand side, batched over scenarios.
+
+This is the same loop the bdsim diagram of :func:`unidyn.diagrams.build_fig2`
+wires block by block, here as one function of time and state,
+:func:`unidyn.model.equations.loop_derivative`, evaluated on all runs at once (the
+compiled engine, :mod:`unidyn.engine.kernels`, evaluates the same equations,
+:func:`unidyn.model.equations.loop_rates`, on runs side by side in SIMD lanes). It is the reference the diagram is tested against, and the right-hand
+side of the batch engine. Continuous control only
+(``Scenario.control == "continuous"``). The runs' parameters are one named
+table (:meth:`ClosedLoop.parameter_table`).
+
+State of each run (13 values): ``x, y, psi, u, w`` (robot; u and w unused for a
+kinematic robot), ``theta_hat1..6`` (compensator estimate), ``z_u, z_w``
+(derivative-filter states, used with ``vd_dot="filter"``).
+
+Noise is white and held over each interval [k Ts, (k+1) Ts): the k-th draw of
+the same seeded generators the bdsim noise blocks use, so both see the same numbers.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..model import equations, laws
+from ..model.equations import LOOP_PARAMETERS, TRAJECTORY_KINDS, P
+from ..model.noise import HeldNoise, noise_seeds
+from ..model.scenario import Scenario
+
+__all__ = ["ClosedLoop", "NSTATE"]
+
+NSTATE = len(equations.STATE)
+#: Noise values (rows x runs) drawn per window: 2 x 16 MB of held noise in memory
+#: however long the run (drawing it whole took 32 bytes per sample and run).
+NOISE_WINDOW_VALUES = 1_000_000
+
+
+class ClosedLoop:
+    """The Fig. 2 loop for a batch of scenarios sharing ``T`` and ``Ts``.
+
+    :param scenarios: one :class:`~unidyn.Scenario` or a sequence of them
+    """
+
+    def __init__(self, scenarios):
+        if isinstance(scenarios, Scenario):
+            scenarios = [scenarios]
+        scs = list(scenarios)
+        if not scs:
+            raise ValueError("scenarios must not be empty")
+        T, Ts = scs[0].T, scs[0].Ts
+        for s in scs:
+            if not isinstance(s, Scenario):
+                raise TypeError(f"expected Scenario, got {type(s).__name__}")
+            if s.control != "continuous":
+                raise ValueError("ClosedLoop models continuous control only")
+            if s.T != T or s.Ts != Ts:
+                raise ValueError("all scenarios of a batch must share T and Ts")
+        self.scenarios = scs
+        self.T, self.Ts = T, Ts
+        self.steps = scs[0].steps
+        B = self.B = len(scs)
+        self.case = [s.case for s in scs]
+        self.P = self.parameter_table()
+        self.vmax = self.P[:, [P.speed_u, P.speed_w]]
+        # trajectories: evaluate each distinct one once
+        self._traj = {}
+        self.traj_index = np.empty(B, dtype=int)
+        for i, s in enumerate(scs):
+            key = repr(s.trajectory) if not hasattr(s.trajectory, "f") else id(s.trajectory)
+            if key not in self._traj:
+                self._traj[key] = (len(self._traj), s.trajectory)
+            self.traj_index[i] = self._traj[key][0]
+        self._trajs = [tr for _, tr in sorted(self._traj.values(), key=lambda p: p[0])]
+        # noise, held per interval: a window of rows at a time (noise_window)
+        self._noise_sources = []
+        for s in scs:
+            pos = vel = None
+            if s.noise is not None:
+                pos_seed, vel_seed = noise_seeds(s.noise.seed)
+                pos = HeldNoise(pos_seed, s.noise.position_std)
+                if s.case != "kinematic":  # a kinematic robot has no velocities to measure
+                    vel = HeldNoise(vel_seed, s.noise.velocity_std)
+            self._noise_sources.append((pos, vel))
+        self.noise_k0 = self.noise_end = 0
+        self.pos_noise = self.vel_noise = np.zeros((B, 0, 2))
+        self.noise_window(0, NOISE_WINDOW_VALUES // B)
+
+    def noise_window(self, k0: int, rows: int):
+        """Draw the held noise of sample intervals k0 .. k0 + rows - 1 (at most up to
+        the last interval) into ``pos_noise`` and ``vel_noise``, (B, rows, 2), whose
+        row 0 is interval ``noise_k0`` = k0. Windows follow each other (k0 is the end
+        of the previous one): each run's generators go on where they stopped, so the
+        values are those of one draw of the whole run (:func:`unidyn.model.noise.held_sequence`)."""
+        if k0 != self.noise_end:
+            raise ValueError(f"noise windows follow each other: the next starts at interval "
+                             f"{self.noise_end}, not {k0}")
+        rows = max(1, min(int(rows), self.steps + 1 - k0))
+        if self.pos_noise.shape[1] != rows:
+            self.pos_noise = np.zeros((self.B, rows, 2))
+            self.vel_noise = np.zeros((self.B, rows, 2))
+        for i, (pos, vel) in enumerate(self._noise_sources):
+            if pos is not None:
+                pos.draw(self.pos_noise[i])
+            if vel is not None:
+                vel.draw(self.vel_noise[i])
+        self.noise_k0, self.noise_end = k0, k0 + rows
+
+    def next_noise_window(self, k: int):
+        """At interval k = the end of the current window, draw the next one (of the same
+        size); otherwise nothing: the window already holds k."""
+        if k == self.noise_end:
+            self.noise_window(k, self.pos_noise.shape[1])
+
+    # ------------------------------------------------------------------ #
+    def initial_state(self) -> np.ndarray:
+        X = np.zeros((self.B, NSTATE))
+        for i, s in enumerate(self.scenarios):
+            X[i, 0:3] = s.x0
+            X[i, 5:11] = s.theta_hat_initial
+        return X
+
+    def reference(self, t):
+        """h_d, h_d_dot, h_d_ddot at time t, each (B, 2)."""
+        out = []
+        for tr in self._trajs:
+            out.append((tr.position(t), tr.velocity(t), tr.acceleration(t)))
+        idx = self.traj_index
+        return tuple(np.array([o[j] for o in out])[idx] for j in range(3))
+
+    def parameter_table(self) -> np.ndarray:
+        """The per-run parameters, (B, len(LOOP_PARAMETERS)): row i holds run i's
+        values in the order of :data:`unidyn.model.equations.LOOP_PARAMETERS`."""
+        table = np.zeros((self.B, len(LOOP_PARAMETERS)))
+        for i, s in enumerate(self.scenarios):
+            adaptive = s.case == "adaptive"
+            tr = s.trajectory
+            kind = getattr(tr, "kind", None)
+            values = dict(
+                zip(("theta1", "theta2", "theta3", "theta4", "theta5", "theta6"), s.robot.theta),
+                a=s.a, kx=s.kx, ky=s.ky, lx=s.lx, ly=s.ly, ku=s.ku, kw=s.kw, lu=s.lu, lw=s.lw,
+                adapt_from=s.adapt_from if adaptive else np.inf, tau=s.tau,
+                filtered=float(s.derivative == "filter"), dynamic=float(s.case != "kinematic"),
+                compensated=float(s.case in ("compensated", "adaptive")),
+                speed_u=s.limits.speed[0], speed_w=s.limits.speed[1],
+                accel_u=s.limits.accel[0], accel_w=s.limits.accel[1],
+                trajectory=TRAJECTORY_KINDS.index(kind) if kind in TRAJECTORY_KINDS else -1)
+            leak = laws.leakage_rate(s.gamma, s.sigma, s.leakage)
+            for j in range(6):
+                values[f"gamma{j + 1}"] = s.gamma[j]
+                values[f"leak{j + 1}"] = leak[j]
+            if kind == "figure_eight":
+                path = (tr.ax, tr.ay, tr.wx, tr.wy, tr.center[0], tr.center[1])
+            elif kind == "circle":
+                path = (tr.radius, tr.omega, tr.center[0], tr.center[1], tr.phase)
+            elif kind == "line":
+                path = (*tr.start, *tr.velocity_)
+            else:  # evaluated by its own methods (the numpy engine only)
+                path = ()
+            for j, v in enumerate(path):
+                values[f"path{j + 1}"] = v
+            for name, v in values.items():
+                table[i, getattr(P, name)] = v
+        return table
+
+    @property
+    def compilable(self) -> bool:
+        """Whether the compiled engine can evaluate every run's reference itself."""
+        return bool((self.P[:, P.trajectory] >= 0).all())
+
+    def _reference_tuple(self, t):
+        h_d, h_d_dot, h_d_ddot = self.reference(t)
+        return (h_d[:, 0], h_d[:, 1], h_d_dot[:, 0], h_d_dot[:, 1], h_d_ddot[:, 0],
+                h_d_ddot[:, 1])
+
+    def _noise(self, k):
+        """The held noise of interval k (inside the current window; see noise_window)."""
+        if not self.noise_k0 <= k < self.noise_end:
+            raise IndexError(f"interval {k} is outside the noise window "
+                             f"[{self.noise_k0}, {self.noise_end})")
+        j = k - self.noise_k0
+        return (self.pos_noise[:, j, 0], self.pos_noise[:, j, 1],
+                self.vel_noise[:, j, 0], self.vel_noise[:, j, 1])
+
+    def signals(self, t, X, k):
+        """Everything the loop computes at (t, X) in interval k: a dict of (B, ...) arrays
+        (:func:`unidyn.model.equations.loop_signals`)."""
+        ref = self._reference_tuple(t)
+        ud, wd, udd, wdd, G, u_ref, w_ref, um, wm = equations.loop_signals(
+            X.T, ref, self.P.T, self._noise(k))
+        stack = lambda a, b: np.stack(np.broadcast_arrays(a, b), axis=-1)  # noqa: E731
+        G = np.stack([np.broadcast_to(g, (self.B,)) for g in G], axis=-1).reshape(self.B, 2, 6)
+        return dict(h_d=stack(ref[0], ref[1]), v_d=stack(ud, wd), v_d_dot=stack(udd, wdd),
+                    G=G, v_ref=stack(u_ref, w_ref), v_meas=stack(um, wm))
+
+    def step_rate(self, t, X, k):
+        """The loop's state-dependent fastest rate (1/s) of every run at (t, X) in
+        interval k (:func:`unidyn.model.equations.loop_step_rate`)."""
+        return np.broadcast_to(equations.loop_step_rate(
+            t, X.T, self._reference_tuple(t), self.P.T, self._noise(k)), (self.B,))
+
+    def rhs(self, t, X, k, rows=None, limits=False):
+        """dX/dt, (B, 13), at time t in noise interval k
+        (:func:`unidyn.model.equations.loop_derivative` on all runs at once). k must lie in
+        the current noise window (:meth:`noise_window`; the first is drawn on creation).
+        With ``rows`` (an index array), X and dX/dt are those runs' only. With
+        ``limits``, (B, 14): a last column says which limits act
+        (:func:`unidyn.model.equations.limit_state`)."""
+        ref, P, noise = self._reference_tuple(t), self.P, self._noise(k)
+        if rows is not None:
+            ref = tuple(r[rows] for r in ref)
+            P, noise = P[rows], tuple(v[rows] for v in noise)
+        dX = np.empty((NSTATE + bool(limits), X.shape[0]))
+        equations.loop_derivative(t, X.T, ref, P.T, noise, dX)
+        return dX.T

@@ -1,0 +1,457 @@
+r"""The paper's equations, written once.
+
+Every equation of the model and the controllers of Martins et al. (2017) is here,
+once, as plain arithmetic: Eq. (1) (:func:`point_velocity_components`), Eq. (2)
+(:func:`robot_acceleration`) with the speed and acceleration limits, Eq. (10) and
+its time derivative (:func:`kinematic_law`, :func:`kinematic_law_rate`), the
+compensation of Eqs. (12)/(14) (:func:`compensation_regressor`,
+:func:`compensation`), the update law of Eqs. (18)/(20) (:func:`update_rate`),
+the reference trajectories, and the whole Fig. 2 loop built from them
+(:func:`loop_signals`, :func:`loop_derivative`).
+
+The arguments may be Python floats or numpy arrays of any broadcastable shape
+(the runs of a batch, the samples of a log), and numba compiles the same
+functions for the batch engine and for identification (:mod:`unidyn.engine.jit`
+registers every function of this module with numba, so they call each other in
+compiled code). Vectors are passed as their components and results come back as
+tuples of components, so no function allocates an array of its own;
+:mod:`unidyn.model.unicycle`, :mod:`unidyn.model.laws` and :mod:`unidyn.model.trajectories` stack
+them into the array shapes of their public interfaces.
+
+What this module may use, so that numba compiles it: arithmetic, comparisons,
+``np.minimum/maximum/sqrt``, :func:`sin`, :func:`cos`, :func:`tanh` (numpy's; in compiled
+code the vectorisable ones of :mod:`unidyn.engine.vecmath`, within 3 units in the last
+place of numpy's), :func:`select` (not ``np.where``, which allocates an array per
+call in compiled code), indexing, loops of fixed length, and calls to functions of
+this module; no Python branch on a value (it may be an array).
+"""
+
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+
+__all__ = ["select", "sin", "cos", "tanh", "point_velocity_components", "robot_acceleration",
+           "dynamics_regressor", "saturate", "limited_acceleration", "kinematic_law",
+           "kinematic_law_rate", "compensation_regressor", "compensation", "update_rate",
+           "figure_eight", "circle", "line", "loop_signals", "loop_rates",
+           "loop_rates_and_limits", "loop_derivative", "update_rates", "loop_acceleration", "velocity_loop_rate", "update_law_rate",
+           "loop_step_rate", "limit_state", "STATE", "S",
+           "LOOP_PARAMETERS", "P", "TRAJECTORY_KINDS", "SWITCH_TOL"]
+
+#: Adaptation is on for t >= adapt_from - SWITCH_TOL (s): the switch then falls on
+#: the same side of a solver stage that lands on adapt_from up to rounding, in
+#: every engine.
+SWITCH_TOL = 1e-9
+
+
+def select(condition, a, b):
+    """a where condition holds, else b (``np.where``; on floats in compiled code, a
+    plain branch)."""
+    return np.where(condition, a, b)
+
+
+def sin(x):
+    """``np.sin``; in compiled code, :func:`unidyn.engine.vecmath.sin`, which the compiler
+    vectorises (no call into the maths library)."""
+    return np.sin(x)
+
+
+def cos(x):
+    """``np.cos``; in compiled code, :func:`unidyn.engine.vecmath.cos`."""
+    return np.cos(x)
+
+
+def tanh(x):
+    """``np.tanh``; in compiled code, :func:`unidyn.engine.vecmath.tanh`."""
+    return np.tanh(x)
+
+
+# --------------------------------------------------------------------------- robot
+def point_velocity_components(psi, u, w, a):
+    r"""Eq. (1), first two rows: the velocity of the point of interest h,
+    :math:`\dot x = u\cos\psi - a w\sin\psi,\ \dot y = u\sin\psi + a w\cos\psi`."""
+    c = cos(psi)
+    s = sin(psi)
+    return u * c - a * w * s, u * s + a * w * c
+
+
+def robot_acceleration(u, w, u_ref, w_ref, th1, th2, th3, th4, th5, th6):
+    r"""Eq. (2): the accelerations of the robot's velocities under the commands
+    u_ref, w_ref (no disturbance),
+
+    .. math::
+
+        \dot u = \frac{\theta_3}{\theta_1} w^2 - \frac{\theta_4}{\theta_1} u
+                 + \frac{u_{ref}}{\theta_1},\quad
+        \dot\omega = -\frac{\theta_5}{\theta_2} u\omega - \frac{\theta_6}{\theta_2}\omega
+                 + \frac{\omega_{ref}}{\theta_2}
+    """
+    return ((th3 * w * w - th4 * u + u_ref) / th1,
+            (-th5 * u * w - th6 * w + w_ref) / th2)
+
+
+def dynamics_regressor(u, w, du, dw):
+    r"""The regressor Y of Eq. (11), the linear parametrisation of Eq. (2),
+    :math:`v_{ref} = Y(v, \dot v)\,\theta`, row by row (12 entries):
+
+    .. math::
+
+        Y = \begin{bmatrix} \dot u & 0 & -\omega^2 & u & 0 & 0 \\
+                            0 & \dot\omega & 0 & 0 & u\omega & \omega \end{bmatrix}
+    """
+    return (du, 0.0, -w * w, u, 0.0, 0.0,
+            0.0, dw, 0.0, 0.0, u * w, w)
+
+
+def saturate(x, limit):
+    """x clipped to [-limit, limit] (limit may be inf); NaN stays NaN."""
+    return np.minimum(np.maximum(x, -limit), limit)
+
+
+def limited_acceleration(u, w, du, dw, speed_u, speed_w, accel_u, accel_w):
+    """The acceleration limits on (du, dw), and no acceleration that pushes a velocity
+    already at its speed limit beyond it (how the limits act on Eq. 2)."""
+    du = saturate(du, accel_u)
+    dw = saturate(dw, accel_w)
+    du = select(((u >= speed_u) & (du > 0.0)) | ((u <= -speed_u) & (du < 0.0)), 0.0, du)
+    dw = select(((w >= speed_w) & (dw > 0.0)) | ((w <= -speed_w) & (dw < 0.0)), 0.0, dw)
+    return du, dw
+
+
+def limit_state(du, dw, accel_u, accel_w, u_ref=0.0, w_ref=0.0, speed_u=np.inf,
+                speed_w=np.inf):
+    """Which limits act: on the robot's accelerations (du, dw) as :func:`loop_rates`
+    returns them (after :func:`limited_acceleration`), for each velocity 1 or -1 at
+    the acceleration limit (+ or -), 2 held at a speed limit (an acceleration of
+    exactly 0), 0 free; and on the command (u_ref, w_ref) before it is clipped to
+    the speed limits, for each 1 or 2 beyond the limit (+ or -), 0 within. As one
+    number, code_u + 4 code_w + 16 (command_u + 3 command_w).
+
+    Where it changes, the right-hand side has a kink (a limit starts or stops
+    clipping the accelerations or the command) or a jump (a speed limit is reached):
+    an RK4 step across that point is only first or second order accurate, so the
+    batch engine splits such a step (the stages of one step disagree on this state)."""
+    cu = select(du >= accel_u, 1.0, select(du <= -accel_u, -1.0, select(du == 0.0, 2.0, 0.0)))
+    cw = select(dw >= accel_w, 1.0, select(dw <= -accel_w, -1.0, select(dw == 0.0, 2.0, 0.0)))
+    qu = select(u_ref > speed_u, 1.0, select(u_ref < -speed_u, 2.0, 0.0))
+    qw = select(w_ref > speed_w, 1.0, select(w_ref < -speed_w, 2.0, 0.0))
+    return cu + 4.0 * cw + 16.0 * (qu + 3.0 * qw)
+
+
+# --------------------------------------------------------------------- controllers
+def kinematic_law(xd, yd, vxd, vyd, x, y, psi, a, kx, ky, lx, ly):
+    r"""Eq. (10): the desired velocities (u_d, w_d) that make h = (x, y) track
+    h_d = (xd, yd) moving at (vxd, vyd),
+
+    .. math::
+
+        \begin{bmatrix} u_d \\ \omega_d \end{bmatrix} =
+        \begin{bmatrix} \cos\psi & \sin\psi \\ -\frac{\sin\psi}{a} & \frac{\cos\psi}{a}
+        \end{bmatrix}
+        \begin{bmatrix} \dot x_d + l_x \tanh(k_x \tilde x / l_x) \\
+                        \dot y_d + l_y \tanh(k_y \tilde y / l_y) \end{bmatrix}
+    """
+    nux = vxd + lx * tanh(kx * (xd - x) / lx)
+    nuy = vyd + ly * tanh(ky * (yd - y) / ly)
+    c = cos(psi)
+    s = sin(psi)
+    return c * nux + s * nuy, (-s * nux + c * nuy) / a
+
+
+def kinematic_law_rate(xd, yd, vxd, vyd, axd, ayd, x, y, psi, u, w, a, kx, ky, lx, ly):
+    r"""Eq. (10) and its time derivative along the motion (the exact v_d'):
+    returns (u_d, w_d, u_d', w_d').
+
+    .. math::
+
+        \dot v_d = \frac{d A^{-1}(\psi)}{dt}\,\nu + A^{-1}(\psi)\,\dot\nu,\quad
+        \dot\nu = \ddot h_d + K\,\mathrm{sech}^2(K\tilde h/L)\,(\dot h_d - \dot h)
+
+    with :math:`\dot h` from Eq. (1) at the velocities (u, w) and
+    :math:`\dot\psi = \omega`.
+    """
+    tx = tanh(kx * (xd - x) / lx)
+    ty = tanh(ky * (yd - y) / ly)
+    nux = vxd + lx * tx
+    nuy = vyd + ly * ty
+    c = cos(psi)
+    s = sin(psi)
+    hdx, hdy = point_velocity_components(psi, u, w, a)
+    # sech^2 = 1 - tanh^2 (exact to an absolute 1e-16: no cosh, which overflows)
+    ndx = axd + kx * (1.0 - tx * tx) * (vxd - hdx)
+    ndy = ayd + ky * (1.0 - ty * ty) * (vyd - hdy)
+    # d/dt A^-1(psi) = w [[-sin, cos], [-cos/a, -sin/a]]
+    return (c * nux + s * nuy, (-s * nux + c * nuy) / a,
+            w * (-s * nux + c * nuy) + c * ndx + s * ndy,
+            (w * (-c * nux - s * nuy) - s * ndx + c * ndy) / a)
+
+
+def compensation_regressor(ud, wd, udd, wdd, u, w, ku, kw, lu, lw):
+    r"""The regressor G of Eq. (14), row by row (12 entries, G[0, 0..5], G[1, 0..5]):
+
+    .. math::
+
+        G = \begin{bmatrix} \sigma_1 & 0 & -\omega_d\omega & u_d & 0 & 0 \\
+            0 & \sigma_2 & u_d\omega - u\,\omega_d & 0 & u\,\omega_d & \omega_d \end{bmatrix},
+        \quad \sigma_1 = \dot u_d + l_u\tanh\!\left(\frac{k_u}{l_u}\tilde u\right),\
+        \sigma_2 = \dot\omega_d + l_\omega\tanh\!\left(\frac{k_\omega}{l_\omega}\tilde\omega\right)
+    """
+    s1 = udd + lu * tanh(ku * (ud - u) / lu)
+    s2 = wdd + lw * tanh(kw * (wd - w) / lw)
+    return (s1, 0.0, -wd * w, ud, 0.0, 0.0,
+            0.0, s2, ud * w - u * wd, 0.0, u * wd, wd)
+
+
+def compensation(G, th):
+    r"""Eq. (12) in the linear form of Eq. (14), :math:`v_r = G\hat\theta`:
+    (u_r, w_r) from the 12 entries of G (:func:`compensation_regressor`) and
+    the six estimates th[0..5]."""
+    ur = G[0] * th[0]
+    wr = G[6] * th[0]
+    for j in range(1, 6):
+        ur = ur + G[j] * th[j]
+        wr = wr + G[6 + j] * th[j]
+    return ur, wr
+
+
+def update_rate(g0, g1, u_tilde, w_tilde, gamma, leak, theta_hat):
+    r"""Eqs. (18)/(20) for one parameter j: :math:`\dot{\hat\theta}_j =
+    \gamma_j (G_{0j}\tilde u + G_{1j}\tilde\omega) - \lambda_j \hat\theta_j`, with the
+    leakage rate :math:`\lambda_j = \gamma_j\sigma_j` (Eq. 20), :math:`\sigma_j`
+    (the authors' Simulink package) or 0 (Eq. 18); see
+    :func:`unidyn.model.laws.leakage_rate`."""
+    return gamma * (g0 * u_tilde + g1 * w_tilde) - leak * theta_hat
+
+
+# -------------------------------------------------------------------- trajectories
+def figure_eight(t, ax, ay, wx, wy, cx, cy):
+    r"""The paper's figure eight (Section 5), :math:`x_d = c_x + A_x\sin\omega_x t,\
+    y_d = c_y + A_y(\cos\omega_y t - 1)`: (x_d, y_d, x_d', y_d', x_d'', y_d'')."""
+    sx = sin(wx * t)
+    cxw = cos(wx * t)
+    sy = sin(wy * t)
+    cyw = cos(wy * t)
+    return (cx + ax * sx, cy + ay * (cyw - 1.0), ax * wx * cxw, -ay * wy * sy,
+            -ax * wx * wx * sx, -ay * wy * wy * cyw)
+
+
+def circle(t, radius, omega, cx, cy, phase):
+    r"""A circle, :math:`h_d = c + R[\cos(\omega t + \phi), \sin(\omega t + \phi)]`:
+    (x_d, y_d, x_d', y_d', x_d'', y_d'')."""
+    arg = omega * t + phase
+    c = cos(arg)
+    s = sin(arg)
+    return (cx + radius * c, cy + radius * s, -radius * omega * s, radius * omega * c,
+            -radius * omega * omega * c, -radius * omega * omega * s)
+
+
+def line(t, x0, y0, vx, vy):
+    r"""A straight line at constant velocity, :math:`h_d = p_0 + v t`:
+    (x_d, y_d, x_d', y_d', x_d'', y_d'')."""
+    return x0 + vx * t, y0 + vy * t, vx + 0.0 * t, vy + 0.0 * t, 0.0 * t, 0.0 * t
+
+
+#: The kinds of reference the compiled engine evaluates itself (the value of the
+#: table entry ``trajectory`` is the index in this tuple).
+TRAJECTORY_KINDS = ("figure_eight", "circle", "line")
+
+
+# ---------------------------------------------------------------- the Fig. 2 loop
+#: The state of one run of the Fig. 2 loop: the robot (u, w unused for a kinematic
+#: robot), the compensator's estimate, the derivative filter's states.
+STATE = ("x", "y", "psi", "u", "w", "theta_hat1", "theta_hat2", "theta_hat3",
+         "theta_hat4", "theta_hat5", "theta_hat6", "z_u", "z_w")
+#: Index of each state by name (S.x, S.theta_hat1, ...).
+S = namedtuple("LoopState", STATE)(*range(len(STATE)))
+
+#: The per-run parameter table of the Fig. 2 loop, one value per name; see
+#: :meth:`unidyn.engine.rhs.ClosedLoop.parameter_table`. ``dynamic`` (1: the robot has
+#: Eq. 2, 0: kinematic), ``compensated`` (1: v_ref = G theta_hat, Eq. 14; 0: v_ref = v_d)
+#: and ``filtered`` (1: v_d' from the filter (v_d - z)/tau; 0: the exact rate) are
+#: 0/1; ``leak1..6`` are the leakage rates of :func:`update_rate`; ``adapt_from`` is
+#: inf where the estimate is not adapted; ``path1..6`` are the reference's
+#: parameters, in the order of the function of its kind.
+LOOP_PARAMETERS = (
+    ("theta1", "theta2", "theta3", "theta4", "theta5", "theta6", "a",
+     "kx", "ky", "lx", "ly", "ku", "kw", "lu", "lw")
+    + tuple(f"gamma{j}" for j in range(1, 7)) + tuple(f"leak{j}" for j in range(1, 7))
+    + ("adapt_from", "tau", "filtered", "dynamic", "compensated",
+       "speed_u", "speed_w", "accel_u", "accel_w", "trajectory")
+    + tuple(f"path{j}" for j in range(1, 7)))
+#: Index of each parameter by name (P.kx, P.gamma1, ...).
+P = namedtuple("LoopParameter", LOOP_PARAMETERS)(*range(len(LOOP_PARAMETERS)))
+
+
+def loop_signals(X, ref, p, noise):
+    r"""The signals of the Fig. 2 loop at state X: returns
+    (u_d, w_d, u_d', w_d', G, u_ref, w_ref, u_meas, w_meas).
+
+    :param X: the state, indexed by :data:`S` (X[S.x] a float, or an array of runs)
+    :param ref: (x_d, y_d, x_d', y_d', x_d'', y_d'')
+    :param p: the parameters, indexed by :data:`P`
+    :param noise: (position noise x, y, velocity noise u, w), added to the measurements
+
+    Eq. (10) on the measured position and heading, its exact rate (or the derivative
+    filter), the regressor of Eq. (14) on the measured velocities, and the command:
+    :math:`G\hat\theta` with compensation, v_d without (before the speed limits).
+    """
+    um = X[S.u] + noise[2]
+    wm = X[S.w] + noise[3]
+    ud, wd, rate_u, rate_w = kinematic_law_rate(
+        ref[0], ref[1], ref[2], ref[3], ref[4], ref[5], X[S.x] + noise[0], X[S.y] + noise[1],
+        X[S.psi], um, wm, p[P.a], p[P.kx], p[P.ky], p[P.lx], p[P.ly])
+    filtered = p[P.filtered] != 0.0
+    udd = select(filtered, (ud - X[S.z_u]) / p[P.tau], rate_u)
+    wdd = select(filtered, (wd - X[S.z_w]) / p[P.tau], rate_w)
+    G = compensation_regressor(ud, wd, udd, wdd, um, wm, p[P.ku], p[P.kw], p[P.lu], p[P.lw])
+    ur, wr = compensation(G, (X[S.theta_hat1], X[S.theta_hat2], X[S.theta_hat3],
+                              X[S.theta_hat4], X[S.theta_hat5], X[S.theta_hat6]))
+    compensated = p[P.compensated] != 0.0
+    return (ud, wd, udd, wdd, G, select(compensated, ur, ud), select(compensated, wr, wd),
+            um, wm)
+
+
+def loop_rates(t, X, ref, p, noise):
+    r"""dX/dt of the Fig. 2 loop, as a tuple of the 13 rates in the order of :data:`S`
+    (:func:`loop_rates_and_limits` without the limits' state)."""
+    return loop_rates_and_limits(t, X, ref, p, noise)[0]
+
+
+def loop_rates_and_limits(t, X, ref, p, noise):
+    r"""dX/dt of the Fig. 2 loop, as a tuple of the 13 rates in the order of :data:`S`,
+    and which limits act there (:func:`limit_state`).
+
+    The commands are clipped to the speed limits; the robot follows Eqs. (1)-(2)
+    with the acceleration limits (:func:`limited_acceleration`), or Eq. (1) with
+    v = the clipped command for a kinematic robot; the estimate follows
+    Eqs. (18)/(20) from ``adapt_from`` on (:func:`update_rate`, with the velocity
+    error v_d - v_meas); the derivative filter integrates v_d'. Arguments as
+    :func:`loop_signals` (X and p may be tuples: the compiled engine passes one run's
+    values in registers).
+    """
+    ud, wd, udd, wdd, G, u_ref, w_ref, um, wm = loop_signals(X, ref, p, noise)
+    uc = saturate(u_ref, p[P.speed_u])
+    wc = saturate(w_ref, p[P.speed_w])
+    u = X[S.u]
+    w = X[S.w]
+    du, dw = robot_acceleration(u, w, uc, wc, p[P.theta1], p[P.theta2], p[P.theta3],
+                                p[P.theta4], p[P.theta5], p[P.theta6])
+    du, dw = limited_acceleration(u, w, du, dw, p[P.speed_u], p[P.speed_w],
+                                  p[P.accel_u], p[P.accel_w])
+    dynamic = p[P.dynamic] != 0.0
+    u_move = select(dynamic, u, uc)
+    w_move = select(dynamic, w, wc)
+    dx, dy = point_velocity_components(X[S.psi], u_move, w_move, p[P.a])
+    on = t >= p[P.adapt_from] - SWITCH_TOL
+    u_tilde = ud - um
+    w_tilde = wd - wm
+    r = update_rates(G, u_tilde, w_tilde, p, X)
+    filtered = p[P.filtered] != 0.0
+    du = select(dynamic, du, 0.0)
+    dw = select(dynamic, dw, 0.0)
+    return ((dx, dy, w_move, du, dw,
+             select(on, r[0], 0.0), select(on, r[1], 0.0), select(on, r[2], 0.0),
+             select(on, r[3], 0.0), select(on, r[4], 0.0), select(on, r[5], 0.0),
+             select(filtered, udd, 0.0), select(filtered, wdd, 0.0)),
+            limit_state(du, dw, p[P.accel_u], p[P.accel_w], u_ref, w_ref, p[P.speed_u],
+                        p[P.speed_w]))
+
+
+def update_rates(G, u_tilde, w_tilde, p, X):
+    """:func:`update_rate` for the six estimates of the loop state X (parameters p
+    indexed by :data:`P`), as a tuple."""
+    return (
+        update_rate(G[0], G[6], u_tilde, w_tilde, p[P.gamma1], p[P.leak1], X[S.theta_hat1]),
+        update_rate(G[1], G[7], u_tilde, w_tilde, p[P.gamma2], p[P.leak2], X[S.theta_hat2]),
+        update_rate(G[2], G[8], u_tilde, w_tilde, p[P.gamma3], p[P.leak3], X[S.theta_hat3]),
+        update_rate(G[3], G[9], u_tilde, w_tilde, p[P.gamma4], p[P.leak4], X[S.theta_hat4]),
+        update_rate(G[4], G[10], u_tilde, w_tilde, p[P.gamma5], p[P.leak5], X[S.theta_hat5]),
+        update_rate(G[5], G[11], u_tilde, w_tilde, p[P.gamma6], p[P.leak6], X[S.theta_hat6]))
+
+
+def loop_acceleration(X, du, dw, ref, p, noise):
+    """(u', w') of Eq. (2) under the loop's command clipped to the speed limits, with
+    the acceleration limits, at the state X with (u, w) moved by (du, dw); and the
+    regressor G of Eq. (14) there. (Not the stop at a speed limit: that is a jump,
+    where a difference quotient means nothing.)"""
+    Xm = (X[0], X[1], X[2], X[3] + du, X[4] + dw, X[5], X[6], X[7], X[8], X[9], X[10],
+          X[11], X[12])
+    s = loop_signals(Xm, ref, p, noise)
+    au, aw = robot_acceleration(Xm[S.u], Xm[S.w], saturate(s[5], p[P.speed_u]),
+                                saturate(s[6], p[P.speed_w]), p[P.theta1], p[P.theta2],
+                                p[P.theta3], p[P.theta4], p[P.theta5], p[P.theta6])
+    return saturate(au, p[P.accel_u]), saturate(aw, p[P.accel_w]), s[4]
+
+
+def velocity_loop_rate(X, ref, p, noise):
+    r"""The fastest rate (1/s) of the robot's velocity loop as the controller closes it
+    at state X, and the regressor G of Eq. (14) there: the spectral radius of
+    :math:`\partial(\dot u, \dot\omega)/\partial(u, \omega)` of Eq. (2) under the
+    loop's command (v_d, or :math:`G\hat\theta` of Eq. 14 with v_d' from Eq. 10's
+    exact rate or the filter), with the speed and acceleration limits
+    (:func:`loop_acceleration`), by forward differences. Arguments as
+    :func:`loop_signals`.
+
+    With compensation and no limit active it is about :math:`(\hat\theta_1/\theta_1)
+    k_u` and :math:`(\hat\theta_2/\theta_2) k_\omega` plus Eq. (10)'s gains through
+    v_d': it grows with the estimate, which the update law (Eqs. 18/20) can drift far
+    from theta under noise, so it depends on the state, not on the scenario alone.
+    Where a limit clips the command or the acceleration, the loop is open and the rate
+    is that of the robot alone."""
+    eu = 1e-6 * (1.0 + abs(X[S.u]))
+    ew = 1e-6 * (1.0 + abs(X[S.w]))
+    a0, b0, G = loop_acceleration(X, 0.0, 0.0, ref, p, noise)
+    a1, b1, _ = loop_acceleration(X, eu, 0.0, ref, p, noise)
+    a2, b2, _ = loop_acceleration(X, 0.0, ew, ref, p, noise)
+    j11, j21 = (a1 - a0) / eu, (b1 - b0) / eu
+    j12, j22 = (a2 - a0) / ew, (b2 - b0) / ew
+    half = 0.5 * (j11 + j22)
+    det = j11 * j22 - j12 * j21
+    disc = half * half - det
+    # real eigenvalues half +- sqrt(disc), or a complex pair of modulus sqrt(det)
+    return (select(disc >= 0.0, abs(half) + np.sqrt(np.maximum(disc, 0.0)),
+                   np.sqrt(np.maximum(det, 0.0))), G)
+
+
+def update_law_rate(G, p):
+    r"""The rate (1/s) of the update law, Eqs. (18)/(20), in closed loop with the
+    robot, at regressor G (the 12 entries of Eq. 14, row by row).
+
+    Linearised, :math:`\dot{\hat\theta} = -\Gamma G^T v + \dots` and, by Eq. (2)
+    with :math:`v_{ref} = G\hat\theta` (Eq. 14), :math:`H\dot v = G\hat\theta - F v`,
+    so the pair :math:`(\hat\theta, v)` has the Jacobian
+    :math:`\begin{bmatrix} -\Gamma\Sigma & -\Gamma G^T \\ H^{-1}G & -H^{-1}F
+    \end{bmatrix}`; for each velocity channel its eigenvalues solve
+    :math:`\lambda^2 + f\lambda + q = 0`, of magnitude at most :math:`\max(f, \sqrt q)`
+    with f the velocity loop's rate (:func:`velocity_loop_rate`) and
+    :math:`q = \sum_j \gamma_j (G_{0j}^2/\theta_1 + G_{1j}^2/\theta_2)`. Returns
+    :math:`\sqrt q`."""
+    q0 = p[P.gamma1] * (G[0] * G[0])
+    q1 = p[P.gamma1] * (G[6] * G[6])
+    for j in range(1, 6):
+        q0 = q0 + p[P.gamma1 + j] * (G[j] * G[j])
+        q1 = q1 + p[P.gamma1 + j] * (G[6 + j] * G[6 + j])
+    return np.sqrt(q0 / p[P.theta1] + q1 / p[P.theta2])
+
+
+def loop_step_rate(t, X, ref, p, noise):
+    """The fastest rate (1/s) of the loop that depends on its state: the velocity loop
+    as the compensator closes it (:func:`velocity_loop_rate`) and, once adaptation is
+    on, the update law with the robot (:func:`update_law_rate`). Arguments as
+    :func:`loop_rates`. The batch engine checks it at every sample of a compensated
+    run against the RK4 step."""
+    rate, G = velocity_loop_rate(X, ref, p, noise)
+    on = t >= p[P.adapt_from] - SWITCH_TOL
+    return np.maximum(rate, select(on, update_law_rate(G, p), 0.0))
+
+
+def loop_derivative(t, X, ref, p, noise, dX):
+    """:func:`loop_rates` written into dX (indexed by :data:`S`); where dX has one
+    row more, the limits' state (:func:`limit_state`) into that row."""
+    d, code = loop_rates_and_limits(t, X, ref, p, noise)
+    for i in range(len(STATE)):
+        dX[i] = d[i]
+    if len(dX) > len(STATE):
+        dX[len(STATE)] = code

@@ -1,0 +1,404 @@
+"""A validated, immutable description of one closed-loop run (Fig. 2, Section 5).
+
+Defaults are the paper's simulation settings (Section 5); ``Scenario.paper(n)``
+gives the paper's simulation n = 1..4. Scenarios are plain data: they convert to
+and from dicts (TOML and JSON files) and nothing in them is ever evaluated as code.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from . import robots, trajectories
+from .._validate import (ValidationError, choice, nonnegative, positive, positive_vector,
+                         string_keys, vector)
+from .laws import LEAKAGE_FORMS, PAPER_GAMMA, PAPER_SIGMA
+from .unicycle import Limits, PAPER_LIMITS
+from .noise import NoiseSpec, PAPER_NOISE
+from .parameters import RobotParameters
+
+#: Above this adaptation gain (largest element of ``Scenario.gamma``, Eq. 18) an
+#: adaptive run is reported as not vouched for unless integrated finely enough: where
+#: the acceleration limits clip, the integrator steps across their kinks and theta_hat
+#: drifts from a converged solution. The diagram at rtol 1e-8: 1e-2 off at gamma 1000,
+#: 7e-5 at gamma 100; the batch engine at its own steps: 1.2e-3 and 5.5e-6.
+HIGH_GAIN = 100.0
+
+__all__ = ["Scenario", "CASES", "CONTROL_MODES", "VD_DOT_METHODS", "PAPER_GAMMA", "PAPER_SIGMA"]
+
+#: The four cases of Section 5, by name, in the paper's order.
+CASES = ("kinematic", "uncompensated", "compensated", "adaptive")
+#: How the controllers run: evaluated with the plant, or sampled on a clock at Ts.
+CONTROL_MODES = ("continuous", "sampled")
+#: How the compensator gets v_d': the exact derivative of Eq. (10) along the
+#: motion ("analytic"), a first-order derivative filter ("filter", continuous
+#: control only) or a backward difference over Ts ("difference", sampled only).
+VD_DOT_METHODS = ("analytic", "filter", "difference")
+# v_d' methods each control mode can use (the sampled controller has no rate output)
+_VD_DOT_FOR = {"continuous": ("analytic", "filter"), "sampled": ("difference",)}
+#: The floating types a result's series can be logged in (``log_dtype``).
+LOG_DTYPES = ("float64", "float32")
+#: The series of a result that are always logged (the error and the metrics are
+#: computed from them): pose (3 values a sample), velocity (2), reference (2).
+ALWAYS_LOGGED = ("pose", "velocity", "reference")
+#: The series a scenario may leave out of its log (``log_series``), with their
+#: values per sample: v_d (2), v_ref (2), theta_hat (6).
+OPTIONAL_SERIES = ("v_d", "v_ref", "theta_hat")
+_SERIES_WIDTH = {"pose": 3, "velocity": 2, "reference": 2, "v_d": 2, "v_ref": 2, "theta_hat": 6}
+#: The most samples (T/Ts) one run may integrate, and the most bytes its log may
+#: hold (:meth:`Scenario.logged_bytes` per logged sample, times T/Ts/log_every).
+#: A run's memory is mostly its log (152 bytes per logged sample with every series
+#: in float64, 80 in float32, 72 and 40 with only the series that are always
+#: logged); the held noise is drawn a window at a time and the files are written by
+#: streaming, so with these bounds a run stays within about 1 GB
+#: (``python benchmarks/engines.py --memory`` measures it).
+MAX_SAMPLES = 10_000_000
+MAX_LOG_BYTES = 800_000_000
+#: A state this many times beyond its physical scale (the speed limits, or the
+#: reference's size and speed where there are none) counts as diverged: both
+#: engines stop there (see :meth:`Scenario.divergence_bounds`).
+DIVERGENCE_FACTOR = 1e6
+#: Samples of [0, T] at which the reference is evaluated for its scale.
+_SCALE_POINTS = 257
+
+
+def _tuple(name, value, n):
+    return tuple(vector(name, value, n).tolist())
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One run of the Fig. 2 loop. All fields are validated on construction.
+
+    :param case: ``"kinematic"`` (purely kinematic robot, v = v_d), ``"uncompensated"``
+        (dynamic robot, v_ref = v_d), ``"compensated"`` (exact theta_hat) or ``"adaptive"``
+    :param robot: the simulated robot: preset name, RobotParameters or six numbers
+    :param a: offset of the controlled point h ahead of the axle centre, m, > 0
+    :param x0: initial pose of h (x, y, psi), robot at rest, m and rad
+    :param trajectory: the reference: a Trajectory or a spec dict ``{"type": ...}``
+    :param kx, ky: kinematic-controller gains, 1/s, > 0 (Eq. 10)
+    :param lx, ly: kinematic-controller saturations, m/s, > 0
+    :param ku, kw: compensator gains, 1/s, > 0 (Eq. 12)
+    :param lu, lw: compensator saturations, > 0
+    :param theta_hat0: initial estimate; ``None`` means the robot's own theta for
+        ``compensated`` and theta/1.5 (the paper's choice) for ``adaptive``
+    :param gamma: diagonal of the adaptation gain, six values > 0 (Eq. 18)
+    :param sigma: diagonal of Sigma, six values >= 0 (Eq. 20)
+    :param adapt_from: time the update is switched on, s, >= 0
+    :param leakage: ``"paper"`` (Eq. 20), ``"fx44850"`` or ``"none"`` (Eq. 18)
+    :param noise: ``NoiseSpec`` (or a dict of it) or ``None`` for noise-free runs
+    :param limits: the robot's ``Limits`` (or a dict), defaults to the paper's
+    :param T: duration, s, > 0
+    :param Ts: sample time of the noise, the sampled controllers and the results, s, > 0
+    :param control: ``"continuous"`` or ``"sampled"``
+    :param vd_dot: ``"analytic"`` or ``"filter"`` (continuous control), ``"difference"``
+        (sampled control); ``None`` (default) picks ``"analytic"`` for continuous and
+        ``"difference"`` for sampled control (see :attr:`derivative`)
+    :param tau: time constant of the derivative filter, s, > 0
+    :param name: a label
+    :param log_every: log every ``log_every``-th sample of Ts, integer >= 1 that
+        divides T/Ts (default 1: every sample). The integration and the noise are
+        unchanged; only the stored series (and the metrics computed from them,
+        on the logged grid) are thinned.
+    :param log_dtype: ``"float64"`` (default) or ``"float32"``: the floating type of
+        the result's series. The integration is float64 either way; float32 halves the
+        memory of a long run (80 instead of 152 bytes per logged sample) and
+        rounds the logged values to 7 significant digits (about 1e-7 m on a 1 m path),
+        which is what the metrics are then computed from.
+    :param log_series: the series the result keeps besides ``pose``, ``velocity``
+        and ``reference`` (always logged: the error and the metrics come from them):
+        any of ``"v_d"``, ``"v_ref"``, ``"theta_hat"``, as a list or a comma-separated
+        string (default all three; the others are ``None`` in the result).
+        ``log_series=()`` logs 72 bytes a sample in float64, 40 in float32
+        (:meth:`logged_bytes`). The integration is the same.
+    """
+
+    case: str = "adaptive"
+    robot: RobotParameters = "p3dx_laser"
+    a: float = 0.2
+    x0: tuple = (0.2, 0.0, 0.0)
+    trajectory: trajectories.Trajectory = field(default_factory=trajectories.FigureEight)
+    kx: float = 0.1
+    ky: float = 0.1
+    lx: float = 0.1
+    ly: float = 0.1
+    ku: float = 4.0
+    kw: float = 4.0
+    lu: float = 1.0
+    lw: float = 1.0
+    theta_hat0: RobotParameters | None = None
+    gamma: tuple = PAPER_GAMMA
+    sigma: tuple = PAPER_SIGMA
+    adapt_from: float = 100.0
+    leakage: str = "paper"
+    noise: NoiseSpec | None = PAPER_NOISE
+    limits: Limits = PAPER_LIMITS
+    T: float = 200.0
+    Ts: float = 0.1
+    control: str = "continuous"
+    vd_dot: str | None = None
+    tau: float = 0.05
+    name: str = ""
+    log_every: int = 1
+    log_dtype: str = "float64"
+    log_series: tuple = OPTIONAL_SERIES
+
+    def __post_init__(self):
+        s = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
+        s("case", choice("case", self.case, CASES))
+        s("robot", robots.resolve(self.robot, "robot"))
+        s("a", positive("a", self.a))
+        s("x0", _tuple("x0", self.x0, 3))
+        s("trajectory", trajectories.from_spec(self.trajectory))
+        for k in ("kx", "ky", "lx", "ly", "ku", "kw", "lu", "lw", "T", "Ts", "tau"):
+            s(k, positive(k, getattr(self, k)))
+        if self.theta_hat0 is not None:
+            s("theta_hat0", robots.resolve(self.theta_hat0, "theta_hat0"))
+        s("gamma", tuple(positive_vector("gamma", self.gamma, 6).tolist()))
+        sig = vector("sigma", self.sigma, 6)
+        if np.any(sig < 0):
+            raise ValidationError(f"every element of sigma must be >= 0, got {sig.tolist()}")
+        s("sigma", tuple(sig.tolist()))
+        s("adapt_from", nonnegative("adapt_from", self.adapt_from))
+        s("leakage", choice("leakage", self.leakage, LEAKAGE_FORMS))
+        if isinstance(self.noise, dict):
+            s("noise", _build("noise", NoiseSpec, self.noise))
+        elif self.noise is not None and not isinstance(self.noise, NoiseSpec):
+            raise ValidationError(f"noise must be None, a NoiseSpec or a dict with "
+                                  f"position_std, velocity_std, seed; got {self.noise!r}")
+        if isinstance(self.limits, dict):
+            s("limits", _build("limits", Limits, self.limits))
+        elif not isinstance(self.limits, Limits):
+            raise ValidationError(f"limits must be a Limits or a dict with speed_max, steer_max, "
+                                  f"accel_max, angular_accel_max; got {self.limits!r}")
+        s("control", choice("control", self.control, CONTROL_MODES))
+        if self.vd_dot is not None:
+            choice("vd_dot", self.vd_dot, VD_DOT_METHODS)
+            allowed = _VD_DOT_FOR[self.control]
+            if self.vd_dot not in allowed:
+                raise ValidationError(
+                    f"vd_dot={self.vd_dot!r} cannot be used with control={self.control!r}; "
+                    f"use one of {', '.join(map(repr, allowed))} (or leave vd_dot unset)")
+        if self.Ts > self.T:
+            raise ValidationError(f"Ts must be <= T ({self.T:g} s), got {self.Ts!r}")
+        if self.T / self.Ts > MAX_SAMPLES:
+            raise ValidationError(f"T/Ts must be at most {MAX_SAMPLES:.0e} samples, got "
+                                  f"T = {self.T:g} s, Ts = {self.Ts:g} s")
+        ratio = self.T / self.Ts
+        if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
+            lo, hi = math.floor(ratio) * self.Ts, math.ceil(ratio) * self.Ts
+            raise ValidationError(
+                f"T must be a whole number of samples of Ts: T = {self.T!r} s, Ts = {self.Ts!r} s "
+                f"give T/Ts = {ratio:.6g}; use T = {lo:.10g} s or T = {hi:.10g} s "
+                f"(or a Ts that divides T)")
+        if abs(self.x0[2]) > DIVERGENCE_FACTOR:
+            raise ValidationError(f"x0: the initial heading psi must be within "
+                                  f"+-{DIVERGENCE_FACTOR:g} rad, got {self.x0[2]!r}")
+        if math.hypot(self.x0[0], self.x0[1]) > DIVERGENCE_FACTOR:  # cheap test first
+            bound = self.divergence_bounds()[0]
+            if not math.hypot(self.x0[0], self.x0[1]) <= bound:
+                raise ValidationError(
+                    f"x0: the initial position ({self.x0[0]:g}, {self.x0[1]:g}) m is more than "
+                    f"{DIVERGENCE_FACTOR:g} times the reference's size away from the origin; "
+                    f"|(x, y)| must be at most {bound:g} m")
+        le = self.log_every
+        if (isinstance(le, bool) or not isinstance(le, (int, np.integer)) or le < 1
+                or self.steps % int(le) != 0):
+            raise ValidationError(f"log_every must be an integer >= 1 that divides T/Ts = "
+                                  f"{self.steps}, got {le!r}")
+        s("log_every", int(le))
+        s("log_dtype", choice("log_dtype", self.log_dtype, LOG_DTYPES))
+        s("log_series", _log_series(self.log_series))
+        cap = MAX_LOG_BYTES // self.logged_bytes()
+        if self.steps // self.log_every > cap:
+            need = -(-self.steps // cap)
+            need = next(d for d in range(need, self.steps + 1) if self.steps % d == 0)
+            other = []
+            if self.log_dtype == "float64":
+                other.append("log_dtype='float32'")
+            if self.log_series:
+                other.append("log_series=() (only pose, velocity and reference)")
+            raise ValidationError(
+                f"T/Ts/log_every must be at most {cap:.2e} logged samples with log_dtype = "
+                f"{self.log_dtype!r} and log_series = {list(self.log_series)} "
+                f"({self.logged_bytes()} bytes a sample; {MAX_LOG_BYTES / 1e6:.0f} MB in all); "
+                f"T = {self.T:g} s, Ts = {self.Ts:g} s give {self.steps} samples: "
+                f"set log_every >= {need} (a divisor of {self.steps})"
+                + (f", or {' or '.join(other)}" if other else ""))
+        if not isinstance(self.name, str):
+            raise ValidationError(f"name must be a string, got {self.name!r}")
+
+    # ------------------------------------------------------------------ #
+    @property
+    def theta_hat_initial(self) -> np.ndarray:
+        """The estimate the compensator starts from (see ``theta_hat0``)."""
+        if self.theta_hat0 is not None:
+            return self.theta_hat0.theta
+        if self.case == "adaptive":
+            return self.robot.theta / 1.5
+        return self.robot.theta
+
+    @property
+    def derivative(self) -> str:
+        """The v_d' method in use: ``vd_dot``, or when unset ``"analytic"`` for
+        continuous and ``"difference"`` for sampled control."""
+        if self.vd_dot is not None:
+            return self.vd_dot
+        return "analytic" if self.control == "continuous" else "difference"
+
+    @cached_property
+    def reference_scale(self) -> tuple:
+        r"""(max \|h_d\|, max \|h_d'\|, max \|h_d''\|) of the reference over [0, T], from
+        257 evenly spaced samples (non-finite samples are ignored)."""
+        t = np.linspace(0.0, self.T, _SCALE_POINTS)
+        tr = self.trajectory
+        out = []
+        for fn in (tr.position, tr.velocity, tr.acceleration):
+            try:
+                with np.errstate(all="ignore"):
+                    v = np.linalg.norm(np.asarray(fn(t), dtype=float).reshape(len(t), 2), axis=1)
+                v = v[np.isfinite(v)]
+                out.append(float(v.max()) if len(v) else 0.0)
+            except Exception:  # a user trajectory that fails is reported by the engines
+                out.append(0.0)
+        return tuple(out)
+
+    def divergence_bounds(self) -> np.ndarray:
+        r"""[\|(x, y)\| bound in m, \|u\| bound in m/s, \|w\| bound in rad/s]: a state beyond
+        one of these has diverged (both engines stop the run there).
+
+        Each is :data:`DIVERGENCE_FACTOR` times a physical scale: the speed limits,
+        or where a limit is infinite the speed the kinematic controller can ask for,
+        \|h_d'\| + l (Eq. 10), and for positions the reference's size (at least 1 m)."""
+        P, V, _ = self.reference_scale
+        U = max(1.0, V + max(self.lx, self.ly))
+        vmax, wmax = self.limits.speed
+        return DIVERGENCE_FACTOR * np.array([
+            max(1.0, P),
+            vmax if np.isfinite(vmax) else U,
+            wmax if np.isfinite(wmax) else max(1.0, U / self.a)])
+
+    def logged_bytes(self) -> int:
+        """The bytes a result holds per logged sample: the time stamp (float64), the
+        series logged (:data:`ALWAYS_LOGGED` and ``log_series``) and the error, in
+        ``log_dtype``."""
+        n = sum(_SERIES_WIDTH[k] for k in ALWAYS_LOGGED + self.log_series) + 1
+        return 8 + n * np.dtype(self.log_dtype).itemsize
+
+    @property
+    def steps(self) -> int:
+        """Number of sample intervals, round(T / Ts)."""
+        return int(round(self.T / self.Ts))
+
+    def replace(self, **changes) -> "Scenario":
+        """A copy with some fields changed (validated). Unknown fields raise."""
+        _check_fields(changes)
+        return dataclasses.replace(self, **changes)
+
+    @classmethod
+    def paper(cls, n: int, **changes) -> "Scenario":
+        """The paper's simulation n (Section 5): 1 kinematic robot, 2 dynamic robot
+        without compensation, 3 exact compensation, 4 adaptive compensation from t = 100 s."""
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n not in (1, 2, 3, 4):
+            raise ValidationError(f"paper simulation n must be 1, 2, 3 or 4, got {n!r}")
+        _check_fields(changes)
+        base = {"case": CASES[n - 1], "name": f"paper simulation {n} ({CASES[n - 1]})"}
+        return cls(**{**base, **changes})
+
+    # ------------------------------------------------------------------ #
+    def to_dict(self) -> dict:
+        """Plain data (str, float, list, dict) that ``from_dict`` turns back into this scenario."""
+        return {f.name: plain_value(getattr(self, f.name)) for f in dataclasses.fields(self)}
+
+    @classmethod
+    def from_dict(cls, data) -> "Scenario":
+        """Build from plain data (as read from TOML or JSON). Unknown keys raise."""
+        if not isinstance(data, dict):
+            raise ValidationError(f"a scenario must be a table of fields, got {type(data).__name__}")
+        _check_fields(data)
+        data = dict(data)
+        if isinstance(data.get("noise"), (bool, str)) and data["noise"] in (False, "none", "off"):
+            data["noise"] = None
+        if isinstance(data.get("theta_hat0"), str) and data["theta_hat0"] in ("default", ""):
+            data["theta_hat0"] = None
+        try:
+            return cls(**data)
+        except TypeError as err:  # e.g. a list where a number was expected, deep inside
+            raise ValidationError(f"scenario: {err}") from None
+
+
+def _is_preset(p: RobotParameters) -> bool:
+    try:
+        return p.name in robots.names() and robots.get(p.name) == p
+    except ValidationError:
+        return False
+
+
+def plain_value(v):
+    """Plain data (str, float, int, bool, list, dict, None) for the value of a Scenario
+    field, as TOML and JSON hold it: a preset robot by its name, any other robot as its
+    table, a trajectory by its spec, noise and limits as tables, tuples and arrays as
+    lists, numpy scalars as Python numbers. The one serialiser of scenario values, used
+    by :meth:`Scenario.to_dict` and by the sweep files."""
+    if isinstance(v, RobotParameters):
+        return v.name if _is_preset(v) else {**v.as_dict(), "name": v.name}
+    if isinstance(v, trajectories.Trajectory):
+        return plain_value(v.to_spec())
+    if isinstance(v, (NoiseSpec, Limits)):
+        return v.as_dict()
+    if isinstance(v, (np.floating, np.integer, np.bool_)):
+        return v.item()
+    if isinstance(v, np.ndarray):
+        v = v.tolist()
+    if isinstance(v, (tuple, list)):
+        return [plain_value(x) for x in v]
+    if isinstance(v, dict):
+        return {str(k): plain_value(x) for k, x in v.items()}
+    return v
+
+
+def _log_series(value) -> tuple:
+    """``log_series`` validated: the optional series named, in the order of
+    :data:`OPTIONAL_SERIES` (a list, or a string of names separated by commas; the
+    series that are always logged may be named too)."""
+    if isinstance(value, str):
+        value = tuple(v.strip() for v in value.split(",") if v.strip())
+    elif isinstance(value, np.ndarray) and value.ndim == 1:
+        value = value.tolist()
+    if not isinstance(value, (tuple, list)) or not all(isinstance(v, str) for v in value):
+        raise ValidationError(f"log_series must be a list of series names (any of "
+                              f"{', '.join(OPTIONAL_SERIES)}), got {value!r}")
+    unknown = [v for v in value if v not in OPTIONAL_SERIES + ALWAYS_LOGGED]
+    if unknown:
+        raise ValidationError(f"log_series: unknown series {unknown[0]!r}; allowed: "
+                              f"{', '.join(OPTIONAL_SERIES)} ({', '.join(ALWAYS_LOGGED)} "
+                              f"are always logged)")
+    return tuple(k for k in OPTIONAL_SERIES if k in value)
+
+
+def _check_fields(data):
+    bad = [k for k in data if not isinstance(k, str)]
+    if bad:
+        raise ValidationError(f"scenario field names must be strings, got {bad[0]!r}")
+    known = {f.name for f in dataclasses.fields(Scenario)}
+    unknown = sorted(set(data) - known)
+    if unknown:
+        import difflib
+        close = difflib.get_close_matches(unknown[0], known, n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise ValidationError(f"unknown scenario field {unknown[0]!r}{hint}; "
+                              f"known fields: {', '.join(sorted(known))}")
+
+
+def _build(what, cls, data):
+    string_keys(what, data)
+    known = {f.name for f in dataclasses.fields(cls)}
+    unknown = sorted(set(data) - known)
+    if unknown:
+        raise ValidationError(f"unknown {what}.{unknown[0]}; allowed: {', '.join(sorted(known))}")
+    return cls(**data)

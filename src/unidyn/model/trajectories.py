@@ -1,0 +1,259 @@
+r"""Reference trajectories h_d(t) with analytic first and second derivatives
+(the functions of :mod:`unidyn.model.equations`).
+
+Each trajectory is an immutable object with ``position(t)``, ``velocity(t)`` and
+``acceleration(t)``; ``t`` may be a scalar or an array, and the result has shape
+``t.shape + (2,)``. :func:`from_spec` builds one from a plain dict (as read
+from a TOML scenario file): data only, nothing is evaluated.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from . import equations as eq
+from .._validate import ValidationError, positive, real, string_keys, vector
+
+__all__ = ["Trajectory", "FigureEight", "Circle", "Line", "FunctionTrajectory", "from_spec",
+           "KINDS"]
+
+
+class Trajectory:
+    """Base class: a planar reference h_d(t) for the point of interest."""
+
+    kind = "trajectory"
+
+    def position(self, t):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def velocity(self, t):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def acceleration(self, t):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def __call__(self, t):
+        """(h_d, h_d_dot) at time t."""
+        return self.position(t), self.velocity(t)
+
+    def to_spec(self) -> dict:
+        """A plain dict that :func:`from_spec` turns back into this trajectory."""
+        return {"type": self.kind, **asdict(self)}
+
+
+def _t(t):
+    return np.asarray(t, dtype=float)
+
+
+def _xy(x, y):
+    """Stack two arrays of equal shape into shape + (2,) (faster than np.stack)."""
+    out = np.empty(np.broadcast_shapes(np.shape(x), np.shape(y)) + (2,))
+    out[..., 0] = x
+    out[..., 1] = y
+    return out
+
+
+@dataclass(frozen=True)
+class FigureEight(Trajectory):
+    r"""The paper's figure eight (Section 5), starting at the origin:
+
+    .. math:: x_d = A_x\sin(\omega_x t),\quad y_d = A_y(\cos(\omega_y t) - 1)
+
+    Defaults: A_x = A_y = 1 m, omega_x = 0.5 rad/s, omega_y = 0.25 rad/s (period 8 pi s).
+
+    :param ax: x amplitude, m, > 0
+    :param ay: y amplitude, m, > 0
+    :param wx: x angular frequency, rad/s, > 0
+    :param wy: y angular frequency, rad/s, > 0
+    :param center: [x, y] added to the path, m
+    """
+
+    kind = "figure_eight"
+    ax: float = 1.0
+    ay: float = 1.0
+    wx: float = 0.5
+    wy: float = 0.25
+    center: tuple = (0.0, 0.0)
+
+    def __post_init__(self):
+        for k in ("ax", "ay", "wx", "wy"):
+            object.__setattr__(self, k, positive(k, getattr(self, k)))
+        object.__setattr__(self, "center", tuple(vector("center", self.center, 2).tolist()))
+
+    def _eval(self, t):
+        return eq.figure_eight(_t(t), self.ax, self.ay, self.wx, self.wy, *self.center)
+
+    def position(self, t):
+        return _xy(*self._eval(t)[0:2])
+
+    def velocity(self, t):
+        return _xy(*self._eval(t)[2:4])
+
+    def acceleration(self, t):
+        return _xy(*self._eval(t)[4:6])
+
+
+@dataclass(frozen=True)
+class Circle(Trajectory):
+    r"""A circle travelled at constant angular rate:
+
+    .. math:: h_d = c + R\,[\cos(\omega t + \phi), \sin(\omega t + \phi)]
+
+    :param radius: R, m, > 0
+    :param omega: angular rate, rad/s (negative: clockwise), nonzero
+    :param center: c, m
+    :param phase: phi, rad
+    """
+
+    kind = "circle"
+    radius: float = 1.0
+    omega: float = 0.2
+    center: tuple = (0.0, 0.0)
+    phase: float = 0.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "radius", positive("radius", self.radius))
+        om = real("omega", self.omega)
+        if om == 0:
+            raise ValidationError("omega must be nonzero, got 0.0")
+        object.__setattr__(self, "omega", om)
+        object.__setattr__(self, "phase", real("phase", self.phase))
+        object.__setattr__(self, "center", tuple(vector("center", self.center, 2).tolist()))
+
+    def _eval(self, t):
+        return eq.circle(_t(t), self.radius, self.omega, *self.center, self.phase)
+
+    def position(self, t):
+        return _xy(*self._eval(t)[0:2])
+
+    def velocity(self, t):
+        return _xy(*self._eval(t)[2:4])
+
+    def acceleration(self, t):
+        return _xy(*self._eval(t)[4:6])
+
+
+@dataclass(frozen=True)
+class Line(Trajectory):
+    r"""A straight line at constant velocity: :math:`h_d = p_0 + v t`.
+
+    :param start: p_0, m
+    :param velocity: v, m/s
+    """
+
+    kind = "line"
+    start: tuple = (0.0, 0.0)
+    velocity_: tuple = field(default=(0.2, 0.0), metadata={"name": "velocity"})
+
+    def __init__(self, start=(0.0, 0.0), velocity=(0.2, 0.0)):
+        object.__setattr__(self, "start", tuple(vector("start", start, 2).tolist()))
+        object.__setattr__(self, "velocity_", tuple(vector("velocity", velocity, 2).tolist()))
+
+    def _eval(self, t):
+        return eq.line(_t(t), *self.start, *self.velocity_)
+
+    def position(self, t):
+        return _xy(*self._eval(t)[0:2])
+
+    def velocity(self, t):
+        return _xy(*self._eval(t)[2:4])
+
+    def acceleration(self, t):
+        return _xy(*self._eval(t)[4:6])
+
+    def to_spec(self) -> dict:
+        return {"type": self.kind, "start": list(self.start), "velocity": list(self.velocity_)}
+
+
+class FunctionTrajectory(Trajectory):
+    r"""Wraps a user callable ``f(t) -> (h_d, h_d_dot)`` (scalar t).
+
+    :param f: the callable; it must return two 2-vectors
+    :param acceleration: optional callable ``t -> h_d_ddot``; without it the
+        second derivative is a central difference of ``h_d_dot`` with step ``dt``
+    :param dt: step of that difference, s, > 0
+    """
+
+    kind = "function"
+
+    def __init__(self, f: Callable, acceleration: Callable | None = None, dt: float = 1e-4):
+        if not callable(f):
+            raise ValidationError(f"f must be callable t -> (h_d, h_d_dot), got {f!r}")
+        if acceleration is not None and not callable(acceleration):
+            raise ValidationError(f"acceleration must be callable or None, got {acceleration!r}")
+        self.f = f
+        self._acc = acceleration
+        self.dt = positive("dt", dt)
+        try:
+            p, v = f(0.0)
+            vector("f(0)[0] (h_d)", p, 2)
+            vector("f(0)[1] (h_d_dot)", v, 2)
+        except ValidationError:
+            raise
+        except Exception as err:
+            raise ValidationError(f"f(0.0) must return (h_d, h_d_dot), two 2-vectors: {err}") from None
+
+    def _map(self, t, fn):
+        t = _t(t)
+        flat = [np.asarray(fn(float(ti)), dtype=float) for ti in t.reshape(-1)]
+        return np.array(flat).reshape(t.shape + (2,))
+
+    def position(self, t):
+        return self._map(t, lambda s: self.f(s)[0])
+
+    def velocity(self, t):
+        return self._map(t, lambda s: self.f(s)[1])
+
+    def acceleration(self, t):
+        if self._acc is not None:
+            return self._map(t, self._acc)
+        h = self.dt
+        return (self.velocity(_t(t) + h) - self.velocity(_t(t) - h)) / (2 * h)
+
+    def to_spec(self) -> dict:
+        """A record of the wrapped callable (for summaries); :func:`from_spec` refuses
+        to rebuild it, since a file cannot hold the code."""
+        name = getattr(self.f, "__qualname__", None) or repr(self.f)
+        return {"type": "function", "callable": f"{getattr(self.f, '__module__', '?')}.{name}"}
+
+
+KINDS = {"figure_eight": FigureEight, "circle": Circle, "line": Line}
+
+
+def from_spec(spec) -> Trajectory:
+    """A trajectory from a :class:`Trajectory`, a kind name, or a dict with ``type``.
+
+    ``{"type": "circle", "radius": 2.0}`` -> ``Circle(radius=2.0)``. Unknown
+    types or keys raise :class:`~unidyn.ValidationError`.
+    """
+    if isinstance(spec, Trajectory):
+        return spec
+    if isinstance(spec, str):
+        spec = {"type": spec}
+    if not isinstance(spec, dict):
+        raise ValidationError(f"trajectory must be a dict with 'type' ({', '.join(KINDS)}), "
+                              f"a name or a Trajectory; got {spec!r}")
+    spec = dict(string_keys("trajectory", spec))
+    kind = spec.pop("type", None)
+    if not isinstance(kind, str):
+        raise ValidationError(f"trajectory type must be one of {', '.join(KINDS)}; got {kind!r}")
+    if kind == "function":
+        raise ValidationError("trajectory of type 'function' wraps Python code and cannot be "
+                              "rebuilt from a file; use figure_eight, circle or line, or pass a "
+                              "FunctionTrajectory from Python")
+    if kind not in KINDS:
+        raise ValidationError(f"trajectory type must be one of {', '.join(KINDS)}; got {kind!r}")
+    cls = KINDS[kind]
+    import inspect
+    allowed = [p for p in inspect.signature(cls).parameters]
+    unknown = sorted(set(spec) - set(allowed))
+    if unknown:
+        raise ValidationError(f"unknown trajectory.{unknown[0]} for type {kind!r}; "
+                              f"allowed keys: {', '.join(allowed)}")
+    try:
+        return cls(**spec)
+    except ValidationError as err:
+        raise ValidationError(f"trajectory: {err}") from None

@@ -1,0 +1,271 @@
+"""Results of a closed-loop run: time series, the paper's metrics, files and figures."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from . import plots
+from .folders import json_ready, staged_output, write_atomic
+
+__all__ = ["Result", "metrics", "distance", "write_atomic", "RESULT_FILES"]
+
+#: The files of a run's results (figures may join them: see :func:`unidyn.results.plots.save_figures`).
+RESULT_FILES = ("timeseries.csv", "summary.json")
+
+
+#: Samples a metric is accumulated over at a time (float64), so that a long series
+#: in float32 needs no float64 copy of itself.
+_BLOCK = 1 << 16
+
+
+def _trapz(f, t) -> float:
+    """Trapezoidal integral of f(i0, i1) (float64 values of samples i0..i1-1) over t,
+    block by block."""
+    n, total = len(t), 0.0
+    for i0 in range(0, n - 1, _BLOCK):
+        i1 = min(n, i0 + _BLOCK + 1)
+        y = f(i0, i1)
+        total += float(np.sum(0.5 * (y[1:] + y[:-1]) * np.diff(t[i0:i1])))
+    return total
+
+
+def _floats(a) -> list:
+    """Python floats of an array's values; a float32 value as its shortest decimal
+    (0.1, not the 0.10000000149011612 of widening it to float64)."""
+    a = np.asarray(a)
+    if a.dtype == np.float32:
+        return [float(str(v)) for v in a]
+    return [float(v) for v in a]
+
+
+def distance(a, b):
+    """Row-wise Euclidean distance between (N, 2) arrays, in their floating type
+    (a block of rows at a time: no temporaries the size of the series)."""
+    a, b = np.asarray(a), np.asarray(b)
+    out = np.empty(len(a), dtype=np.result_type(a, b, np.float16))  # ints: float64
+    for i0 in range(0, len(a), _BLOCK):
+        i1 = i0 + _BLOCK
+        np.hypot(a[i0:i1, 0] - b[i0:i1, 0], a[i0:i1, 1] - b[i0:i1, 1], out=out[i0:i1])
+    return out
+
+
+def metrics(t, error, velocity) -> dict:
+    r"""The run's figures of merit (trapezoidal rule on the result grid).
+
+    - ``iae``: :math:`\int |\tilde h|\,dt`, the paper's IAE (Fig. 11), m·s
+    - ``ise``: :math:`\int |\tilde h|^2 dt`, m²·s
+    - ``itae``: :math:`\int t\,|\tilde h|\,dt`, m·s²
+    - ``energy``: :math:`\int (u^2 + \omega^2)\,dt` (mixed units, as a control-effort index)
+    - ``error_final``: :math:`|\tilde h(T)|`, m
+    """
+    t = np.asarray(t, dtype=float)
+    e, v = np.asarray(error), np.asarray(velocity)
+    e64 = lambda i0, i1: e[i0:i1].astype(float)  # noqa: E731
+    with np.errstate(over="ignore", invalid="ignore"):  # beyond floats: inf (null in files)
+        return {
+            "iae": _trapz(e64, t),
+            "ise": _trapz(lambda i0, i1: e64(i0, i1) ** 2, t),
+            "itae": _trapz(lambda i0, i1: t[i0:i1] * e64(i0, i1), t),
+            "energy": _trapz(lambda i0, i1: np.sum(v[i0:i1].astype(float) ** 2, axis=-1), t),
+            "error_final": _floats(e[-1:])[0] if len(e) else float("nan"),
+        }
+
+
+#: Rows of timeseries.csv formatted at a time.
+_CSV_BLOCK = 10_000
+
+
+@dataclass
+class Result:
+    r"""One run of a :class:`~unidyn.Scenario`.
+
+    Arrays are sampled on a uniform grid of step ``scenario.Ts`` (N points):
+
+    :ivar t: time, s, (N,)
+    :ivar pose: (x, y, psi) of the point of interest h, (N, 3)
+    :ivar velocity: actual (u, w) of the robot, (N, 2) (for the kinematic case, the clipped commands)
+    :ivar reference: desired position h_d, (N, 2)
+    :ivar v_d: kinematic controller's output, (N, 2)
+    :ivar v_ref: commands applied to the robot, (N, 2)
+    :ivar error: distance error \|h_d - h\|, m, (N,)
+    :ivar theta_hat: parameter estimate, (N, 6) (constant for non-adaptive cases)
+
+    ``v_d``, ``v_ref`` and ``theta_hat`` are ``None`` where the scenario's
+    ``log_series`` leaves them out (the others are always there).
+    :ivar metrics: see :func:`metrics`; when the run did not complete every value is
+        ``None`` (metrics of a partial run are not a result)
+    :ivar partial_metrics: when the run did not complete, the metrics of the part that
+        was computed (``None`` for a complete run)
+    :ivar complete: False if the run stopped early (see ``message``)
+    :ivar message: why the run stopped early ("" for a complete run)
+    :ivar engine: ``"bdsim"`` (the diagram) or ``"batch"``
+    :ivar backend: what actually integrated the run: ``"solve_ivp RK45"`` (or the
+        solver method used) for the diagram, ``"numba (compiled)"`` or ``"numpy"``
+        for the batch engine
+    :ivar log_every: samples are logged every ``log_every`` steps of ``Ts``
+    :ivar substeps: the batch engine's RK4 steps per sample interval (``None`` for the
+        diagram)
+    :ivar substeps_max: the most RK4 steps one interval took: more than ``substeps``
+        where the loop was faster than that step resolves (a compensated run whose
+        estimate has drifted; see :func:`unidyn.simulate_batch`)
+    :ivar rk4_steps: the RK4 steps the batch engine took over the whole run
+    :ivar split_steps: how many times the batch engine split a step where it crossed a
+        change of the limits (a limit starting or stopping to clip the robot's
+        accelerations or its command, a speed limit reached: a kink or a jump of the right-hand side; see
+        :func:`unidyn.simulate_batch`)
+    """
+
+    scenario: object
+    t: np.ndarray
+    pose: np.ndarray
+    velocity: np.ndarray
+    reference: np.ndarray
+    v_d: np.ndarray | None
+    v_ref: np.ndarray | None
+    theta_hat: np.ndarray | None
+    engine: str = "bdsim"
+    complete: bool = True
+    message: str = ""
+    substeps: int | None = None
+    substeps_max: int | None = None
+    rk4_steps: int | None = None
+    split_steps: int | None = None
+    backend: str = ""
+    error: np.ndarray = field(init=False)
+    metrics: dict = field(init=False)
+    partial_metrics: dict | None = field(init=False)
+
+    def __post_init__(self):
+        self.complete = bool(self.complete)
+        self.message = str(self.message)
+        self.error = distance(self.reference, self.pose)
+        computed = metrics(self.t, self.error, self.velocity)
+        if self.complete:
+            self.metrics, self.partial_metrics = computed, None
+        else:
+            self.metrics = {k: None for k in computed}
+            self.partial_metrics = computed
+
+    # ------------------------------------------------------------------ #
+    def window(self, t0: float, t1: float) -> dict:
+        """Metrics restricted to t0 <= t <= t1 (e.g. the paper's before/after windows)."""
+        m = (self.t >= t0 - 1e-9) & (self.t <= t1 + 1e-9)
+        return metrics(self.t[m], self.error[m], self.velocity[m])
+
+    def summary(self) -> dict:
+        """What ``summary.json`` holds: scenario, metrics, provenance."""
+        sc = self.scenario
+        notes = []
+        out = {
+            "unidyn_version": __version__,
+            "engine": self.engine,
+            "backend": self.backend,
+            "substeps": self.substeps,
+            "substeps_max": self.substeps_max,
+            "split_steps": self.split_steps,
+            "complete": self.complete,
+            "message": self.message,
+            "scenario": json_ready(sc.to_dict()),  # no limit: null
+            "seed": None if sc.noise is None else sc.noise.seed,
+            "samples": int(len(self.t)),
+            "t_end": float(self.t[-1]) if len(self.t) else 0.0,
+            "metrics": _finite_or_null(self.metrics, "metrics", notes),
+            "partial_metrics": _finite_or_null(self.partial_metrics, "partial_metrics", notes),
+            "theta_hat_final": (_finite_or_null(_floats(self.theta_hat[-1]), "theta_hat_final", notes)
+                                if len(self.t) and self.theta_hat is not None else None),
+        }
+        if notes:
+            out["notes"] = notes
+        return out
+
+    def to_json(self) -> str:
+        """``summary()`` as strict JSON: a non-finite number is written as ``null``
+        (with a line in ``notes``), never as ``Infinity`` or ``NaN``."""
+        return json.dumps(self.summary(), indent=2, default=_json_default, allow_nan=False) + "\n"
+
+    def save(self, folder, overwrite: bool = False) -> Path:
+        """Write ``timeseries.csv`` and ``summary.json`` into ``folder`` (created if
+        needed, a symbolic link followed) and return it.
+
+        A folder that holds an earlier run's results is refused unless ``overwrite``;
+        then the earlier run's files are replaced, and those this one does not write
+        (its figures, listed in the folder's manifest ``.unidyn-run.json``) removed.
+        Nothing else in the folder is touched. The files are written in full before
+        any is replaced, so an error or an interrupt leaves the folder as it was (see
+        :mod:`unidyn.results.folders`)."""
+        with staged_output(folder, kind="run", overwrite=overwrite, results=RESULT_FILES,
+                           what="run results", option="folder",
+                           flag="overwrite=True") as stage:
+            self._write(stage.path)
+        return Path(folder)
+
+    def _write(self, folder: Path) -> None:
+        cols = {"t": self.t, "x": self.pose[:, 0], "y": self.pose[:, 1], "psi": self.pose[:, 2],
+                "u": self.velocity[:, 0], "w": self.velocity[:, 1],
+                "x_d": self.reference[:, 0], "y_d": self.reference[:, 1]}
+        if self.v_d is not None:  # the series logged (Scenario.log_series)
+            cols.update(u_d=self.v_d[:, 0], w_d=self.v_d[:, 1])
+        if self.v_ref is not None:
+            cols.update(u_ref=self.v_ref[:, 0], w_ref=self.v_ref[:, 1])
+        cols["error"] = self.error
+        if self.theta_hat is not None:
+            for i in range(6):
+                cols[f"theta_hat{i + 1}"] = self.theta_hat[:, i]
+        header = ",".join(cols) + "\n"
+        # float32 series: the 9 digits that give each value back exactly (t is float64)
+        fmt = "%.10g" if self.pose.dtype == np.float64 else "%.9g"
+        columns = list(cols.values())
+
+        line = ",".join(["%.10g"] + [fmt] * (len(columns) - 1)) + "\n"
+
+        def rows():  # formatted a block at a time: no copy of the whole series in memory
+            # (not np.savetxt: its wrapper keeps each block's text alive until the
+            # garbage collector runs, 260 MB for a 10^6-sample run)
+            for i in range(0, len(self.t), _CSV_BLOCK):
+                block = np.column_stack([c[i:i + _CSV_BLOCK] for c in columns])
+                yield (line * len(block)) % tuple(block.ravel().tolist())
+        write_atomic(folder / "timeseries.csv", header, more=rows())
+        write_atomic(folder / "summary.json", self.to_json())
+
+    # plotting helpers (matplotlib is imported only when one is called)
+    def plot_path(self, ax=None, **kw):
+        return plots.plot_path(self, ax=ax, **kw)
+
+    def plot_error(self, ax=None, **kw):
+        return plots.plot_error(self, ax=ax, **kw)
+
+    def plot_positions(self, axes=None, **kw):
+        return plots.plot_positions(self, axes=axes, **kw)
+
+    def plot_velocities(self, axes=None, **kw):
+        return plots.plot_velocities(self, axes=axes, **kw)
+
+    def plot_theta_hat(self, ax=None, **kw):
+        return plots.plot_theta_hat(self, ax=ax, **kw)
+
+
+def _finite_or_null(value, where: str, notes: list):
+    """``value`` (a dict or list of numbers, or None) with every non-finite number
+    replaced by None; each replacement adds a line to ``notes``."""
+    if value is None:
+        return None
+    items = value.items() if isinstance(value, dict) else enumerate(value)
+    out = dict(value) if isinstance(value, dict) else list(value)
+    for k, v in items:
+        if v is not None and not np.isfinite(v):
+            notes.append(f"{where}[{k!r}] was {float(v)!r}, written as null")
+            out[k] = None
+    return out
+
+
+def _json_default(o):
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    raise TypeError(f"not JSON serialisable: {type(o).__name__}")

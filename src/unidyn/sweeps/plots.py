@@ -1,0 +1,86 @@
+"""A sweep's figure: a metric of its runs against its first numeric axis
+(``metrics.png`` of :meth:`unidyn.sweeps.sweep.Sweep.run`)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..results import figstyle
+from .._validate import choice
+from .sweep_files import METRICS, is_number, text
+
+__all__ = ["plot_metrics"]
+
+def _numeric_axis(sweep):
+    for a in sweep.grid:
+        if all(is_number(v) for v in sweep.grid[a]):
+            return a
+    return None
+
+
+def _legend_entry(sweep, axes, key) -> str:
+    """A line of a sweep's figure in its legend: what tells it from the others first
+    (its variant's label, the other axes' values), then what its variant sets:
+    ``"b: compensated, theta_hat_scale = 0.9"``, ``"b, a = 0.15: compensated, ..."``."""
+    parts, sets = [], []
+    for a, k in zip(axes, key):
+        if a != "variant":
+            parts.append(f"{a} = {k}")
+            continue
+        parts.append(k)
+        for v in sweep.variants:
+            if text(v["label"]) == k:
+                sets = [text(x) if f == "case" else f"{f} = {text(x)}"
+                        for f, x in v.items() if f != "label"]
+    return ", ".join(parts) + (": " + ", ".join(sets) if sets else "")
+
+
+def plot_metrics(sweep, rows, path, metric: str = "iae"):
+    """IAE (or another metric) against the first numeric axis, one line per combination
+    of the other axes (a variant by its label and what it sets); log scale with plain tick labels when
+    the values span more than a decade. In unidyn's figure style (:mod:`unidyn.results.figstyle`)."""
+    import matplotlib.pyplot as plt
+
+    choice("metric", metric, METRICS)
+    x_axis = _numeric_axis(sweep)
+    others = [a for a in sweep.axes if a != x_axis]
+    lines = {}
+    for r in rows:
+        key = tuple(text(r[a]) for a in others)
+        x = r[x_axis] if x_axis else r["index"]
+        y = r[metric] if r["complete"] else math.nan
+        lines.setdefault(key, []).append((x, y))
+    legend = 1 < len(lines) <= 12
+    with figstyle.style():
+        # taller by the legend's lines, which go below the axes if no corner is free
+        fig, ax = plt.subplots(figsize=figstyle.size(1, 0.75 + 0.05 * len(lines) * legend))
+        for key, pts in lines.items():
+            pts.sort()
+            xs, ys = zip(*pts)
+            label = figstyle.as_text(_legend_entry(sweep, others, key), limit=64) or None
+            ax.plot(xs, ys, "o-" if len(pts) < 30 else "-", ms=3, label=label)
+        vals = np.array([r[metric] for r in rows if r["complete"]], dtype=float)
+        vals = vals[np.isfinite(vals)]
+        if vals.size and vals.min() > 0 and vals.max() / vals.min() > 10:
+            figstyle.plain_log_axis(ax, "y")
+        elif vals.size:
+            figstyle.ylim_from_data(ax, floor=0 if vals.min() >= 0 else None)
+        ax.set_xlabel(_AXIS_LABELS.get(x_axis, x_axis) if x_axis else "point index")
+        ax.set_ylabel(_METRIC_LABELS[metric])
+        ax.set_title(figstyle.as_text(sweep.name) or "sweep")
+        ax.grid(True, which="major")
+        if legend:
+            figstyle.legend(ax, fallback="below")
+        return figstyle.save(fig, path)
+
+
+#: Axis labels of the metrics (units as in :func:`unidyn.results.result.metrics`).
+_METRIC_LABELS = {"iae": "IAE (m·s)", "ise": "ISE (m²·s)", "itae": "ITAE (m·s²)",
+                  "energy": "control effort ∫(u² + ω²) dt", "error_final": "final error (m)"}
+#: Axis labels of the special sweep keys and common numeric fields.
+_AXIS_LABELS = {"kxy": "$k_x = k_y$ (1/s)", "kx": "$k_x$ (1/s)", "ky": "$k_y$ (1/s)",
+                "ku": "$k_u$ (1/s)", "kw": "$k_\\omega$ (1/s)", "a": "a (m)", "T": "T (s)",
+                "theta_hat_scale": "$\\hat\\theta(0)\\,/\\,\\theta$",
+                "adapt_from": "adaptation on at (s)", "seed": "noise seed"}

@@ -1,0 +1,623 @@
+r"""Parameter sweeps: many runs of the Fig. 2 loop from one spec, in resumable chunks.
+
+A :class:`Sweep` is a base scenario (fields of :class:`~unidyn.Scenario`), a grid
+of axes (field -> values) and optional named variants; its points are every
+variant crossed with every combination of the axes. :func:`run_sweep` runs the
+points in chunks and appends one row per finished point to ``metrics.csv``, so
+an interrupted sweep keeps what it finished and a re-run completes only the
+rest. A sweep file (TOML)::
+
+    name = "gain sweep"
+
+    [base]                      # any Scenario field; defaults are the paper's
+    case = "compensated"
+    T = 250
+    noise = "off"
+
+    [grid]                      # axes, crossed; the last one varies fastest
+    kxy = {start = 0.5, stop = 35, step = 0.5}   # kx = ky, 0.5, 1.0, ..., 35.0
+    theta_hat_scale = [0.9, 1.0]                 # theta_hat0 = scale * robot theta
+
+    [[variants]]                # optional; each is crossed with the grid
+    label = "exact"
+    theta_hat_scale = 1.0
+
+Besides the Scenario fields, base, grid and variants accept four special keys:
+``kxy`` (sets kx = ky), ``theta_hat_scale`` (theta_hat0 = scale x the robot's
+theta), ``seed`` (noise.seed) and ``case``. A range is a table with ``start``,
+``stop`` (included) and either ``step`` or ``num`` (with ``log = true`` for a
+geometric range).
+
+Sweep files and ``metrics.csv`` are read and written by :mod:`unidyn.sweeps.sweep_files`, the
+sweep figures are drawn by :mod:`unidyn.results.plots`, chunks run on Dask through
+:mod:`unidyn.sweeps.cluster`, and the paper's Fig. 11 sweep, its claims and its figure live in
+:mod:`unidyn.paper` (:func:`~unidyn.paper.paper_fig11`,
+:func:`~unidyn.paper.fig11_claims`, :func:`~unidyn.paper.plot_fig11`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import json
+import math
+import os
+import sys
+import time
+import unicodedata
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from .cluster import connect_dask, run_on_dask
+from .._errors import Interrupted
+from .._validate import ValidationError, choice, integer
+from ..engine.batch import DEFAULT_SUBSTEPS, MAX_SUBSTEPS, simulate_batch
+from .sweep_files import (ID_NAME, MAX_POINTS, METRICS, RECORD_NAME, cell, check_keys,
+                          expand_range, finished_rows, is_number, plain, text, read_rows,
+                          read_sweep_id, read_sweep_record, read_toml, rows_text,
+                          scenario_from_layers, write_rows, write_sweep_id, write_sweep_record)
+from ..results.folders import (FolderLock, check_manifest, json_ready, output_folder,
+                               record_files, staged_output, write_atomic)
+from .plots import plot_metrics
+from ..diagrams.simulate import simulate
+
+__all__ = ["Sweep", "Point", "SweepRun", "run_sweep", "sweep_id", "ENGINES"]
+
+#: ``"batch"``: :func:`unidyn.engine.batch.simulate_batch`, one call per chunk (sampled-control
+#: points go through :func:`unidyn.simulate`); ``"bdsim"``: :func:`unidyn.simulate` per point.
+ENGINES = ("batch", "bdsim")
+#: Default points per chunk, by engine.
+DEFAULT_CHUNK = {"batch": 40, "bdsim": 1}
+#: The longest sweep name accepted (it titles the figures and names every point).
+MAX_NAME = 200
+
+_TOP_KEYS = ("name", "base", "grid", "variants", "substeps")
+
+
+# -------------------------------------------------------------------------- Sweep
+
+@dataclass(frozen=True)
+class Point:
+    """One point of a sweep: its index, its axis values and its scenario."""
+
+    index: int
+    params: dict
+    scenario: object
+
+    def __iter__(self):  # unpacks as (index, params, scenario)
+        return iter((self.index, self.params, self.scenario))
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """A set of scenarios: ``base`` crossed with ``variants`` and the ``grid`` axes.
+
+    Every point is built (and so validated) on construction.
+
+    :param base: Scenario fields and special keys (``kxy``, ``theta_hat_scale``,
+        ``seed``) shared by every point
+    :param grid: axis -> list of values (or a range table, see the module doc); the
+        axes are crossed, the last one varying fastest
+    :param variants: tables of overrides, each with a unique ``label``; every
+        variant is crossed with the grid (an axis called ``variant``, varying slowest)
+    :param name: a label
+    :param substeps: RK4 steps per sample interval of the batch engine, integer >= 1
+    """
+
+    base: dict = field(default_factory=dict)
+    grid: dict = field(default_factory=dict)
+    variants: tuple = ()
+    name: str = ""
+    substeps: int = DEFAULT_SUBSTEPS
+
+    def __post_init__(self):
+        s = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
+        if not isinstance(self.name, str):
+            raise ValidationError(f"name must be a string, got {self.name!r}")
+        if len(self.name) > MAX_NAME:
+            raise ValidationError(f"name is {len(self.name)} characters long; at most "
+                                  f"{MAX_NAME} are allowed (it titles the figures)")
+        integer("substeps", self.substeps, 1, MAX_SUBSTEPS)
+        s("substeps", int(self.substeps))
+        s("base", check_keys("base", self.base))
+        if not isinstance(self.grid, Mapping):
+            raise ValidationError(f"grid must be a table of axis = [values], got {self.grid!r}")
+        grid = {}
+        for axis, values in self.grid.items():
+            where = f"grid.{axis}"
+            if axis in ("variant", "label", "name"):
+                raise ValidationError(f"{where}: {axis!r} cannot be a grid axis"
+                                      + (" (use [[variants]])" if axis != "name" else ""))
+            check_keys("grid", {axis: None})
+            if isinstance(values, Mapping):
+                values = expand_range(where, values)
+            elif isinstance(values, (list, tuple, np.ndarray)):
+                values = [plain(v) for v in values]
+            else:
+                raise ValidationError(f"{where} must be a list of values or a range table "
+                                      f"{{start, stop, step}}, got {values!r}")
+            if not values:
+                raise ValidationError(f"{where} is empty; give at least one value")
+            seen = set()
+            for v in values:
+                try:  # 1 and 1.0 are one value
+                    key = float(v) if is_number(v) else cell(v)
+                except OverflowError:  # an integer beyond floats: refused with its point
+                    key = cell(v)
+                if key in seen:
+                    raise ValidationError(f"{where} has the value {v!r} twice")
+                seen.add(key)
+            grid[str(axis)] = tuple(values)
+        s("grid", grid)
+        if isinstance(self.variants, Mapping) or not isinstance(self.variants, (list, tuple)):
+            raise ValidationError(f"variants must be a list of tables ([[variants]]), "
+                                  f"got {self.variants!r}")
+        variants, labels = [], set()
+        for i, v in enumerate(self.variants):
+            where = f"variants[{i}]"
+            v = check_keys(where, v, allow_label=True)
+            label = v.get("label")
+            if not isinstance(label, str) or not label or any(
+                    unicodedata.category(c) in ("Cc", "Zl", "Zp") for c in label):
+                raise ValidationError(f"{where} needs a label (a non-empty string on one line: "
+                                      f"no line breaks, tabs or control characters), got "
+                                      f"{label!r}")
+            if len(label) > MAX_NAME:
+                raise ValidationError(f"{where}.label is {len(label)} characters long; at most "
+                                      f"{MAX_NAME} are allowed (it names rows and legends)")
+            if label in labels:
+                raise ValidationError(f"{where}: label {label!r} is used twice")
+            labels.add(label)
+            variants.append(v)
+        s("variants", tuple(variants))
+        n = max(len(self.variants), 1) * math.prod(len(v) for v in grid.values())
+        if n > MAX_POINTS:
+            raise ValidationError(f"the sweep has {n} points; at most {MAX_POINTS} are allowed")
+        object.__setattr__(self, "_points", None)
+        self.points()
+
+    # ------------------------------------------------------------------ #
+    @property
+    def axes(self) -> list:
+        """The axis names, slowest first: ``variant`` (if there are variants), then the grid's."""
+        return (["variant"] if self.variants else []) + list(self.grid)
+
+    @property
+    def columns(self) -> list:
+        """The columns of metrics.csv."""
+        return (["index"] + self.axes + ([] if "case" in self.axes else ["case"])
+                + list(METRICS) + ["complete"])
+
+    def __len__(self) -> int:
+        return len(self.points())
+
+    def points(self) -> list:
+        """Every point as (index, params, scenario), in a fixed order: variants slowest,
+        then the grid axes in their order, the last fastest."""
+        if self._points is not None:
+            return list(self._points)
+        out = []
+        variants = self.variants or (None,)
+        axes = list(self.grid)
+        index = 0
+        for v in variants:
+            for combo in itertools.product(*(self.grid[a] for a in axes)):
+                params = {} if v is None else {"variant": v["label"]}
+                params.update(zip(axes, combo))
+                layers = [("base", self.base)]
+                if v is not None:
+                    layers.append((f"variants[{v['label']}]", v))
+                layers.append(("grid", dict(zip(axes, combo))))
+                desc = ", ".join(f"{k}={text(x)}" for k, x in params.items())
+                if len(desc) > MAX_NAME:
+                    desc = desc[:MAX_NAME - 3] + "..."
+                try:
+                    sc = scenario_from_layers(layers, name=(f"{self.name} " if self.name else "")
+                                + f"#{index}" + (f" ({desc})" if desc else ""))
+                except ValidationError as err:
+                    at = f"sweep point {index}" + (f" ({desc})" if desc else "")
+                    raise ValidationError(f"{at}: {err}") from None
+                out.append(Point(index, params, sc))
+                index += 1
+        object.__setattr__(self, "_points", tuple(out))
+        return list(out)
+
+    def with_base(self, **changes) -> "Sweep":
+        """A copy with some base keys changed (validated)."""
+        return dataclasses.replace(self, base={**self.base, **changes})
+
+    # ------------------------------------------------------------------ #
+    def to_dict(self) -> dict:
+        """Plain data (JSON-ready) that :meth:`from_dict` turns back into this sweep."""
+        out = {"name": self.name, "base": dict(self.base),
+               "grid": {k: list(v) for k, v in self.grid.items()}}
+        if self.variants:
+            out["variants"] = [dict(v) for v in self.variants]
+        out["substeps"] = self.substeps
+        return out
+
+    @classmethod
+    def from_dict(cls, data) -> "Sweep":
+        """Build from plain data (as read from TOML or JSON). Unknown keys raise."""
+        if not isinstance(data, Mapping):
+            raise ValidationError(f"a sweep must be a table, got {type(data).__name__}")
+        unknown = [k for k in data if k not in _TOP_KEYS]
+        if unknown:
+            raise ValidationError(f"unknown sweep key {unknown[0]!r}; allowed: "
+                                  f"{', '.join(_TOP_KEYS)}")
+        return cls(**data)
+
+    @classmethod
+    def from_toml(cls, path) -> "Sweep":
+        """Read a sweep file (see the module doc)."""
+        data = read_toml(path, "sweep file")
+        try:
+            return cls.from_dict(data)
+        except ValidationError as err:
+            raise ValidationError(f"{path}: {err}") from None
+
+
+# ----------------------------------------------------------------------- running
+
+@dataclass
+class SweepRun:
+    """What :func:`run_sweep` did.
+
+    :ivar out_dir: the output folder
+    :ivar rows: every point's row of metrics.csv (see :func:`unidyn.sweeps.sweep_files.read_metrics`), by index
+    :ivar ran: points simulated by this call
+    :ivar skipped: points already in metrics.csv (resumed)
+    :ivar seconds: wall time of this call
+    :ivar failed: indices of points that did not complete (empty metrics)
+    :ivar replaced: indices of the rows of an earlier sweep that this one replaced
+        (``overwrite=True``)
+    """
+
+    out_dir: Path
+    rows: list
+    ran: int
+    skipped: int
+    seconds: float
+    failed: list
+    replaced: tuple = ()
+
+
+def _row(index, params, case, metrics, complete) -> dict:
+    """One row of metrics.csv. A point that did not complete has empty (``None``)
+    metrics: the metrics of a partial run are not a result."""
+    complete = bool(complete)
+    return {"index": index, **params, "case": case,
+            **{m: (_metric(metrics[m]) if complete else None) for m in METRICS},
+            "complete": complete}
+
+
+def _metric(v):
+    return None if v is None else float(v)
+
+
+def _run_chunk(points, engine: str, substeps: int) -> list:
+    """Simulate a list of (index, params, scenario); return their metrics rows.
+
+    Runs wherever it is called (here or on a Dask worker) and returns only the
+    small rows, not the time series."""
+    rows = [None] * len(points)
+    batch = []
+    for j, (index, params, sc) in enumerate(points):
+        if engine == "batch" and sc.control == "continuous":
+            batch.append(j)
+            continue
+        try:
+            r = simulate(sc)
+            rows[j] = _row(index, params, sc.case, r.metrics, r.complete)
+        except (RuntimeError, ArithmeticError) as err:
+            print(f"unidyn: warning: sweep point {index} failed: {err}", file=sys.stderr)
+            rows[j] = _row(index, params, sc.case, {m: None for m in METRICS}, False)
+    if batch:
+        results = simulate_batch([points[j][2] for j in batch], substeps=substeps)
+        for j, r in zip(batch, results):
+            index, params, sc = points[j]
+            rows[j] = _row(index, params, sc.case, r.metrics, r.complete)
+    return rows
+
+
+class _NoBar:
+    def update(self, k):
+        pass
+
+    def close(self):
+        pass
+
+
+def _progress_bar(enabled, total, initial):
+    """A tqdm progress bar on stderr, or nothing when disabled, when stderr is not a
+    terminal (a log file, a pipe, a test) or when tqdm is not installed."""
+    if not enabled or not sys.stderr.isatty():
+        return _NoBar()
+    try:
+        from tqdm import tqdm
+    except ImportError:
+        return _NoBar()
+    return tqdm(total=total, initial=initial, desc="sweep", unit="pt", file=sys.stderr,
+                dynamic_ncols=True)
+
+
+#: Files whose presence means a folder holds a sweep's results.
+_SWEEP_RESULTS = ("metrics.csv", RECORD_NAME)
+#: Every file a sweep writes (none of them is carried over when a sweep starts over).
+_SWEEP_OWNED = ("metrics.csv", RECORD_NAME, "metrics.png", "claims.md", "fig11.png", ID_NAME)
+
+
+def sweep_id(sweep: Sweep) -> str:
+    """A hash of a sweep's full definition (its base, grid, variants, name and substeps,
+    and the first point's complete scenario, so changed defaults count), the same
+    whatever the engine: ``"sha256:..."``."""
+    import hashlib
+    first = sweep.points()[0].scenario.to_dict()
+    text = json.dumps({"sweep": sweep.to_dict(), "first": first},
+                      sort_keys=True, separators=(",", ":"), default=str)
+    return "sha256:" + hashlib.sha256(text.encode()).hexdigest()
+
+
+def _spec_record(sweep: Sweep, engine: str) -> dict:
+    return {"unidyn_version": __version__, "engine": engine, "points": len(sweep),
+            "id": sweep_id(sweep), "columns": sweep.columns, "sweep": sweep.to_dict()}
+
+
+def _differences(old, new, where="") -> list:
+    """The dotted keys where two plain-data sweep definitions differ."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        out = []
+        for k in sorted(set(old) | set(new), key=str):
+            out += _differences(old.get(k), new.get(k), f"{where}.{k}" if where else str(k))
+        return out
+    return [] if old == new else [where or "the definition"]
+
+
+def _what_is_held(out: Path, record: dict) -> tuple:
+    """What ``out`` holds: ``(state, detail)`` with state ``"none"`` (no sweep),
+    ``"same"``, ``"engine"`` (this sweep with another engine), ``"different"`` or
+    ``"unknown"`` (rows that no record ties to a sweep)."""
+    spec_path, csv_path = out / RECORD_NAME, out / "metrics.csv"
+    if not spec_path.exists() and not csv_path.exists():
+        return "none", ""
+    problem = check_manifest(out, "sweep")
+    if problem:  # a replacement killed half way: rows and record may not match
+        return "unknown", problem.replace(f"{out} holds", "it holds")
+    if spec_path.exists():
+        try:
+            old = read_sweep_record(out)
+        except ValueError as err:  # a UnicodeDecodeError too
+            return "unknown", f"its sweep.json is not valid JSON ({err})"
+        # as written (no limit: null; an old file's Infinity reads as inf)
+        old_def, new_def = json_ready(old.get("sweep")), json_ready(record["sweep"])
+        if "id" in old:
+            same = old["id"] == record["id"]
+        else:  # written before sweeps had an id: compare the definitions
+            same = old_def == new_def
+        if not same:
+            diff = _differences(old_def, new_def)
+            return "different", ("it differs in " + ", ".join(diff[:5])
+                                 + (", ..." if len(diff) > 5 else "")
+                                 if diff and diff != ["the definition"] else
+                                 "its definition differs")
+        if old.get("engine") != record["engine"]:
+            return "engine", f"it was run with engine {old.get('engine')!r}"
+        return "same", ""
+    held = read_sweep_id(out)
+    if not held:
+        return "unknown", "no sweep.json or .sweep-id records which sweep its rows belong to"
+    if held[0] != record["id"]:
+        return "different", "its .sweep-id names another sweep (sweep.json is missing)"
+    if held[1:2] != [record["engine"]]:
+        return "engine", f"it was run with engine {' '.join(held[1:2]) or 'unknown'!r}"
+    return "same", ""
+
+
+def _rows_named(indices) -> str:
+    indices = sorted(indices)
+    if not indices:
+        return "no finished rows"
+    runs, start = [], indices[0]
+    for a, b in zip(indices, indices[1:] + [None]):
+        if b != a + 1:
+            runs.append(f"{start}" if start == a else f"{start}-{a}")
+            start = b
+    text = ", ".join(runs[:8]) + (", ..." if len(runs) > 8 else "")
+    return f"{len(indices)} finished row(s) in metrics.csv (points {text})"
+
+
+def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | None = None,
+              resume: bool = True, progress: bool = True, dask_address=None,
+              overwrite: bool = False) -> SweepRun:
+    """Run every point of ``sweep``, writing into ``out_dir``:
+
+    - ``sweep.json``: the spec, its id (:func:`sweep_id`), engine and library
+      version (written first); ``.sweep-id``: the id and engine again, so rows
+      never lose their record
+    - ``metrics.csv``: one row per finished point (columns :attr:`Sweep.columns`),
+      appended and flushed after each chunk, rewritten sorted by index at the end;
+      a point that did not complete has ``complete = false`` and empty metrics
+    - ``metrics.png``: IAE against the first numeric axis (:func:`unidyn.sweeps.plots.plot_metrics`)
+
+    Finished rows are never deleted without ``overwrite``:
+
+    - ``resume=True`` (default): the points already in ``metrics.csv`` are
+      skipped. A folder that holds a different sweep, this sweep run with another
+      engine, or rows with no record of their sweep is refused unless ``overwrite``,
+      which starts over as below.
+    - ``resume=False``: start over. A folder with finished rows is refused unless
+      ``overwrite``.
+    - starting over where there are finished rows writes the new sweep into a private
+      folder inside ``out_dir`` and moves its files into place only when every point
+      has run: an error or an interrupt leaves the old sweep as it was (the new rows
+      are discarded). Files in ``out_dir`` that the sweep did not write are never
+      touched (see :mod:`unidyn.results.folders`).
+
+    While it runs, the folder is locked (``.unidyn.lock``, holding the PID): a
+    second process writing the same folder is refused with :class:`FolderInUse`.
+    A sweep that fails before its first row leaves no files behind.
+
+    :param engine: ``"batch"`` (one :func:`~unidyn.engine.batch.simulate_batch` call per chunk;
+        sampled-control points run through :func:`unidyn.simulate`) or ``"bdsim"``
+    :param chunk_size: points per chunk (default 40 for batch, 1 for bdsim)
+    :param resume: skip the points already in ``metrics.csv``; ``False`` starts over
+    :param progress: show a tqdm progress bar on stderr (only when it is a terminal)
+    :param dask_address: ``"local"`` (a local cluster), a Dask scheduler address or a
+        ``distributed.Client``: the chunks run on its workers (which need unidyn
+        installed), and rows are written as they arrive (see :func:`unidyn.sweeps.cluster.connect_dask`)
+    :param overwrite: allow finished rows to be replaced
+    :return: :class:`SweepRun`
+    """
+    t0 = time.perf_counter()
+    if not isinstance(sweep, Sweep):
+        raise ValidationError(f"sweep must be a unidyn.sweeps.sweep.Sweep, got {type(sweep).__name__}")
+    engine = choice("engine", engine, ENGINES)
+    if chunk_size is None:
+        chunk_size = DEFAULT_CHUNK[engine]
+    chunk_size = integer("chunk_size", chunk_size, 1)
+    out = Path(out_dir)
+    output_folder(out, "out_dir")  # one line for an empty name or a file
+    record = _spec_record(sweep, engine)
+    if dask_address is None:
+        client, close = None, None
+    else:
+        client, close = connect_dask(dask_address)
+    created = not out.exists()
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        with FolderLock(out) as lock:
+            try:
+                state, detail = _what_is_held(out, record)
+                rows_held = finished_rows(out / "metrics.csv") if state != "none" else []
+                if state == "same" and resume:
+                    return _run_in(sweep, out, record, engine, chunk_size, progress, client,
+                                   t0, resume=True)
+                if rows_held and not overwrite:
+                    raise ValidationError(_refusal(out, state, detail, rows_held, resume))
+                if not rows_held:  # nothing finished to lose: start over in place
+                    return _run_in(sweep, out, record, engine, chunk_size, progress, client,
+                                   t0, resume=False)
+                try:
+                    with staged_output(out, kind="sweep", overwrite=True, hashes=False,
+                                       results=_SWEEP_RESULTS, what="sweep results",
+                                       owned=_SWEEP_OWNED, lock=False) as stage:  # held above
+                        run = _run_in(sweep, stage.path, record, engine, chunk_size,
+                                      progress, client, t0, resume=False)
+                except BaseException as err:
+                    raise _kept(err, f"{out} is as it was ({_rows_named(rows_held)}); the "
+                                     f"new sweep's rows were discarded")
+                run.out_dir = out
+                run.replaced = tuple(rows_held)
+                return run
+            except BaseException:
+                if created:
+                    lock.release()
+                    _remove_if_empty(out)
+                raise
+    finally:
+        if close is not None:
+            close()
+
+
+def _refusal(out, state, detail, rows, resume) -> str:
+    held = _rows_named(rows)
+    if state in ("same", "none") and not resume:
+        return (f"{out} holds {held}; starting over (resume=False) would delete them: add "
+                f"overwrite=True to replace them once the new sweep has finished, or choose "
+                f"another output folder")
+    what = {"engine": "this sweep run with another engine",
+            "different": "a different sweep",
+            "unknown": "sweep rows of unknown origin"}.get(state, "a sweep")
+    return (f"{out} holds {what} ({detail}): {held}; pass overwrite=True to replace them "
+            f"once this sweep has finished, or choose another output folder")
+
+
+def _kept(err: BaseException, text: str) -> BaseException:
+    """The exception to raise for ``err``, saying what the sweep left behind: Ctrl-C
+    becomes :class:`Interrupted` with ``text`` as its ``kept`` (the command line prints
+    it); any other error gets ``text`` as a note, shown with its traceback."""
+    if isinstance(err, KeyboardInterrupt):
+        return Interrupted(text)
+    err.add_note(text)
+    return err
+
+
+def _remove_if_empty(folder: Path) -> None:
+    try:
+        folder.rmdir()
+    except OSError:
+        pass
+
+
+def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume) -> SweepRun:
+    """Run the sweep in ``out`` (locked by the caller or private): resume from its rows,
+    or start it afresh."""
+    columns = sweep.columns
+    csv_path = out / "metrics.csv"
+    done = {}
+    if resume and csv_path.exists():
+        rows, clean = read_rows(csv_path, columns)
+        valid = {p.index for p in sweep.points()}
+        done = {r["index"]: r for r in rows if r["index"] in valid}
+        if not clean:  # drop a line cut short by an interruption
+            write_atomic(csv_path, rows_text(columns, sorted(done.values(),
+                                                             key=lambda r: r["index"])))
+    written = []  # files this call created, removed again if it fails before a row
+    if not done:
+        write_atomic(csv_path, rows_text(columns, []))
+        written.append(csv_path)
+    written += [write_sweep_id(out, record), write_sweep_record(out, record, finished=False)]
+
+    pending = [p for p in sweep.points() if p.index not in done]
+    chunks = [[tuple(p) for p in pending[i:i + chunk_size]]
+              for i in range(0, len(pending), chunk_size)]
+    new_rows = []
+    bar = _progress_bar(progress, len(sweep), len(done))
+    try:
+        with open(csv_path, "a", newline="") as fh:
+
+            def take(rows):
+                write_rows(fh, columns, rows)
+                fh.flush()
+                os.fsync(fh.fileno())
+                new_rows.extend(rows)
+                bar.update(len(rows))
+
+            if client is None:
+                for chunk in chunks:
+                    take(_run_chunk(chunk, engine, sweep.substeps))
+            elif chunks:
+                run_on_dask(client, _run_chunk, chunks, take, engine=engine,
+                            substeps=sweep.substeps)
+    except BaseException as err:
+        if not done and not new_rows:  # nothing finished: leave nothing behind
+            for p in written:
+                try:
+                    p.unlink()
+                except FileNotFoundError:
+                    pass
+            raise _kept(err, f"no point had finished; nothing was written to {out}")
+        else:  # count what the file holds: Ctrl-C may land between a write and its count
+            raise _kept(err, f"{len(set(finished_rows(csv_path)))} of {len(sweep)} points "
+                             f"are in {out / 'metrics.csv'}; run the same command again "
+                             f"to resume")
+    finally:
+        bar.close()
+
+    rows = sorted([*done.values(), *new_rows], key=lambda r: r["index"])
+    write_atomic(csv_path, rows_text(columns, rows))
+    failed = [r["index"] for r in rows if not r["complete"]]
+    seconds = time.perf_counter() - t0
+    write_sweep_record(out, record, finished=True, failed=failed)
+    try:
+        plot_metrics(sweep, rows, out / "metrics.png")
+    except ImportError:  # no matplotlib: the data is what matters
+        pass
+    # the files of these results, for a later overwrite (no hashes: rows are appended)
+    record_files(out, "sweep", [n for n in _SWEEP_OWNED if (out / n).exists()], hashes=False)
+    return SweepRun(out_dir=out, rows=rows, ran=len(new_rows), skipped=len(done),
+                    seconds=seconds, failed=failed)

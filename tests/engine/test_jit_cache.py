@@ -1,0 +1,163 @@
+"""numba's on-disk cache never runs equations older than the source, and processes
+sharing it never load a half-written one.
+
+numba keys its cache on the file of each compiled function, not on the functions
+it inlines; the compiled engine inlines :mod:`unidyn.model.equations`, so the package
+caches its compiled functions in a folder per version of the compiled sources
+(:data:`unidyn.engine.jit.STAMP`), which numba is pointed at through its documented
+``NUMBA_CACHE_DIR``. The tests edit Eq. (2) in a copy of the package, between real
+processes, and check that the compiled engine follows the edit (and agrees with the
+numpy engine on the edited equations); they fail loudly if numba stops writing the
+package's cache where it is told to.
+"""
+
+import os
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from unidyn.engine import jit as _jit
+
+pytestmark = pytest.mark.skipif(not _jit.AVAILABLE, reason="needs numba (the cache is numba's)")
+
+SRC = Path(__file__).resolve().parents[2] / "src" / "unidyn"
+PROBE = """
+import sys
+from unidyn import Scenario
+from unidyn.engine.batch import simulate_batch
+sc = Scenario.paper(4, T=3.0, noise=None)
+print(simulate_batch([sc], backend=sys.argv[1], progress=False)[0].metrics["iae"])
+"""
+HELD = """
+import numpy as np
+from unidyn.identification._simulate import simulate_held
+t = np.arange(0.0, 2.0, 0.1)
+v = simulate_held([0.24, 0.23, 0.0003, 0.97, 0.003, 1.07], t, np.full(t.size, 0.3),
+                  np.zeros(t.size), [(0, t.size)], [[0.0, 0.0]])
+print(v[-1, 0])
+"""
+
+
+def _env(root, cache):
+    return dict(os.environ, PYTHONPATH=str(root), MPLBACKEND="Agg", NUMBA_CACHE_DIR=str(cache))
+
+
+def _run(root, cache, code, *args):
+    out = subprocess.run([sys.executable, "-c", code, *args], env=_env(root, cache), cwd=root,
+                         capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stderr
+    return float(out.stdout.split()[-1])
+
+
+def _versions(cache):
+    root = Path(cache) / "unidyn-numba"
+    return {f.name: {p.name for p in f.rglob("*.nb[ic]")} for f in root.iterdir() if f.is_dir()}
+
+
+def test_the_cache_is_written_in_the_version_folder_numba_is_told(tmp_path):
+    """If numba stops reading NUMBA_CACHE_DIR when a function is declared (how the
+    package points it at its version folder), this fails."""
+    value = _run(SRC.parent, tmp_path, HELD)
+    assert 0.0 < value < 0.31
+    files = _versions(tmp_path)
+    assert set(files) == {_jit.STAMP}
+    assert any(name.endswith(".nbi") for name in files[_jit.STAMP]), files
+    assert _run(SRC.parent, tmp_path, HELD) == value  # loaded from it: the same bits
+
+
+def _edit_eq2(pkg):
+    eqs = pkg / "equations.py"
+    text = eqs.read_text()
+    edited = text.replace("(th3 * w * w - th4 * u + u_ref) / th1",
+                          "(th3 * w * w - th4 * u + 0.5 * u_ref) / th1")
+    assert edited != text
+    eqs.write_text(edited)
+
+
+@pytest.mark.slow
+def test_an_edited_equation_is_compiled_anew(tmp_path):
+    pkg = tmp_path / "unidyn"
+    cache = tmp_path / "cache"
+    shutil.copytree(SRC, pkg, ignore=shutil.ignore_patterns("__pycache__"))
+    before = _run(tmp_path, cache, PROBE, "numba")
+    assert _run(tmp_path, cache, PROBE, "numba") == before  # from the cache, the same bits
+    old = _versions(cache)
+    assert len(old) == 1 and any(n.endswith(".nbi") for n in next(iter(old.values())))
+    _edit_eq2(pkg)
+    after = _run(tmp_path, cache, PROBE, "numba")
+    assert after != before
+    assert after == pytest.approx(_run(tmp_path, cache, PROBE, "numpy"), rel=1e-9)
+    assert len(_versions(cache)) == 2  # a folder of its own
+    # the old version, back (a git checkout), runs from its own files again
+    (pkg / "equations.py").write_text((SRC / "equations.py").read_text())
+    assert _run(tmp_path, cache, PROBE, "numba") == before
+
+
+def test_the_cache_keeps_the_current_version_and_the_two_used_last(tmp_path):
+    now = time.time()
+    for k in range(1, 6):  # ages 100 s ... 500 s
+        folder = tmp_path / f"{k:012x}"
+        folder.mkdir()
+        (folder / "f.nbi").write_bytes(b"x")
+        os.utime(folder, (now - 100.0 * k, now - 100.0 * k))
+    current = tmp_path / _jit.STAMP
+    current.mkdir()
+    os.utime(current, (now - 1000.0, now - 1000.0))  # the oldest, but current
+    _jit.remove_other_versions(tmp_path, keep=3)
+    assert {p.name for p in tmp_path.iterdir()} == {_jit.STAMP, f"{1:012x}", f"{2:012x}"}
+
+
+def test_a_process_waits_while_another_compiles_into_the_same_cache(tmp_path):
+    """numba writes its cache without a lock between processes; the package's compiled
+    entry points load or compile under one (unidyn.engine.jit.Compiled), so processes that
+    start together (xdist workers, a Dask cluster) never load a mix of files each
+    wrote. Here the test holds the lock of a fresh cache folder: a process that needs
+    a compiled function waits until it is released."""
+    from filelock import FileLock
+    folder = tmp_path / "unidyn-numba" / _jit.STAMP
+    folder.mkdir(parents=True)
+    with FileLock(str(folder / "compile.lock")):
+        proc = subprocess.Popen([sys.executable, "-c", HELD], env=_env(SRC.parent, tmp_path),
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        try:
+            time.sleep(8.0)  # an import and a compile of the held-command RK4 take seconds
+            assert proc.poll() is None, proc.communicate()
+            assert not list(folder.rglob("*.nbi"))  # nothing written meanwhile
+        except BaseException:
+            proc.kill()
+            raise
+    out, err = proc.communicate(timeout=600)
+    assert proc.returncode == 0, err
+    assert 0.0 < float(out.split()[-1]) < 0.31
+
+
+def _stderr_on_a_terminal(cache):
+    """HELD run with its stderr on a pseudo-terminal: what it writes there."""
+    import pty
+    main, child = pty.openpty()
+    proc = subprocess.Popen([sys.executable, "-c", HELD], env=_env(SRC.parent, cache),
+                            stdout=subprocess.PIPE, stderr=child, text=True)
+    os.close(child)
+    out, _ = proc.communicate(timeout=600)
+    said = b""
+    while True:
+        try:
+            chunk = os.read(main, 4096)
+        except OSError:  # the terminal's other side closed
+            break
+        if not chunk:
+            break
+        said += chunk
+    os.close(main)
+    assert proc.returncode == 0
+    return said.decode(errors="replace")
+
+
+def test_a_compile_says_so_on_the_terminal_once_per_install(tmp_path):
+    first = _stderr_on_a_terminal(tmp_path)
+    assert "compiling the log simulator of identification, once per install" in first, first
+    assert "compiling" not in _stderr_on_a_terminal(tmp_path)  # loaded from the cache

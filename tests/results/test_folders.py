@@ -1,0 +1,356 @@
+"""Output folders (unidyn.results.folders): refusals, interruptions, partial results, foreign
+files, manifests, the lock, and processes killed at random moments."""
+
+import json
+import os
+import random
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import pytest
+
+from unidyn import ValidationError
+from unidyn.results import folders as outdir
+from unidyn.results.folders import staged_output
+
+RESULTS = ("summary.json", "timeseries.csv")
+
+
+def _write(folder, generation, names=RESULTS):
+    for n in names:
+        (folder / n).write_text(json.dumps({"generation": generation, "file": n}))
+
+
+def _generations(folder):
+    return {json.loads((folder / n).read_text())["generation"] for n in RESULTS
+            if (folder / n).exists()}
+
+
+def _siblings(tmp_path, out):
+    return sorted(p.name for p in tmp_path.iterdir() if p.name != out.name)
+
+
+def _private(out):
+    """What a writer keeps for itself in ``out`` while it works (its folders, the
+    lock): nothing once it is done."""
+    return sorted(p.name for p in out.iterdir() if p.name.startswith(".unidyn")
+                  and not p.name.endswith("-results.json"))
+
+
+def test_fresh_folder_is_created_with_the_usual_mode_and_a_manifest(tmp_path):
+    out = tmp_path / "a" / "b"
+    with staged_output(out, overwrite=False, results=RESULTS) as st:
+        assert st.path.parent == out and st.path.name.startswith(".unidyn-results-new-")
+        _write(st.path, 1)
+    assert _generations(out) == {1} and st.final == out.absolute()
+    umask = os.umask(0)
+    os.umask(umask)
+    assert (out.stat().st_mode & 0o777) == (0o777 & ~umask)
+    assert _siblings(tmp_path / "a", out) == [] and _private(out) == []
+    manifest = json.loads((out / ".unidyn-results.json").read_text())
+    assert manifest["complete"] is True and sorted(manifest["files"]) == sorted(RESULTS)
+    assert outdir.check_manifest(out, "results", RESULTS) == ""
+
+
+def test_existing_results_need_overwrite_and_the_message_names_them(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    _write(out, 1)
+    with pytest.raises(ValidationError, match=r"summary\.json, timeseries\.csv.*--overwrite"):
+        with staged_output(out, overwrite=False, results=RESULTS, what="run results"):
+            pytest.fail("the block must not run")
+    with pytest.raises(ValidationError, match=r"pass overwrite=True .* another folder"):
+        with staged_output(out, overwrite=False, results=RESULTS, option="folder",
+                           flag="overwrite=True"):
+            pytest.fail("the block must not run")
+    assert _generations(out) == {1} and _siblings(tmp_path, out) == []
+
+
+def test_a_file_or_an_empty_name_is_not_a_folder(tmp_path):
+    out = tmp_path / "out"
+    out.write_text("x")
+    with pytest.raises(ValidationError, match="--out .* is a file"):
+        with staged_output(out, overwrite=True, results=RESULTS):
+            pass
+    with pytest.raises(ValidationError, match=r"--out is empty; .*--out \. for the current"):
+        with staged_output("", overwrite=True, results=RESULTS):
+            pass
+
+
+@pytest.mark.parametrize("exc", [RuntimeError("boom"), KeyboardInterrupt()])
+def test_an_error_or_ctrl_c_inside_leaves_the_old_results(tmp_path, exc):
+    out = tmp_path / "out"
+    out.mkdir()
+    _write(out, 1)
+    with pytest.raises(type(exc)):
+        with staged_output(out, overwrite=True, results=RESULTS) as st:
+            _write(st.path, 2)
+            raise exc
+    assert _generations(out) == {1}
+    assert _siblings(tmp_path, out) == [] and _private(out) == []  # private folder removed
+
+
+def test_overwrite_replaces_the_results_files_and_keeps_foreign_ones(tmp_path):
+    out = tmp_path / "out"
+    (out / "notes").mkdir(parents=True)
+    _write(out, 1)  # written before manifests: the owned names are the earlier result's
+    (out / "animation.gif").write_text("old gif")
+    (out / "README.txt").write_text("mine")
+    (out / "notes" / "n.txt").write_text("also mine")
+    with staged_output(out, overwrite=True, results=RESULTS,
+                       owned=RESULTS + ("animation.gif",)) as st:
+        assert st.held == RESULTS
+        _write(st.path, 2)
+    assert _generations(out) == {2}
+    assert not (out / "animation.gif").exists()  # last run's artefact does not survive
+    assert (out / "README.txt").read_text() == "mine"
+    assert (out / "notes" / "n.txt").read_text() == "also mine"
+    assert _siblings(tmp_path, out) == []
+    # with a manifest, exactly the files it lists are the earlier result's
+    with staged_output(out, overwrite=True, results=RESULTS) as st:
+        _write(st.path, 3, names=RESULTS + ("extra.csv",))
+    with staged_output(out, overwrite=True, results=RESULTS) as st:
+        _write(st.path, 4)
+    assert _generations(out) == {4} and not (out / "extra.csv").exists()
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        [".unidyn-results.json", "README.txt", "notes", *RESULTS])
+
+
+def test_a_folder_of_the_user_is_not_replaced_by_a_result_of_that_name(tmp_path):
+    out = tmp_path / "out"
+    with staged_output(out, overwrite=False, results=RESULTS) as st:
+        _write(st.path, 1)
+    (out / "extra.csv").mkdir()
+    (out / "extra.csv" / "mine.txt").write_text("mine")
+    with pytest.raises(ValidationError, match="did not write"):
+        with staged_output(out, overwrite=True, results=RESULTS) as st:
+            _write(st.path, 2, names=RESULTS + ("extra.csv",))
+    assert (out / "extra.csv" / "mine.txt").read_text() == "mine" and _generations(out) == {1}
+    assert sorted(p.name for p in out.iterdir()) == [".unidyn-results.json", "extra.csv",
+                                                     *sorted(RESULTS)]
+
+
+def test_partial_results_never_replace_complete_ones(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    _write(out, 1)
+    with staged_output(out, overwrite=True, results=RESULTS) as st:
+        _write(st.path, 2)
+        st.incomplete("diverged at t = 3 s")
+    assert _generations(out) == {1}
+    side = tmp_path / "out.incomplete"
+    assert st.final == side and _generations(side) == {2}
+    # a second failure replaces the previous partial results, not the complete ones
+    with staged_output(out, overwrite=True, results=RESULTS) as st:
+        _write(st.path, 3, names=RESULTS[:1])
+        st.incomplete("again")
+    assert _generations(out) == {1} and _generations(side) == {3}
+    assert not (side / "timeseries.csv").exists()
+
+
+def test_partial_results_go_into_an_empty_target(tmp_path):
+    out = tmp_path / "out"
+    with staged_output(out, overwrite=False, results=RESULTS) as st:
+        _write(st.path, 1)
+        st.incomplete("stopped")
+    assert st.final == out.absolute() and _generations(out) == {1}
+
+
+def test_what_a_killed_process_left_is_removed_by_the_next_writer(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    _write(out, 1)
+    left = out / ".unidyn-results-new-abc"  # kill -9 while writing
+    left.mkdir()
+    _write(left, 2)
+    with pytest.raises(ValidationError, match="already holds"):
+        with staged_output(out, overwrite=False, results=RESULTS):
+            pass
+    assert _generations(out) == {1} and _private(out) == []
+
+
+def test_a_replacement_cut_short_is_told_apart_from_results(tmp_path):
+    """kill -9 in the milliseconds in which files are renamed into place: the
+    manifest still says the replacement is under way, and readers say so."""
+    out = tmp_path / "out"
+    with staged_output(out, overwrite=False, results=RESULTS) as st:
+        _write(st.path, 1)
+    m = json.loads((out / ".unidyn-results.json").read_text())
+    (out / ".unidyn-results.json").write_text(json.dumps({**m, "complete": False}))
+    assert "cut short" in outdir.check_manifest(out, "results")
+    (out / ".unidyn-results.json").write_text(json.dumps(m))
+    assert outdir.check_manifest(out, "results", RESULTS) == ""
+    _write(out, 2, names=RESULTS[:1])  # one file of another run
+    assert "summary.json is not the file its run wrote" in outdir.check_manifest(
+        out, "results", RESULTS)
+    assert outdir.check_manifest(tmp_path, "results", RESULTS) == ""  # no manifest: passes
+
+
+def test_the_folder_holding_out_is_never_written(tmp_path):
+    parent = tmp_path / "parent"
+    (parent / "out").mkdir(parents=True)
+    before = os.stat(parent).st_mtime_ns
+    time.sleep(0.01)
+    for gen in (1, 2):
+        with staged_output(parent / "out", overwrite=True, results=RESULTS) as st:
+            _write(st.path, gen)
+    assert os.stat(parent).st_mtime_ns == before and _generations(parent / "out") == {2}
+
+
+_WRITER = textwrap.dedent("""
+    import json, sys, time
+    from unidyn.results.folders import staged_output
+    out, gen = sys.argv[1], int(sys.argv[2])
+    names = ("summary.json", "timeseries.csv", "a.csv", "b.csv")
+    with staged_output(out, overwrite=True, results=names[:2], owned=names) as st:
+        for n in names:
+            (st.path / n).write_text(json.dumps({"generation": gen, "file": n}) + " " * 200000)
+            time.sleep(0.01)
+    print("done", flush=True)
+""")
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL, signal.SIGTERM])
+def test_processes_killed_at_random_moments_leave_old_or_new_never_a_mix(tmp_path, sig):
+    """Real processes, real signals: after each one, ``out`` holds every file of one
+    generation (the last complete one, or the one just killed if it got as far as
+    moving its files in). Only ``kill -9`` in the milliseconds of the renames can leave
+    a mix, and then the manifest says the replacement was cut short."""
+    rng = random.Random(20261123 + int(sig))
+    out = tmp_path / "out"
+    script = tmp_path / "writer.py"
+    script.write_text(_WRITER)
+    env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
+    subprocess.run([sys.executable, str(script), str(out), "0"], check=True, env=env,
+                   cwd=tmp_path, capture_output=True)
+    names = ("summary.json", "timeseries.csv", "a.csv", "b.csv")
+    done = 0
+    for gen in range(1, 9):
+        proc = subprocess.Popen([sys.executable, str(script), str(out), str(gen)], env=env,
+                                cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        time.sleep(rng.uniform(0.05, 0.6))
+        proc.send_signal(sig)
+        stdout, _ = proc.communicate(timeout=30)
+        finished = b"done" in stdout
+        gens = {json.loads((out / n).read_text().rstrip())["generation"] for n in names}
+        problem = outdir.check_manifest(out, "results", names)
+        if len(gens) > 1:
+            assert sig == signal.SIGKILL and "cut short" in problem, (gens, sig, problem)
+            gens = {gen}
+        elif finished:
+            assert gens == {gen} and problem == ""
+        else:  # the old one, or the new one if the signal came after its renames but
+            # before it could print "done"
+            assert gens in ({done}, {gen}), (gens, done, gen)
+            assert problem == "" or sig == signal.SIGKILL, problem
+        done = gens.pop()
+    # what the killed processes left in out is cleaned by the next writer
+    subprocess.run([sys.executable, str(script), str(out), "99"], check=True, env=env,
+                   cwd=tmp_path, capture_output=True)
+    assert _siblings(tmp_path, out) == ["writer.py"] and _private(out) == []
+    assert outdir.check_manifest(out, "results", names) == ""
+
+
+def test_the_block_holds_the_folder_lock_and_a_second_writer_is_refused(tmp_path):
+    out = tmp_path / "out"
+    with staged_output(out, overwrite=False, results=RESULTS) as st:
+        assert (out / outdir.LOCK_NAME).read_text().strip() == str(os.getpid())
+        with pytest.raises(outdir.FolderInUse, match=f"PID {os.getpid()}"):
+            with staged_output(out, overwrite=True, results=RESULTS):
+                pytest.fail("the second writer must not run")
+        _write(st.path, 1)
+    assert _generations(out) == {1} and not (out / outdir.LOCK_NAME).exists()
+
+
+def test_a_refused_write_into_a_new_folder_leaves_no_folder(tmp_path):
+    out = tmp_path / "new" / "out"
+    with pytest.raises(RuntimeError):
+        with staged_output(out, overwrite=False, results=RESULTS):
+            raise RuntimeError("failed before writing")
+    assert not out.exists()
+
+
+_RACER = textwrap.dedent("""
+    import sys, time
+    from unidyn import ValidationError
+    from unidyn.results.folders import staged_output
+    out, me = sys.argv[1], sys.argv[2]
+    try:
+        with staged_output(out, overwrite=False, results=("summary.json",)) as st:
+            time.sleep(0.5)
+            (st.path / "summary.json").write_text(me)
+    except ValidationError as err:
+        print("refused:", err)
+        sys.exit(2)
+""")
+
+
+def test_two_processes_into_one_empty_folder_one_writes_the_other_is_refused(tmp_path):
+    script = tmp_path / "racer.py"
+    script.write_text(_RACER)
+    out = tmp_path / "out"
+    procs = [subprocess.Popen([sys.executable, str(script), str(out), name], cwd=tmp_path,
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for name in ("first", "second")]
+    outs = [p.communicate(timeout=60) for p in procs]
+    codes = sorted(p.returncode for p in procs)
+    assert codes == [0, 2], outs
+    refused = [o for o, p in zip(outs, procs) if p.returncode == 2][0][0]
+    assert "PID" in refused or "already holds" in refused
+    winner = ["first", "second"][[p.returncode for p in procs].index(0)]
+    assert (out / "summary.json").read_text() == winner
+
+
+def test_ctrl_c_during_the_renames_is_held_back():
+    with outdir._interrupts_deferred():
+        signal.raise_signal(signal.SIGINT)  # arrives inside: held back, then dropped
+    with pytest.raises(KeyboardInterrupt):
+        with outdir._interrupts_deferred():
+            signal.raise_signal(signal.SIGINT)
+            raise OSError("a rename failed")  # not done: the Ctrl-C is raised after all
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_sigterm_during_the_renames_is_held_back_then_delivered():
+    """A SIGTERM while files are renamed into place reaches the handler that was
+    there, after; the unidyn command's handler drops it once the results are in place
+    (the command has finished, and says what it wrote), and gets it when they are not."""
+    from unidyn import process
+    got = []
+    previous = signal.signal(signal.SIGTERM, lambda *a: got.append("term"))
+    try:
+        with outdir._interrupts_deferred():
+            signal.raise_signal(signal.SIGTERM)
+            assert got == []  # held back during the renames
+        assert got == ["term"]  # then delivered to the handler that was there
+        with process.command_signals():  # the unidyn command's handlers
+            with outdir._interrupts_deferred():
+                signal.raise_signal(signal.SIGTERM)  # results in place: the command finishes
+            with pytest.raises(KeyboardInterrupt):
+                with outdir._interrupts_deferred():
+                    signal.raise_signal(signal.SIGTERM)
+                    raise OSError("a rename failed")  # not in place: the command stops
+            assert process.finishes_on_sigterm(signal.getsignal(signal.SIGTERM))
+        assert got == ["term"]  # and none reached the handler outside the command
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+        process._received.clear()  # the command's record of a signal, for the next tests
+
+
+def test_a_folder_the_command_wrote_is_replaced_whole(tmp_path):
+    """A script's results may be folders (one per case): the earlier one goes whole,
+    a folder of the user's beside it stays."""
+    out = tmp_path / "out"
+    (out / "mine").mkdir(parents=True)
+    (out / "mine" / "m.txt").write_text("mine")
+    for gen, names in ((1, ("a.csv", "b.csv")), (2, ("a.csv",))):
+        with staged_output(out, overwrite=True, results=("case1",)) as st:
+            (st.path / "case1").mkdir()
+            for n in names:
+                (st.path / "case1" / n).write_text(str(gen))
+    assert sorted(os.listdir(out / "case1")) == ["a.csv"]
+    assert (out / "case1" / "a.csv").read_text() == "2"
+    assert (out / "mine" / "m.txt").read_text() == "mine" and _private(out) == []

@@ -1,0 +1,363 @@
+"""The paper's Fig. 2 as .bd files: bdrun/bdload runs them to the numbers of
+unidyn.simulate; the .bd writer round-trips diagrams; the fixed-port blocks that
+bdedit draws declare the ports they have; every block has an icon and typed
+parameters."""
+
+from __future__ import annotations
+
+import contextlib
+import inspect
+import io
+import json
+import os
+import pickle
+import struct
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import unidyn
+from unidyn import Scenario
+from unidyn.teaching import bdfile
+from unidyn.teaching.bdfile import BdFileError, PAPER_FILES
+from unidyn.diagrams import build_fig2, new_simulator
+
+ROOT = Path(__file__).resolve().parents[2]
+BD_DIR = ROOT / "examples" / "bd"
+ICONS = ROOT / "src" / "unidyn" / "blocks" / "Icons"
+from unidyn.diagrams.simulate import DEFAULT_ATOL, DEFAULT_RTOL  # noqa: E402
+
+SOLVER = dict(rtol=DEFAULT_RTOL, atol=DEFAULT_ATOL)
+
+
+def _quiet(f, *args, **kwargs):
+    with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):
+        warnings.simplefilter("ignore")  # bdload's notice that it evaluates expressions
+        return f(*args, **kwargs)
+
+
+def _run(sim, bd, T, Ts=0.1):
+    """Run as unidyn.simulate does: same solver, tolerances, step bound and output grid;
+    the continuous states (robot x, y, psi[, u, w], compensator theta_hat) at t = k Ts."""
+    _quiet(bd.compile)
+    out = _quiet(sim.run, bd, T=T, dt=Ts, solver="RK45",
+                 solver_args=dict(**SOLVER, max_step=Ts))
+    return np.asarray(out.t), np.asarray(out.x), list(out.xnames)
+
+
+def _load(path):
+    from bdsim.blockdiagram import bdload
+    sim = new_simulator()
+    bd = sim.blockdiagram()
+    _quiet(bdload, bd, str(path))
+    return sim, bd
+
+
+def _simulated_states(n, T):
+    """The same states from unidyn.simulate(Scenario.paper(n)), the library's own route."""
+    res = unidyn.simulate(Scenario.paper(n, T=T), progress=False)
+    cols = [res.pose]
+    if n != 1:
+        cols.append(res.velocity)
+    if n in (3, 4):
+        cols.append(res.theta_hat)
+    return res.t, np.hstack(cols)
+
+
+# --------------------------------------------------------------------------- #
+# the shipped files
+
+
+def test_shipped_files_are_what_the_script_writes(tmp_path):
+    written = bdfile.write_paper_fig2(tmp_path)
+    assert sorted(p.name for p in written) == sorted(PAPER_FILES.values())
+    for p in written:
+        assert p.read_bytes() == (BD_DIR / p.name).read_bytes(), (
+            f"examples/bd/{p.name} is stale: run python tools/make_bd_files.py")
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 4])
+def test_shipped_file_runs_to_simulate_numbers(n):
+    """bdload + run of the shipped file (20 s) = unidyn.simulate(Scenario.paper(n, T=20)),
+    with the paper's noise (same seeds, drawn by SENSORNOISE from the file's seed/stream)."""
+    T = 20.0
+    sim, bd = _load(BD_DIR / PAPER_FILES[n])
+    t, x, names = _run(sim, bd, T)
+    t_ref, x_ref = _simulated_states(n, T)
+    assert x.shape == x_ref.shape == (201, {1: 3, 2: 5, 3: 11, 4: 11}[n]), names
+    np.testing.assert_allclose(t, t_ref, rtol=0, atol=1e-12)
+    err = np.abs(x - x_ref).max()
+    assert err <= 1e-9, f"case {n}: max |bd file - simulate| = {err:.3g}"
+    # and it is a real trajectory: the robot moved along the figure eight
+    assert np.ptp(x[:, 0]) > 0.5
+
+
+def _bdrun(path, T, out, timeout):
+    env = dict(os.environ, BDSIMPATH="unidyn", MPLBACKEND="Agg")
+    bdrun = Path(sys.executable).with_name("bdrun")
+    cmd = [str(bdrun), str(path), "--simtime", f"{T},0.1", "--rtol", str(SOLVER["rtol"]),
+           "--atol", str(SOLVER["atol"]), "--max-step", "0.1", "--no-graphics", "-q", "-p", str(out)]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    with open(out, "rb") as f:
+        return pickle.load(f)
+
+
+def test_bdrun_runs_case4_headless(tmp_path):
+    """The command line route: bdrun FILE.bd (a separate process, no display) with
+    simulate's solver settings gives simulate's numbers."""
+    T = 20.0
+    o = _bdrun(BD_DIR / PAPER_FILES[4], T, tmp_path / "out.pkl", timeout=180)
+    t_ref, x_ref = _simulated_states(4, T)
+    assert list(o.xnames) == ["x", "y", "psi", "u", "w"] + [f"theta_hat{i}" for i in range(1, 7)]
+    np.testing.assert_allclose(np.asarray(o.t), t_ref, rtol=0, atol=1e-12)
+    assert np.abs(np.asarray(o.x) - x_ref).max() <= 1e-9
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("n", [1, 2, 3, 4])
+def test_bdrun_full_paper_run(n, tmp_path):
+    """The paper's full 200 s, through bdrun, against unidyn.simulate(Scenario.paper(n))."""
+    o = _bdrun(BD_DIR / PAPER_FILES[n], 200.0, tmp_path / "out.pkl", timeout=600)
+    t_ref, x_ref = _simulated_states(n, 200.0)
+    x = np.asarray(o.x)
+    assert x.shape == x_ref.shape
+    err = np.abs(x - x_ref).max()
+    assert err <= 1e-9, f"case {n}: max |bdrun - simulate| over 200 s = {err:.3g}"
+
+
+# --------------------------------------------------------------------------- #
+# the writer
+
+
+ROUND_TRIP = {
+    "paper 1": Scenario.paper(1, T=10.0),
+    "paper 2": Scenario.paper(2, T=10.0),
+    "paper 3": Scenario.paper(3, T=10.0),
+    "paper 4, adapting from 2 s": Scenario.paper(4, T=10.0, adapt_from=2.0),
+    # a robot that is not a preset, a circle, no noise, the derivative filter
+    # (the string "filter", a Python builtin, must reach the block as a string)
+    "circle, filter, custom robot": Scenario(
+        case="adaptive", T=10.0, noise=None, vd_dot="filter", adapt_from=0.0,
+        robot=[0.3, 0.25, 0.001, 0.95, 0.002, 1.05],
+        trajectory={"type": "circle", "radius": 1.2, "omega": -0.3, "phase": 0.5}),
+    "line, fx44850 leakage, no limits": Scenario(
+        case="adaptive", T=10.0, leakage="fx44850", limits=unidyn.NO_LIMITS,
+        trajectory={"type": "line", "start": [0.0, 0.5], "velocity": [0.2, 0.05]}),
+}
+
+
+@pytest.mark.parametrize("label", list(ROUND_TRIP))
+def test_writer_round_trip(label, tmp_path):
+    """write build_fig2's diagram, bdload it, run both: the same numbers."""
+    sc = ROUND_TRIP[label]
+    sim = new_simulator()
+    fig = build_fig2(sim, sc)
+    path = bdfile.save_bd(fig, tmp_path / "fig2.bd")
+    sim2, bd2 = _load(path)
+    assert sorted(b.name for b in bd2.blocklist) == sorted(b.name for b in fig.bd.blocklist)
+    wires = lambda bd: sorted((w.start.block.name, w.start.port, w.end.block.name, w.end.port)
+                              for w in bd.wirelist)
+    assert wires(bd2) == wires(fig.bd)
+    t1, x1, n1 = _run(sim, fig.bd, sc.T)
+    t2, x2, n2 = _run(sim2, bd2, sc.T)
+    assert n1 == n2 and x1.shape == x2.shape
+    assert np.abs(x1 - x2).max() <= 1e-12
+    # the loaded blocks hold the same settings as the built ones
+    for b in fig.bd.blocklist:
+        b2 = next(c for c in bd2.blocklist if c.name == b.name)
+        assert bdfile.block_parameters(b2) == bdfile.block_parameters(b)
+    # written twice: the same bytes
+    assert bdfile.save_bd(build_fig2(new_simulator(), sc), tmp_path / "again.bd").read_bytes() \
+        == path.read_bytes()
+
+
+def test_writer_values_in_bdload_form():
+    from unidyn.teaching.bdfile import _write_value as w
+    assert w("p3dx_laser", "p") == "p3dx_laser"        # bdload's eval fails: kept as a string
+    assert w("input", "p") == "='input'"               # a builtin: written as an expression
+    assert w("filter", "p") == "='filter'"
+    assert w("np", "p") == "='np'"
+    assert w("=x", "p") == "='=x'"
+    assert w(np.inf, "p") == "=math.inf"
+    assert w([1.0, -np.inf], "p") == "=[1.0, -math.inf]"
+    assert w(np.array([1, 2]), "p") == [1, 2]
+    assert w(None, "p") is None
+    with pytest.raises(BdFileError, match="p is NaN"):
+        w(float("nan"), "p")
+
+
+def test_writer_errors_name_block_and_parameter(tmp_path):
+    sim = new_simulator()
+    fig = build_fig2(sim, Scenario.paper(3, T=1.0, control="sampled"))
+    with pytest.raises(BdFileError, match=r"block 'controller' \(SampledKinematicController\): "
+                                          r"parameter 'clock'"):
+        bdfile.save_bd(fig, tmp_path / "x.bd")
+    assert not (tmp_path / "x.bd").exists()
+
+    from unidyn.blocks import TrajectorySource
+    bd = new_simulator().blockdiagram()
+    src = TrajectorySource(lambda t: ((0.0, 0.0), (0.0, 0.0)), bd=bd, name="ref")
+    bd.connect(src[0], bd.NULL(1, name="n0"))
+    with pytest.raises(BdFileError, match=r"block 'ref' \(TrajectorySource\): parameter 'trajectory'"):
+        bdfile.to_bd_dict(bd)
+
+    bd = new_simulator().blockdiagram()
+    c = bd.CONSTANT(1.0, name="one")
+    i = bd.INTEGRATOR(name="integ")
+    bd.connect(c, i)
+    with pytest.raises(BdFileError, match=r"block 'integ' \(Integrator\)"):
+        bdfile.to_bd_dict(bd)
+
+
+def test_fig2_layout_reads_left_to_right():
+    data = json.loads((BD_DIR / PAPER_FILES[4]).read_text())
+    pos = {b["title"]: (b["pos_x"], b["pos_y"]) for b in data["blocks"]}
+    order = ["trajectory", "controller", "compensator", "demux", "robot"]
+    xs = [pos[k][0] for k in order]
+    assert xs == sorted(xs) and len(set(xs)) == len(xs)
+    assert all(pos[k][1] == 0.0 for k in order)
+    for k in ("position_noise", "velocity_noise"):   # the measurements, below, fed back
+        assert pos[k][1] > 100.0
+    flipped = {b["title"] for b in data["blocks"] if b["flipped"]}
+    assert flipped == {"position_noise", "velocity_noise"}
+
+
+# --------------------------------------------------------------------------- #
+# blocks: fixed ports, icons, typed parameters
+
+
+def _unidyn_library():
+    sim = new_simulator()
+    return sim, {k: v for k, v in sim.block_library.items() if v["module"].startswith("unidyn.")}
+
+
+def _construct(sim, key):
+    """A block of each unidyn type with its defaults (a named clock where one is needed)."""
+    bd = sim.blockdiagram()
+    f = getattr(bd, key)
+    if "clock" in _unidyn_library()[1][key]["params"]:
+        return f(bd.clock(0.1, name="c"))
+    if key == "TRAJECTORYSOURCE":
+        return f({"type": "circle"})
+    return f()
+
+
+FIXED = {"DYNAMICUNICYCLEWITHVELOCITY": (2, 2), "KINEMATICCONTROLLERWITHRATE": (5, 2),
+         "DYNAMICCOMPENSATORWITHRATEINPUT": (3, 2), "SENSORNOISE": (1, 1)}
+
+
+def test_fixed_port_classes_have_the_ports_they_declare():
+    sim, lib = _unidyn_library()
+    assert set(FIXED) <= set(lib)
+    for key, info in lib.items():
+        block = _construct(sim, key)
+        cls = type(block)
+        # what bdedit reads (bdsim's library, from the class attributes) = the block at run time
+        assert (info["nin"], info["nout"]) == (cls.nin, cls.nout) == (block.nin, block.nout), key
+        assert len(cls.outlabels) == cls.nout, key
+        if cls.nin:
+            assert len(cls.inlabels) == cls.nin, key
+    for key, ports in FIXED.items():
+        assert (lib[key]["nin"], lib[key]["nout"]) == ports
+
+
+def test_fixed_port_classes_refuse_port_changing_options():
+    from unidyn.blocks import (DynamicCompensatorWithRateInput, DynamicUnicycleWithVelocity,
+                               KinematicControllerWithRate)
+    bd = new_simulator().blockdiagram()
+    for cls, kw in ((DynamicUnicycleWithVelocity, {"velocity_output": False}),
+                    (DynamicUnicycleWithVelocity, {"disturbance": True}),
+                    (DynamicUnicycleWithVelocity, {"nout": 1}),
+                    (KinematicControllerWithRate, {"rate": False}),
+                    (DynamicCompensatorWithRateInput, {"vd_dot": "filter"})):
+        with pytest.raises(unidyn.ValidationError, match=f"{cls.__name__}: unknown keyword "
+                                                         f"'{next(iter(kw))}'"):
+            cls(bd=bd, **kw)
+
+
+def test_fixed_port_classes_compute_what_their_parents_compute():
+    """Each fixed-port block gives its parent's outputs and derivatives on random inputs."""
+    from unidyn.blocks import (DynamicCompensator, DynamicCompensatorWithRateInput,
+                               DynamicUnicycle, DynamicUnicycleWithVelocity,
+                               KinematicController, KinematicControllerWithRate)
+    bd = new_simulator().blockdiagram()
+    rng = np.random.default_rng(1)
+    pairs = [(DynamicUnicycleWithVelocity(robot="p3dx_laser", a=0.2, speed_max=0.75, accel_max=0.3,
+                                          bd=bd),
+              DynamicUnicycle(robot="p3dx_laser", a=0.2, speed_max=0.75, accel_max=0.3,
+                              velocity_output=True, bd=bd), [1, 1], 5),
+             (KinematicControllerWithRate(kx=0.4, bd=bd), KinematicController(kx=0.4, rate=True, bd=bd),
+              [2, 2, 3, 2, 2], 0),
+             (DynamicCompensatorWithRateInput(adaptive=True, bd=bd),
+              DynamicCompensator(adaptive=True, vd_dot="input", bd=bd), [2, 2, 2], 6)]
+    for new, old, sizes, nx in pairs:
+        for _ in range(20):
+            u = [rng.normal(size=n) if n > 1 else rng.normal() for n in sizes]
+            x = rng.normal(size=nx) * 0.3
+            for a, b in zip(new.output(1.0, u, x), old.output(1.0, u, x)):
+                np.testing.assert_array_equal(a, b)
+            if nx:
+                np.testing.assert_array_equal(new.deriv(1.0, u, x), old.deriv(1.0, u, x))
+
+
+def test_sensor_noise_streams_are_the_runs_noise():
+    """SENSORNOISE(seed, stream=k) draws the k-th stream of unidyn.model.noise.noise_seeds(seed),
+    and blocks naming one clock share it."""
+    from unidyn.blocks import MeasurementNoise, SensorNoise
+    from unidyn.model.noise import noise_seeds
+    bd = new_simulator().blockdiagram()
+    a = SensorNoise(Ts=0.1, seed=7, stream=1, std=0.5, bd=bd)
+    b = SensorNoise(Ts=0.1, seed=7, stream=0, bd=bd)
+    ref = MeasurementNoise(bd.clock(0.1, name="other"), seed=noise_seeds(7)[1], std=0.5, bd=bd)
+    assert a._clock is b._clock and a._clock.name == "sensor"
+    a.start(None), ref.start(None)
+    np.testing.assert_array_equal(a._x0, ref._x0)
+    for _ in range(5):
+        np.testing.assert_array_equal(a.next(0.0, [np.zeros(2)], None), ref.next(0.0, [np.zeros(2)], None))
+    with pytest.raises(unidyn.ValidationError, match="clock 'sensor' has period 0.1 s"):
+        SensorNoise(Ts=0.2, bd=bd)
+
+
+def _png_size(path: Path):
+    head = path.read_bytes()[:24]
+    assert head[:8] == b"\x89PNG\r\n\x1a\n", path
+    return struct.unpack(">II", head[16:24])
+
+
+def test_every_block_has_an_icon_and_typed_parameters():
+    sim, lib = _unidyn_library()
+    assert lib
+    for key, info in lib.items():
+        # bdedit's rule (bdedit.block_importer): <blocks folder>/Icons/<block type lower>.png
+        icon = Path(info["path"][0]) / "Icons" / f"{key.lower()}.png"
+        assert icon.is_file(), f"{key}: no icon {icon}"
+        assert icon.resolve().parent == ICONS.resolve()
+        assert _png_size(icon) == (250, 250)
+        cls = type(_construct(sim, key))
+        sig = inspect.signature(cls.__init__)
+        params = [p for p in sig.parameters.values()
+                  if p.name != "self" and p.kind not in (p.VAR_KEYWORD, p.VAR_POSITIONAL)]
+        assert params, key
+        for p in params:
+            assert p.annotation is not inspect.Parameter.empty, f"{key}: {p.name} has no annotation"
+            typ, text = info["params"].get(p.name, (None, None))
+            assert text, f"{key}: no :param {p.name}:"
+            assert typ and typ.strip(), f"{key}: no :type {p.name}:"
+        # nothing documented that the constructor does not take (bdedit would offer it)
+        documented = set(info["params"]) - {"blockargs"}
+        assert documented <= {p.name for p in params}, key
+
+
+def test_annotations_resolve():
+    """bdweb-style forms evaluate the annotations: every one names something real."""
+    import typing
+    sim, lib = _unidyn_library()
+    for key in lib:
+        cls = type(_construct(sim, key))
+        hints = typing.get_type_hints(cls.__init__)
+        assert hints, key
