@@ -17,7 +17,7 @@ __version__ = "0.1.0"
 
 _bdsim_path.register()
 
-__all__ = ["Scenario", "simulate", "simulate_batch", "Result", "SimulationError",
+__all__ = ["Scenario", "run", "simulate", "simulate_batch", "Result", "SimulationError",
            "ValidationError", "RobotParameters", "Limits", "NoiseSpec", "NO_LIMITS",
            "PAPER_LIMITS", "robots", "laws", "trajectories", "equations", "check_properties",
            "rank_test", "to_iosys", "LoopExplorer", "__version__"]
@@ -41,7 +41,9 @@ _LAZY = {
     "check_properties": ("model.properties", "check_properties"),
     "rank_test": ("model.properties", "rank_test"),
     "Result": ("results.result", "Result"),
-    # the bdsim diagram of Fig. 2 (bdsim loads with it), and the batch engine
+    # one run, the engine chosen as on the command line; the bdsim diagram of Fig. 2
+    # (bdsim loads with it), and the batch engine
+    "run": ("engines", "run"),
     "simulate": ("diagrams.simulate", "simulate"),
     "SimulationError": ("diagrams.simulate", "SimulationError"),
     "simulate_batch": ("engine.batch", "simulate_batch"),

@@ -231,11 +231,8 @@ def _listing(folder: Path, names) -> str:
 def _cmd_run(args) -> int:
     from .results.folders import staged_output
     sc, engine_from = _build_scenario(args)
-    engine = args.engine or engine_from or "auto"
-    if engine not in ("bdsim", "batch", "auto"):
-        raise ValidationError(f"engine must be 'bdsim', 'batch' or 'auto', got {engine!r}")
-    if engine == "auto":  # the batch engine where it applies: same numbers, far faster
-        engine = "batch" if sc.control == "continuous" else "bdsim"
+    from .engines import choose
+    engine = choose(sc, args.engine or engine_from or "auto")  # as unidyn.run chooses
     out = _out(args.out)
     animation = _import_animation() if args.animate else None
     bag = _bag_target(args)
@@ -277,14 +274,11 @@ def _run_staged(staging, sc, engine, out, animation):
             print(f"unidyn: replacing {out}/ ({replaced}) once the new run is written; "
                   f"kept as they are if it fails or is interrupted", file=sys.stderr, flush=True)
         t0 = time.perf_counter()
-        from .diagrams.simulate import SimulationError, SimulationInterrupted, simulate
+        from .diagrams.simulate import SimulationError, SimulationInterrupted
+        from .engines import run
         interrupted = False
         try:
-            if engine == "batch":
-                from .engine.batch import simulate_batch
-                result = simulate_batch([sc])[0]
-            else:
-                result = simulate(sc)
+            result = run(sc, engine)
         except SimulationError as err:
             if err.result is None:
                 raise _RunFailed(f"the run failed before its first sample: {err}; "

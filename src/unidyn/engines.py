@@ -1,0 +1,53 @@
+"""Running one scenario: which engine, chosen the same way in Python and on the
+command line (``unidyn run --engine``).
+
+Two engines integrate the same equations (:mod:`unidyn.model.equations`):
+
+- ``"bdsim"``: the Fig. 2 diagram of bdsim blocks, integrated by scipy's ``solve_ivp``
+  with an adaptive step (:func:`unidyn.simulate`); it runs every scenario, sampled
+  control included;
+- ``"batch"``: the batch engine, fixed-step RK4 over many runs at once
+  (:func:`unidyn.simulate_batch`); continuous control only, and far faster.
+
+``"auto"`` picks the batch engine for continuous control and the diagram for sampled
+control; :attr:`Result.engine <unidyn.Result>` says which ran.
+"""
+
+from __future__ import annotations
+
+from ._validate import choice
+from .model.scenario import Scenario
+
+__all__ = ["ENGINES", "choose", "run"]
+
+#: The engines :func:`run` accepts.
+ENGINES = ("auto", "batch", "bdsim")
+
+
+def choose(scenario: Scenario, engine: str = "auto") -> str:
+    """The engine that runs ``scenario``: ``"batch"`` or ``"bdsim"``.
+
+    :param engine: ``"auto"`` (the batch engine for continuous control, the bdsim
+        diagram for sampled control), ``"batch"`` or ``"bdsim"``
+    :raises ValidationError: for another engine
+    """
+    engine = choice("engine", engine, ENGINES)
+    if engine == "auto":
+        return "batch" if scenario.control == "continuous" else "bdsim"
+    return engine
+
+
+def run(scenario: Scenario, engine: str = "auto", **options):
+    """Run ``scenario`` with the engine :func:`choose` picks, as ``unidyn run`` does.
+
+    :param engine: ``"auto"``, ``"batch"`` or ``"bdsim"`` (:func:`choose`)
+    :param options: passed to the engine's function: :func:`unidyn.simulate_batch`
+        (``substeps``, ``backend``, ``progress``) or :func:`unidyn.simulate` (``rtol``,
+        ``atol``, ``method``, ``timeout``, ``progress``, the diagram's block factories)
+    :return: :class:`~unidyn.Result` (its ``engine`` says which ran)
+    """
+    if choose(scenario, engine) == "batch":
+        from .engine.batch import simulate_batch  # numba, where installed, loads with it
+        return simulate_batch([scenario], **options)[0]
+    from .diagrams.simulate import simulate  # bdsim loads with it
+    return simulate(scenario, **options)
