@@ -310,7 +310,7 @@ def sweep_floor(scs, step_ns):
     try:
         for n in sorted({1, n_all}):
             numba.set_num_threads(n)
-            times[n], _ = timed(lambda: simulate_batch(scs, backend="numba", progress=False))
+            times[n], _ = timed(lambda: simulate_batch(scs, backend="compiled", progress=False))
     finally:
         numba.set_num_threads(n_all)
     speedup = times[1] / times[n_all]
@@ -439,11 +439,11 @@ def main(argv=None):
     rows.append(("paper sim. 4 (200 s), bare bdsim loop (one block, same equations)", t_bare,
                  f"our blocks add {100 * (t_diag / t_bare - 1):+.0f} %"))
     if _kernels.AVAILABLE:
-        simulate_batch([sc.replace(T=1.0)], backend="numba")  # compile or load the cache
-        t_nb, _ = timed(lambda: simulate_batch([sc], backend="numba"), repeat=3)
+        simulate_batch([sc.replace(T=1.0)], backend="compiled")  # compile or load the cache
+        t_nb, _ = timed(lambda: simulate_batch([sc], backend="compiled"), repeat=3)
         rows.append(("paper sim. 4 (200 s), batch engine, numba", t_nb,
                      f"{t_diag / t_nb:.0f}x faster than the diagram"))
-    t_np, _ = timed(lambda: simulate_batch([sc], backend="numpy"))
+    t_np, _ = timed(lambda: simulate_batch([sc], backend="plain"))
     rows.append(("paper sim. 4 (200 s), batch engine, numpy", t_np,
                  f"{t_diag / t_np:.2g}x faster than the diagram"))
 
@@ -455,7 +455,7 @@ def main(argv=None):
         for label, cases in (("", scs), (", noise-free", fig11_scenarios(noise=False))):
             times = []
             for _ in range(5):
-                t, res = timed(lambda: simulate_batch(cases, backend="numba", progress=False))
+                t, res = timed(lambda: simulate_batch(cases, backend="compiled", progress=False))
                 times.append(t)
             t_run = float(np.median(times))
             run_steps = sum(r.rk4_steps for r in res)  # refined intervals and split steps included
@@ -507,7 +507,7 @@ def main(argv=None):
               f"noise): IAE relative difference median {np.median(errs):.1e}, max {max(errs):.1e}; "
               f"position difference max {max(pos):.1e} m")
     if quiet_res is not None:
-        fine = simulate_batch(fig11_scenarios(noise=False), substeps=200, backend="numba",
+        fine = simulate_batch(fig11_scenarios(noise=False), substeps=200, backend="compiled",
                               progress=False)
         rel = np.array([abs(a.metrics["iae"] - b.metrics["iae"]) / b.metrics["iae"]
                         for a, b in zip(quiet_res, fine)]).reshape(-1, 4)

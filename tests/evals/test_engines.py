@@ -77,8 +77,8 @@ def test_numba_and_numpy_backends_agree(noise):
         pytest.skip("numba not installed")
     scs = [s for k in (0.5, 4.0) for s in _fig11_cases(k, T=30.0, noise=noise)]
     scs.append(Scenario.paper(1, T=30.0, noise=noise))
-    a = simulate_batch(scs, substeps=5, backend="numpy")
-    b = simulate_batch(scs, substeps=5, backend="numba")
+    a = simulate_batch(scs, substeps=5, backend="plain")
+    b = simulate_batch(scs, substeps=5, backend="compiled")
     for x, y in zip(a, b):
         assert np.max(np.abs(x.pose - y.pose)) < 1e-10
         assert np.max(np.abs(x.theta_hat - y.theta_hat)) < 1e-10

@@ -106,7 +106,7 @@ def test_the_engine_uses_them_and_its_lane_loop_calls_no_maths_library():
     XL, PL = np.zeros(_kernels.NSTATE * L), np.repeat(p, L)
     OUT = np.zeros(_kernels.NSTAGE * L)  # the rates and the limits' state (_stage writes both)
     lanes = _kernels.Lanes(XL, PL, np.zeros(4 * L), L)
-    stage(0.0, _kernels.reference(0.0, p), lanes, 0.0, OUT, True, OUT)
+    stage(0.0, _kernels.reference(0.0, p), lanes, 0.0, _kernels.ZERO, OUT)
     ir = stage.inspect_llvm(stage.signatures[0])
     called = set(re.findall(r"call [^@]*@([\w.$]+)", ir))
     assert not {"sin", "cos", "tanh", "llvm.sin.f64", "llvm.cos.f64"} & called, called

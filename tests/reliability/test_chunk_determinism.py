@@ -22,7 +22,7 @@ def _points():
             Scenario.paper(2, T=1.5)]
 
 
-@pytest.mark.parametrize("backend", ["numpy", "numba"])
+@pytest.mark.parametrize("backend", ["plain", "compiled"])
 def test_results_are_bit_identical_whatever_the_chunking(backend):
     pts = _points()
     whole = simulate_batch(pts, backend=backend)
@@ -39,8 +39,8 @@ def test_results_are_bit_identical_whatever_the_chunking(backend):
 
 def test_order_within_a_call_does_not_matter():
     pts = _points()
-    fwd = simulate_batch(pts, backend="numpy")
-    rev = simulate_batch(pts[::-1], backend="numpy")[::-1]
+    fwd = simulate_batch(pts, backend="plain")
+    rev = simulate_batch(pts[::-1], backend="plain")[::-1]
     for a, b in zip(fwd, rev):
         assert a.metrics == b.metrics
 
@@ -56,10 +56,10 @@ def test_runs_side_by_side_in_simd_lanes_are_each_run_alone():
     base = Scenario.paper(3, T=3.0)
     pts = [base.replace(kx=k, ky=k, noise=NoiseSpec(seed=i))
            for i, k in enumerate(np.linspace(0.5, 3.0, _kernels.LANES + 3))]
-    together = simulate_batch(pts, backend="numba")
+    together = simulate_batch(pts, backend="compiled")
     assert len({r.substeps for r in together}) == 1
     for p, a in zip(pts, together):
-        b, = simulate_batch([p], backend="numba")
+        b, = simulate_batch([p], backend="compiled")
         for f in FIELDS:
             assert np.array_equal(getattr(a, f), getattr(b, f)), f
         assert a.metrics == b.metrics

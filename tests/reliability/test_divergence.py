@@ -69,7 +69,7 @@ def test_gamma_1e6_completes_with_the_step_it_needs_and_1e9_is_refused_naming_ga
         simulate_batch([_gamma(1e9, T=3.0)])
 
 
-@pytest.mark.parametrize("backend", ["numba", "numpy"])
+@pytest.mark.parametrize("backend", ["compiled", "plain"])
 def test_a_runaway_robot_is_never_reported_complete_by_the_batch_engine(backend):
     sc = Scenario(robot=UNSTABLE, limits=NO_LIMITS, T=6.0, adapt_from=0.0, name="runaway")
     r, = simulate_batch([sc], backend=backend)

@@ -54,7 +54,7 @@ def test_a_failure_while_bdsim_starts_the_blocks_is_passed_on(error, monkeypatch
 def test_a_nan_in_the_batch_engine_marks_only_that_run_incomplete():
     bad = Scenario.paper(3, T=6.0, trajectory=_nan_after(2.0), name="bad")
     good = Scenario.paper(3, T=6.0, name="good")
-    rb, rg = simulate_batch([bad, good], backend="numpy")
+    rb, rg = simulate_batch([bad, good], backend="plain")
     assert rg.complete and len(rg.t) == 61
     assert not rb.complete and "bad" in rb.message and "t = 2.1" in rb.message
     assert 0 < len(rb.t) < 61 and np.all(np.isfinite(rb.pose))

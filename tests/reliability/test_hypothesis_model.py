@@ -327,11 +327,11 @@ def test_scenario_runs_are_finite_and_reproducible(sc):
 @given(sc=scenarios(T=3.0), others=st.lists(scenarios(T=3.0), min_size=1, max_size=3),
        position=st.integers(0, 3))
 def test_batch_runs_are_independent(sc, others, position):
-    """A run's result does not depend on the other runs of its batch (numba backend)."""
-    alone = simulate_batch([sc], backend="numba")[0]
+    """A run's result does not depend on the other runs of its batch (compiled)."""
+    alone = simulate_batch([sc], backend="compiled")[0]
     batch = list(others)
     batch.insert(min(position, len(batch)), sc)
-    together = simulate_batch(batch, backend="numba")[batch.index(sc)]
+    together = simulate_batch(batch, backend="compiled")[batch.index(sc)]
     _same(alone, together)
     _ran("batch_runs_are_independent")
 

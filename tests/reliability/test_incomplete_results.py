@@ -24,12 +24,12 @@ def _strict(text):
 
 def test_an_incomplete_batch_run_has_null_metrics_and_the_partial_ones_apart(tmp_path):
     bad = Scenario.paper(3, T=6.0, trajectory=_nan_after(2.0), name="bad")
-    rb, = simulate_batch([bad], backend="numpy")
+    rb, = simulate_batch([bad], backend="plain")
     assert rb.complete is False and rb.message
     assert set(rb.metrics) == {"iae", "ise", "itae", "energy", "error_final"}
     assert all(v is None for v in rb.metrics.values())
     # the partial metrics are those of a clean run over the part computed
-    clean, = simulate_batch([bad.replace(trajectory=F8, T=float(rb.t[-1]))], backend="numpy")
+    clean, = simulate_batch([bad.replace(trajectory=F8, T=float(rb.t[-1]))], backend="plain")
     assert clean.complete and clean.partial_metrics is None
     for k, v in clean.metrics.items():
         assert rb.partial_metrics[k] == pytest.approx(v, rel=1e-12, abs=1e-15), k
@@ -38,14 +38,14 @@ def test_an_incomplete_batch_run_has_null_metrics_and_the_partial_ones_apart(tmp
     assert s["complete"] is False and s["message"] == rb.message
     assert all(v is None for v in s["metrics"].values())
     assert s["partial_metrics"]["iae"] == pytest.approx(clean.metrics["iae"], rel=1e-12)
-    assert s["engine"] == "batch" and s["backend"] == "numpy"
+    assert s["engine"] == "batch" and s["backend"] == "plain"
 
 
 def test_a_complete_run_says_which_backend_ran_it():
     sc = Scenario.paper(1, T=1.0)
-    r_np, = simulate_batch([sc], backend="numpy")
+    r_np, = simulate_batch([sc], backend="plain")
     r_bd = unidyn.simulate(sc)
-    assert (r_np.engine, r_np.backend) == ("batch", "numpy")
+    assert (r_np.engine, r_np.backend) == ("batch", "plain")
     assert (r_bd.engine, r_bd.backend) == ("bdsim", "solve_ivp RK45")
     assert r_np.complete and all(np.isfinite(v) for v in r_np.metrics.values())
 
@@ -74,7 +74,7 @@ def test_non_finite_numbers_are_written_as_null_with_a_note(tmp_path):
 def test_a_run_without_limits_is_saved_and_read_back(tmp_path, limits):
     """"No limit" (inf) is written as null, and a null limit reads back as none."""
     sc = Scenario.paper(3, T=0.5, limits=limits)
-    r, = simulate_batch([sc], backend="numpy")
+    r, = simulate_batch([sc], backend="plain")
     r.save(tmp_path)
     s = _strict((tmp_path / "summary.json").read_text())
     nulls = [k for k, v in s["scenario"]["limits"].items() if v is None]

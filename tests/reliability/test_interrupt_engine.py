@@ -44,7 +44,7 @@ def _no_sigint_ignore():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("backend, T, L", [("numba", 1e6, 100), ("numpy", 2e5, 5)])
+@pytest.mark.parametrize("backend, T, L", [("compiled", 1e6, 100), ("plain", 2e5, 5)])
 def test_sigint_stops_a_long_batch_run_and_keeps_the_part_computed(backend, T, L):
     env = {**os.environ, "MPLBACKEND": "Agg"}
     p = subprocess.Popen([sys.executable, "-c", SCRIPT, backend, str(T), str(L)],
@@ -77,7 +77,7 @@ def test_sigint_stops_a_long_batch_run_and_keeps_the_part_computed(backend, T, L
     assert "interrupted at t = " in out and "long" in out
 
 
-@pytest.mark.parametrize("backend", ["numba", "numpy"])
+@pytest.mark.parametrize("backend", ["compiled", "plain"])
 def test_ctrl_c_after_the_last_sample_leaves_a_complete_run(backend):
     """A Ctrl-C that comes once every sample is computed still interrupts the call, but
     the run it leaves is complete (it was "interrupted at t = T of T", incomplete)."""

@@ -47,13 +47,13 @@ def test_a_step_across_a_change_of_the_command_clipping_is_split():
     sc = Scenario(case="uncompensated", robot="pioneer2", x0=(-0.3632, -0.0811, 1.8915),
                   kx=2.2836, ky=2.2836, noise=None, T=5.0)
     ref, = simulate_batch([sc], substeps=400)  # converged (the compiled backend: fast)
-    for backend in ("numba", "numpy"):
+    for backend in ("compiled", "plain"):
         r, = simulate_batch([sc], backend=backend)
         assert r.substeps == 10 and r.split_steps > 0
         assert np.abs(r.pose[:, :2] - ref.pose[:, :2]).max() < 5e-7  # m
     # the clipping of the command alone (no acceleration limits) is a change too
     free = sc.replace(limits={"speed_max": 0.75, "steer_max": 1.745})
-    assert simulate_batch([free], backend="numpy")[0].split_steps > 0
+    assert simulate_batch([free], backend="plain")[0].split_steps > 0
 
 
 @pytest.mark.parametrize("case, k", [("a", 25.5), ("d", 35.0)])
@@ -94,8 +94,8 @@ def test_both_backends_split_the_same_steps():
     """With the paper's noise the limits switch often; both backends split the same
     steps, take the same number of RK4 steps and agree to rounding."""
     scs = [_fig11(c, k, 4.0, noise=True) for c in "abcd" for k in (5.0, 35.0)]
-    a = simulate_batch(scs, backend="numba")
-    b = simulate_batch(scs, backend="numpy")
+    a = simulate_batch(scs, backend="compiled")
+    b = simulate_batch(scs, backend="plain")
     assert sum(r.split_steps for r in a) > 100
     for x, y in zip(a, b):
         assert (x.split_steps, x.rk4_steps, x.substeps_max) == (y.split_steps, y.rk4_steps,
@@ -110,10 +110,10 @@ def test_runs_split_in_a_group_are_the_runs_alone_bit_for_bit():
     if not _kernels.AVAILABLE:
         pytest.skip("numba not installed")
     scs = [_fig11(c, k, 10.0, noise=True) for c in "abd" for k in (2.0, 9.0, 20.0, 35.0)]
-    together = simulate_batch(scs, backend="numba")
+    together = simulate_batch(scs, backend="compiled")
     assert all(r.split_steps > 0 for r in together)
     for sc, a in zip(scs, together):
-        b, = simulate_batch([sc], backend="numba")
+        b, = simulate_batch([sc], backend="compiled")
         for f in ("pose", "velocity", "theta_hat", "v_ref"):
             assert np.array_equal(getattr(a, f), getattr(b, f)), f
         assert (a.split_steps, a.rk4_steps) == (b.split_steps, b.rk4_steps)
@@ -121,9 +121,9 @@ def test_runs_split_in_a_group_are_the_runs_alone_bit_for_bit():
 
 def test_numpy_runs_split_together_are_the_runs_alone():
     scs = [_fig11("b", k, 3.0, noise=True) for k in (3.0, 30.0)]
-    together = simulate_batch(scs, backend="numpy")
+    together = simulate_batch(scs, backend="plain")
     assert all(r.split_steps > 0 for r in together)
     for sc, a in zip(scs, together):
-        b, = simulate_batch([sc], backend="numpy")
+        b, = simulate_batch([sc], backend="plain")
         assert np.array_equal(a.pose, b.pose) and np.array_equal(a.velocity, b.velocity)
         assert (a.split_steps, a.rk4_steps) == (b.split_steps, b.rk4_steps)

@@ -12,7 +12,7 @@ pytestmark = pytest.mark.reliability
 FIELDS = ("pose", "velocity", "reference", "v_d", "v_ref", "theta_hat")
 
 
-@pytest.mark.parametrize("backend", ["numba", "numpy"])
+@pytest.mark.parametrize("backend", ["compiled", "plain"])
 def test_a_thinned_batch_log_is_every_Lth_sample_of_the_full_one(backend):
     sc = Scenario.paper(4, T=6.0, adapt_from=2.0)
     full, = simulate_batch([sc], backend=backend)
@@ -32,7 +32,7 @@ def test_a_thinned_diagram_log_is_every_Lth_sample_of_the_full_one():
         assert np.array_equal(getattr(thin, f), getattr(full, f)[::5]), f
 
 
-@pytest.mark.parametrize("backend", ["numba", "numpy"])
+@pytest.mark.parametrize("backend", ["compiled", "plain"])
 def test_a_float32_log_is_the_float64_log_rounded(backend):
     """log_dtype changes the stored type only: the integration is the same, so every
     float32 value is the float64 value rounded to nearest, and the metrics (accumulated
@@ -74,7 +74,7 @@ def test_a_float32_log_takes_under_100_bytes_a_sample_and_its_csv_reads_back(tmp
     assert np.array_equal(data["theta_hat3"].astype(np.float32), r.theta_hat[:, 2])
 
 
-@pytest.mark.parametrize("backend", ["numba", "numpy"])
+@pytest.mark.parametrize("backend", ["compiled", "plain"])
 def test_the_held_noise_drawn_in_windows_is_the_noise_drawn_whole(backend, monkeypatch):
     """The engine draws the held noise a window at a time (a long run keeps only the
     window in memory); with windows of 3 samples the runs are bit for bit those with
@@ -115,7 +115,7 @@ def _owners(r):
     return out
 
 
-@pytest.mark.parametrize("backend", ["numba", "numpy"])
+@pytest.mark.parametrize("backend", ["compiled", "plain"])
 def test_log_series_keeps_only_the_series_asked_for_and_changes_nothing_else(backend):
     """Leaving series out of the log changes what is stored only: the series kept
     and the metrics are bit for bit those of the full log, in every case (the

@@ -66,7 +66,7 @@ def cli(cwd: Path, *args, timeout=180, env=None):
 
 def without_numba(folder: Path) -> dict:
     """Environment for a child process in which ``import numba`` fails (the batch
-    engine then runs its numpy backend)."""
+    engine then runs its kernels as plain Python)."""
     pkg = folder / "no-numba" / "numba"
     pkg.mkdir(parents=True, exist_ok=True)
     (pkg / "__init__.py").write_text("raise ImportError('numba hidden for this test')\n")
@@ -285,16 +285,16 @@ def kill_after_rows(p, path: Path, rows: int, sig, timeout=120) -> tuple:
 
 @pytest.mark.parametrize("engine, T, gains, chunk", [
     pytest.param("batch", 30, "[0.5, 1.0, 2.0, 4.0, 8.0, 16.0]", 2, marks=pytest.mark.slow),
-    pytest.param("batch-numpy", 10, "[0.5, 2.0, 8.0]", 2, marks=pytest.mark.slow),
+    pytest.param("batch-plain", 10, "[0.5, 2.0, 8.0]", 2, marks=pytest.mark.slow),
     pytest.param("bdsim", 1, "[1.0, 4.0]", 1, marks=pytest.mark.slow),
-], ids=["batch", "batch-numpy", "bdsim"])
+], ids=["batch", "batch-plain", "bdsim"])
 def test_sweeps_killed_at_random_rows_resume_byte_identical(tmp_path, engine, T, gains, chunk):
     """The uninterrupted sweep runs in one chunk (the default size); the killed ones
     in chunks of ``chunk`` points and the last resume in chunks of ``chunk + 1``, so
     no chunk holds the same points as another run's."""
     rng = random.Random(11)
     f = sweep_file(tmp_path, T, gains)
-    env = without_numba(tmp_path) if engine == "batch-numpy" else None
+    env = without_numba(tmp_path) if engine == "batch-plain" else None
     engine = engine.split("-")[0]
     common = ["--engine", engine, "--chunk-size", chunk, "--no-progress"]
     code, out, err = cli(tmp_path, "sweep", f, "--out", "whole", "--engine", engine,
@@ -302,7 +302,7 @@ def test_sweeps_killed_at_random_rows_resume_byte_identical(tmp_path, engine, T,
     assert code == 0, err
     if env:
         assert cli(tmp_path, "run", "--T", "1", "--out", "probe", env=env)[0] == 0
-        assert json.loads((tmp_path / "probe" / "summary.json").read_text())["backend"] == "numpy"
+        assert json.loads((tmp_path / "probe" / "summary.json").read_text())["backend"] == "plain"
     whole = (tmp_path / "whole" / "metrics.csv").read_bytes()
     n = rows_in(tmp_path / "whole" / "metrics.csv")
     cuts = 0
@@ -344,7 +344,7 @@ def test_ctrl_c_stops_the_shell_script_that_ran_the_command(tmp_path, launch):
     sweeps must stop at Ctrl-C, and the rows kept are said."""
     f = sweep_file(tmp_path, T=100000, gains="[0.5, 1.0]")
     env = dict(os.environ, MPLBACKEND="Agg", PYTHONUNBUFFERED="1",
-               **without_numba(tmp_path))  # numpy backend: nothing to compile first
+               **without_numba(tmp_path))  # plain Python: nothing to compile first
     cmd = " ".join(map(shlex.quote, [*launch, "sweep", str(f), "--out", "S",
                                      "--engine", "batch", "--no-progress"]))
     p = subprocess.Popen(["bash", "-c", f"{cmd}; echo went on: $?"], cwd=tmp_path, env=env,

@@ -62,7 +62,7 @@ def test_the_rate_grows_with_the_estimate():
     assert rates[2] / rates[1] == pytest.approx(10, rel=0.02)
 
 
-@pytest.mark.parametrize("backend", ["numba", "numpy"])
+@pytest.mark.parametrize("backend", ["compiled", "plain"])
 def test_a_fast_loop_gets_finer_steps_where_it_needs_them_and_the_right_answer(backend):
     sc = _far(100.0)
     loop = ClosedLoop(sc)
@@ -74,7 +74,7 @@ def test_a_fast_loop_gets_finer_steps_where_it_needs_them_and_the_right_answer(b
     assert r.complete and r.substeps_max > r.substeps
     assert r.rk4_steps > r.substeps * sc.steps  # the finer intervals are counted
     # the step of the finest interval resolves the rate met there
-    fine, = simulate_batch([sc], substeps=2000, backend="numba")
+    fine, = simulate_batch([sc], substeps=2000, backend="compiled")
     assert fine.substeps_max == 2000  # 2000 steps resolve it everywhere: nothing finer
     assert np.abs(r.pose - fine.pose).max() < 2e-5  # m (the default step alone: 0.3 m off)
     assert np.abs(r.velocity - fine.velocity).max() < 2e-5 * np.abs(fine.velocity).max()
@@ -82,8 +82,8 @@ def test_a_fast_loop_gets_finer_steps_where_it_needs_them_and_the_right_answer(b
 
 def test_both_backends_refine_the_same_intervals():
     sc = _far(100.0)
-    a, = simulate_batch([sc], backend="numba")
-    b, = simulate_batch([sc], backend="numpy")
+    a, = simulate_batch([sc], backend="compiled")
+    b, = simulate_batch([sc], backend="plain")
     assert (a.substeps_max, a.rk4_steps) == (b.substeps_max, b.rk4_steps)
     assert np.abs(a.pose - b.pose).max() < 1e-9
 
@@ -95,17 +95,17 @@ def test_runs_refined_in_a_group_are_the_runs_alone_bit_for_bit():
     if not _kernels.AVAILABLE:
         pytest.skip("numba not installed")
     pts = [_far(c, T=2.0) for c in (1.0, 60.0, 2.0, 100.0, 3.0, 150.0, 1.5, 80.0, 2.5)]
-    together = simulate_batch(pts, backend="numba")
+    together = simulate_batch(pts, backend="compiled")
     assert len({r.substeps for r in together}) == 1  # one group and a remainder
     assert sum(r.substeps_max > r.substeps for r in together) >= 3
     for p, a in zip(pts, together):
-        b, = simulate_batch([p], backend="numba")
+        b, = simulate_batch([p], backend="compiled")
         for f in ("pose", "velocity", "theta_hat", "v_ref"):
             assert np.array_equal(getattr(a, f), getattr(b, f)), f
         assert (a.substeps_max, a.rk4_steps) == (b.substeps_max, b.rk4_steps)
 
 
-@pytest.mark.parametrize("backend", ["numba", "numpy"])
+@pytest.mark.parametrize("backend", ["compiled", "plain"])
 def test_a_loop_too_fast_for_any_step_stops_with_a_reason(backend):
     r, = simulate_batch([_far(1e6, name="far")], backend=backend)
     assert not r.complete
@@ -121,8 +121,8 @@ def test_the_check_leaves_loops_that_the_scenario_describes_alone():
 
 def test_both_backends_stop_a_loop_too_fast_at_the_same_sample_with_the_same_reason():
     sc = _far(1e6, name="far", log_every=5)
-    a, = simulate_batch([sc], backend="numba")
-    b, = simulate_batch([sc], backend="numpy")
+    a, = simulate_batch([sc], backend="compiled")
+    b, = simulate_batch([sc], backend="plain")
     assert a.message == b.message and not a.complete
     np.testing.assert_array_equal(a.t, b.t)
     assert np.abs(a.pose - b.pose).max() < 1e-12
@@ -132,9 +132,9 @@ def test_the_numpy_backend_takes_only_the_runs_that_need_it_again():
     """Its refined runs are integrated as a batch of their own; the others keep their
     numbers, and each run is the run alone, bit for bit."""
     pts = [_far(1.0, T=2.0), _far(100.0, T=2.0), _far(2.0, T=2.0), _far(150.0, T=2.0)]
-    together = simulate_batch(pts, backend="numpy")
+    together = simulate_batch(pts, backend="plain")
     assert [r.substeps_max > r.substeps for r in together] == [False, True, False, True]
     for p, a in zip(pts, together):
-        b, = simulate_batch([p], backend="numpy")
+        b, = simulate_batch([p], backend="plain")
         assert np.array_equal(a.pose, b.pose) and np.array_equal(a.velocity, b.velocity)
         assert (a.substeps_max, a.rk4_steps) == (b.substeps_max, b.rk4_steps)

@@ -1,40 +1,37 @@
-r"""Batch engine: many continuous-control scenarios integrated at once (numpy).
+r"""The batch engine: many continuous-control scenarios integrated at once.
 
-The right-hand side is :class:`unidyn.engine.rhs.ClosedLoop` (the core
-functions of :mod:`unidyn.model.unicycle` and :mod:`unidyn.model.laws`, vectorised over
-runs). Each noise interval [k Ts, (k+1) Ts) is integrated with ``substeps``
-classical Runge-Kutta (RK4) steps, for all runs at once; the noise is constant
-inside an interval, exactly as in the bdsim diagram. Results are sampled at the
-same grid t = k Ts as :func:`unidyn.simulate`.
+**The step rule.** Each noise interval [k Ts, (k+1) Ts) of a run is integrated with
+``substeps`` classical Runge-Kutta (RK4) steps of the closed loop of Fig. 2
+(:func:`unidyn.model.equations.loop_rates_and_limits`); the noise is held over the
+interval, as in the bdsim diagram, and results are sampled at t = k Ts like
+:func:`unidyn.simulate`'s. Three refinements keep RK4 at its accuracy:
 
-The speed limits are enforced exactly: a step that would end beyond one ends on
-it (the diagram's adaptive solver holds them to its tolerance). Accuracy is that
-of RK4 with step Ts/substeps: fourth order where the loop is
-smooth. Two events are not smooth: the limits' clipping (a kink in the
-right-hand side) and switching adaptation on at ``adapt_from`` (a jump), which a
-fixed step integrates with an error proportional to the step (about 5e-6 m at
-substeps=100 for the paper's case 4; bdsim's adaptive solver resolves it).
-``tests/evals/test_engines.py`` measures the agreement with the bdsim diagram;
-``benchmarks/engines.py`` the speed.
+- the step is short enough for the loop's fastest rate (:func:`stable_substeps`), and
+  where a compensated run's loop is faster at an interval's start than that step
+  resolves (:func:`unidyn.model.equations.loop_step_rate`, an estimate far from theta),
+  that interval is taken again for that run alone, finer (|rate h| <= STEP_RATE_REFINED);
+- a step across a change of the limits (one starts or stops clipping: a kink of the
+  right-hand side) is split where the change is, located to Ts / :data:`SPLIT_PARTS`;
+- a speed limit is hard: a step that would end beyond it ends on it.
 
-Where each piece lives: the loop's equations in :mod:`unidyn.model.equations`; this module
-sets the steps, groups the runs and reads the results; the numpy backend's step
-rule is here (:func:`_steps`, :func:`_rk4`, :func:`_split`), the compiled one's in
-:mod:`unidyn.engine.kernels` (:func:`~unidyn.engine.kernels.run_groups`), both taking the same
-steps; numba's cache and compile notice in :mod:`unidyn.engine.jit`. Until the compiled
-kernel was compiled once (per install and version), small calls are answered by the
-numpy backend (:data:`READY_STEPS`).
+Switching adaptation on at ``adapt_from`` (a jump) is integrated with an error
+proportional to the step. ``tests/evals/`` checks the engine against the bdsim
+diagram and a converged ``solve_ivp`` solution; ``benchmarks/engines.py`` times it.
 
-The step is set from the scenario (:func:`stable_substeps`) and checked against the
-loop's state at the start of every interval of a compensated run
-(:func:`unidyn.model.equations.loop_step_rate`): an estimate far from theta makes the
-velocity loop of Eq. (14) much faster than the scenario says, and RK4 unstable. An
-interval where |rate h| > :data:`STEP_RATE_CHECK` is integrated again, for that run
-alone, with steps short enough for |rate h| <= :data:`STEP_RATE_REFINED`.
+**Where each piece lives.** The equations: :mod:`unidyn.model.equations`. The step
+rule, once: :mod:`unidyn.engine.kernels`, runs side by side in groups of up to
+:data:`~unidyn.engine.kernels.LANES`. It runs compiled by numba (where installed;
+:mod:`unidyn.engine.jit` keeps numba's cache) or, the same source, as plain Python
+(:func:`unidyn.engine.jit.plain_copy`): a process answers with the plain copy until it
+has done :data:`READY_STEPS` steps, unless the compiled one is in the cache already.
+This module sets the steps, groups the runs and reads the results; the runs'
+parameter table, noise and initial state come from :class:`unidyn.engine.rhs.ClosedLoop`.
 """
 
 from __future__ import annotations
 
+import contextlib
+import os
 import warnings
 
 import numpy as np
@@ -43,7 +40,7 @@ from .._errors import SimulationInterrupted
 from .._errors import AccuracyWarning
 from .._validate import ValidationError, integer
 from .rhs import ClosedLoop
-from ..model.equations import STATE, SWITCH_TOL, TRAJECTORY_KINDS, P, saturate
+from ..model.equations import STATE, SWITCH_TOL, TRAJECTORY_KINDS, P
 from ..results.result import Result
 from ..model.scenario import ALWAYS_LOGGED, HIGH_GAIN, Scenario
 
@@ -65,7 +62,7 @@ def _group(scenarios):
     return groups
 
 
-BACKENDS = ("auto", "numba", "numpy")
+BACKENDS = ("auto", "compiled", "plain")
 
 #: RK4 is stable for real eigenvalues lambda with |lambda h| < 2.78, and accurate
 #: to about 1e-5 per unit time at |lambda h| = 0.5; the step is kept below
@@ -165,12 +162,13 @@ def _short(v) -> str:
     return "[" + ", ".join(f"{x:g}" for x in v) + "]"
 
 
-#: While the compiled kernel has never been compiled in this version and cache folder
-#: (the first calls after an install), ``backend="auto"`` answers a call of at most this
-#: many RK4 steps (a 200 s run at 0.1 s and 10 steps per sample is 20,000) with the
-#: numpy backend, which needs no compiling, rather than compile first; a larger call
-#: compiles (once per install, saying so on a terminal) and is then compiled throughout.
+#: A process runs the plain copy of the kernels (no compiling) until it has taken this
+#: many RK4 steps in all, unless the compiled kernels are in numba's cache already: a
+#: first small result does not wait for the compiler, and a process that makes many
+#: calls compiles once (saying so on a terminal) and is compiled from then on. (A 200 s
+#: run at 0.1 s and 10 steps per sample is 20,000 steps.)
 READY_STEPS = 100_000
+_plain_steps = [0]  # the RK4 steps this process ran with the plain copy
 #: The most RK4 steps per sample interval the engine takes before it refuses.
 MAX_SUBSTEPS = 10_000
 
@@ -219,8 +217,8 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
     """Simulate many scenarios at once; returns one :class:`~unidyn.Result` per scenario,
     in order.
 
-    Scenarios are grouped by (T, Ts, substeps, log_every, log_dtype) and each group is
-    integrated as one vectorised system; every run's numbers are independent of
+    Scenarios are grouped by (T, Ts, log_every, log_dtype, log_series) and each group is
+    integrated in one call of the kernels; every run's numbers are independent of
     which other runs share its call (bit for bit). Only continuous control is
     supported here (sampled control runs through :func:`unidyn.simulate`).
 
@@ -234,7 +232,7 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
         automatically where a run's fastest time constant needs a shorter step for
         RK4 to be stable (:func:`stable_substeps`; the value used is
         ``Result.substeps``), and for the intervals where a compensated run's loop is
-        faster than that step resolves: both backends check the loop's
+        faster than that step resolves: the engine checks the loop's
         state-dependent rate (:func:`unidyn.model.equations.loop_step_rate`) at the start of
         every interval, and where |rate h| > STEP_RATE_CHECK that run's interval is
         integrated alone with ceil(Ts rate / STEP_RATE_REFINED) steps (the most it
@@ -247,15 +245,14 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
         the rest are steps of their own (``Result.split_steps`` counts the splits).
         Without it the noise-free Fig. 11 IAE was up to 1e-4 from a converged run at
         the default step
-    :param backend: ``"numba"`` (compiled kernel, :mod:`unidyn.engine.kernels`; needs numba and
-        the built-in trajectories), ``"numpy"`` (vectorised numpy), or ``"auto"`` (numba
-        when it can be used, else numpy; numpy also for a call of at most
-        :data:`READY_STEPS` RK4 steps while the kernel was never compiled: the first
-        result after an install does not wait for the compiler; ``Result.backend`` says
-        which ran). Both integrate the same equations with the
-        same steps and agree to rounding (the compiled sin and cos,
-        :mod:`unidyn.engine.vecmath`, are NaN beyond 1e8 rad, a heading after 16 million
-        turns, where the run then stops as non-finite).
+    :param backend: ``"compiled"`` (the kernels compiled by numba: needs numba and the
+        built-in trajectories), ``"plain"`` (the same kernels run by Python: no compiling,
+        any trajectory, slower per step), or ``"auto"`` (compiled where it can be, except
+        while a process has taken fewer than :data:`READY_STEPS` steps and the compiled
+        kernels are not in the cache yet; ``Result.backend`` says which ran). Both
+        agree to rounding (the compiled sin and cos, :mod:`unidyn.engine.vecmath`, are
+        NaN beyond 1e8 rad, a heading after 16 million turns, where the run then stops
+        as non-finite)
     :param progress: ``None`` (default: a tqdm progress bar on stderr for long calls,
         only when stderr is a terminal), ``False`` (none), ``True`` (always a bar), or a
         callable ``f(done_samples, total_samples)``
@@ -280,20 +277,24 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
     if backend not in BACKENDS:
         raise ValidationError(f"backend must be one of {', '.join(BACKENDS)}; got {backend!r}")
     from . import kernels  # numba loads with the kernels
+    from .jit import plain_copy
     compilable = all(getattr(s.trajectory, "kind", None) in TRAJECTORY_KINDS for s in scs)
-    if backend == "numba" and not kernels.AVAILABLE:
-        raise ValidationError("backend='numba' needs numba (pip install unidyn[fast])")
-    if backend == "numba" and not compilable:
-        raise ValidationError("backend='numba' supports the figure_eight, circle and line "
-                              "trajectories only; use backend='numpy' for a FunctionTrajectory")
+    if backend == "compiled" and not kernels.AVAILABLE:
+        raise ValidationError("backend='compiled' needs numba (pip install numba)")
+    if backend == "compiled" and not compilable:
+        raise ValidationError("backend='compiled' runs the figure_eight, circle and line "
+                              "trajectories only; use backend='plain' for a FunctionTrajectory")
     m_all = [stable_substeps(s, int(substeps)) for s in scs]  # refuses before any work
-    use_numba = backend == "numba" or (
-        backend == "auto" and kernels.AVAILABLE and compilable
-        and (kernels.compiled() or sum(s.steps * m for s, m in zip(scs, m_all)) > READY_STEPS))
+    steps = sum(s.steps * m for s, m in zip(scs, m_all))
+    compiled = kernels.AVAILABLE and compilable and (backend == "compiled" or (
+        backend == "auto"
+        and (kernels.compiled() or _plain_steps[0] + steps > READY_STEPS)))
+    if not compiled:
+        _plain_steps[0] += steps
+    engine = kernels if compiled or not kernels.AVAILABLE else plain_copy(kernels)
     groups = {}
     for i, s in enumerate(scs):
-        key = (s.T, s.Ts, s.log_every, s.log_dtype, s.log_series) + (() if use_numba else (m_all[i],))
-        groups.setdefault(key, []).append(i)
+        groups.setdefault((s.T, s.Ts, s.log_every, s.log_dtype, s.log_series), []).append(i)
     bar = _Progress(progress, sum(scs[i].steps * m_all[i] for i in range(len(scs))),
                     sum(scs[g[0]].steps for g in groups.values()))
     results = [None] * len(scs)
@@ -302,12 +303,10 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
         for idx in groups.values():
             loop = ClosedLoop([scs[i] for i in idx])
             m = np.array([m_all[i] for i in idx], dtype=np.int64)
-            run = _Run(loop, m, asked=int(substeps))
+            run = _Run(loop, m, asked=int(substeps), backend="compiled" if compiled else "plain")
             try:
-                if use_numba:
-                    _integrate_numba(run, bar)
-                else:
-                    _integrate(run, int(m[0]), bar)
+                with _threads_take_one_group_at_a_time(compiled):
+                    _integrate(run, engine, bar)
             except KeyboardInterrupt:
                 run.interrupted = True
             for j, r in enumerate(run.results()):
@@ -323,6 +322,21 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
             f"interrupted: {sum(r.complete for r in done)} of {len(scs)} run(s) complete; "
             f"the computed part of the others is kept, marked incomplete", results=results)
     return results
+
+
+@contextlib.contextmanager
+def _threads_take_one_group_at_a_time(compiled: bool):
+    """Groups differ in cost (their steps per sample): numba's threads take them one at a
+    time, not in two contiguous halves."""
+    if not compiled:
+        yield
+        return
+    import numba
+    previous = numba.set_parallel_chunksize(1)
+    try:
+        yield
+    finally:
+        numba.set_parallel_chunksize(previous)
 
 
 class _Progress:
@@ -355,8 +369,8 @@ class _Progress:
 class _Run:
     """The logged arrays of one group of runs, filled by either backend."""
 
-    def __init__(self, loop: ClosedLoop, m, asked: int):
-        self.loop, self.m = loop, m
+    def __init__(self, loop: ClosedLoop, m, asked: int, backend: str):
+        self.loop, self.m, self.backend = loop, m, backend
         self.asked = asked  # the steps per sample the caller chose; more is the engine's doing
         n, B = loop.steps, loop.B
         self.L = L = int(loop.scenarios[0].log_every)
@@ -378,7 +392,6 @@ class _Run:
         self.work = np.zeros(B, dtype=np.int64)  # RK4 steps taken
         self.splits = np.zeros(B, dtype=np.int64)  # steps split at a change of the limits
         self.interrupted = False
-        self.backend = ""
 
     def results(self) -> list:
         return _results(self)
@@ -404,17 +417,18 @@ def _lane_groups(loop: ClosedLoop, m):
             np.array([mg for mg, _ in groups], dtype=np.int64))
 
 
-def _integrate_numba(run: _Run, bar):
-    from . import kernels  # numba loads with the kernels
+def _integrate(run: _Run, kernels, bar):
+    """Run the groups of ``run`` through ``kernels``: the compiled module or its plain
+    copy (:func:`unidyn.engine.jit.plain_copy`), the same source either way."""
     loop = run.loop
-    run.backend = "numba (compiled)"
     n = loop.steps
     X = loop.initial_state()
+    kernels.PYTHON_REFERENCES[:] = loop.trajectories  # the plain copy's, for FunctionTrajectory
 
     def runs():  # the per-run arrays (the noise window's arrays change as it moves on)
         return kernels.Runs(loop.P, loop.pos_noise, loop.vel_noise, run.bounds, run.rate_max,
-                             run.cols, run.LOG, run.status, run.last, run.seen, run.m_max,
-                             run.work, run.splits)
+                            run.cols, run.LOG, run.status, run.last, run.seen, run.m_max,
+                            run.work, run.splits)
     kernels.start(X, runs())
     lanes, count, steps = _lane_groups(loop, run.m)
     # lane-minor: value i of lane b at [i * LANES + b]
@@ -422,201 +436,20 @@ def _integrate_numba(run: _Run, bar):
         np.ascontiguousarray(X[lanes].transpose(0, 2, 1)).reshape(len(lanes), -1),
         np.ascontiguousarray(loop.P[lanes].transpose(0, 2, 1)).reshape(len(lanes), -1),
         lanes, count, steps)
-    import os
     per_thread = -(-len(lanes) // max(1, min(len(lanes), os.cpu_count() or 1)))
     S = max(1, SLICE_STEPS // (int(steps.max()) * per_thread))
     k = 0
-    import numba
-    # groups differ in cost (their steps per sample): hand them to the threads one at
-    # a time, not in two contiguous halves
-    previous = numba.set_parallel_chunksize(1)
-    try:
-        while k < n and (run.status == kernels.OK).any():
-            loop.next_noise_window(k)
-            k1 = min(n, k + S, loop.noise_end)
-            call = kernels.Call(float(loop.Ts), loop.noise_k0, n, run.L, STEP_RATE_REFINED,
-                                 MAX_SUBSTEPS, SPLIT_PARTS)
-            kernels.run_groups(group, runs(), call, k, k1)
-            bar.advance(k1 - k)
-            k = k1
-    finally:
-        numba.set_parallel_chunksize(previous)
-
-
-def _integrate(run: _Run, m: int, bar):
-    """The numpy backend: fills the same arrays as the compiled kernel."""
-    from .kernels import NONFINITE, OK, POSITION, SPEED_U, SPEED_W  # numba loads with the kernels
-    loop = run.loop
-    run.backend = "numpy"
-    h = loop.Ts / m
-    X = loop.initial_state()
-    b = run.bounds
-
-    def check(X):
-        with np.errstate(invalid="ignore"):
-            return np.select(
-                [~np.isfinite(X).all(axis=1), np.hypot(X[:, 0], X[:, 1]) > b[:, 0],
-                 np.abs(X[:, 3]) > b[:, 1], np.abs(X[:, 4]) > b[:, 2]],
-                [NONFINITE, POSITION, SPEED_U, SPEED_W], OK)
-
-    dynamic = loop.P[:, P.dynamic, None] != 0.0
-
-    def record(rows, X, t, noise_k, which):  # the columns of kernels.LOG_COLUMNS
-        s = loop.signals(t, X, noise_k)
-        v_ref = saturate(s["v_ref"], loop.vmax)
-        # a kinematic robot moves at its clipped command
-        row = np.concatenate([X[:, :3], np.where(dynamic, X[:, 3:5], v_ref), X[:, 5:11],
-                              s["h_d"], s["v_d"], v_ref], axis=1)[:, run.cols]
-        for i in np.flatnonzero(which):
-            run.LOG[i, rows[i]] = row[i]
-
-    run.status[:] = check(X)
-    record(np.zeros(loop.B, dtype=int), X, 0.0, 0, np.ones(loop.B, bool))
-    with np.errstate(all="ignore"):  # a run that stopped may overflow; it is no longer logged
-        _steps(run, loop, X, m, h, check, record, bar)
-
-
-def _stages(loop, X, t, h, k, rows):
-    """RK4's four stages of the step of length h from (t, X) in noise interval k, for
-    the runs ``rows`` (X theirs only): each the rates (B, 13) and, in a last column,
-    which limits act (:func:`unidyn.model.equations.limit_state`)."""
-    k1 = loop.rhs(t, X, k, rows, limits=True)
-    k2 = loop.rhs(t + 0.5 * h, X + 0.5 * h * k1[:, :NSTATE], k, rows, limits=True)
-    k3 = loop.rhs(t + 0.5 * h, X + 0.5 * h * k2[:, :NSTATE], k, rows, limits=True)
-    k4 = loop.rhs(t + h, X + h * k3[:, :NSTATE], k, rows, limits=True)
-    return k1, k2, k3, k4
-
-
-def _changes(ks):
-    """Whether each run's stages disagree on which limits act (as
-    :func:`unidyn.engine.kernels._limit_changes`)."""
-    c = [d[:, NSTATE] for d in ks]
-    return (c[0] != c[1]) | (c[0] != c[2]) | (c[0] != c[3])
-
-
-def _combine(loop, X, h, ks, rows):
-    """RK4's step from its stages; the speed limits are hard: a step that crosses one
-    ends on it."""
-    k1, k2, k3, k4 = (d[:, :NSTATE] for d in ks)
-    Xn = X + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-    Xn[:, 3:5] = saturate(Xn[:, 3:5], loop.vmax[rows])
-    return Xn
-
-
-def _split(loop, X, tb, h, k, depth, ks, row):
-    """Run ``row``'s step of length h from (tb, X (1, 13)), split where it crosses a
-    change of the limits, as :func:`unidyn.engine.kernels._split` does it (the same parts
-    and probes, in the same arithmetic); ks: the step's stages when it was computed
-    and crosses one, else None. Returns (the state, RK4 steps computed, changes
-    located)."""
-    from .kernels import _dense_weights  # numba loads with the kernels
-    _dense_weights = getattr(_dense_weights, "py_func", _dense_weights)  # plain Python here
-    rows = np.array([row])
-    U = 1 << depth
-    steps = located = 0
-    pos, end, klo, khi = 0, U, -1, -1
-    while pos < U:
-        hh = (end - pos) * (h / U)
-        t = tb + pos * (h / U)
-        if ks is None:
-            ks = _stages(loop, X, t, hh, k, rows)
-            steps += 1
-        if end - pos > 1 and _changes(ks)[0]:
-            located += 1
-            c1 = ks[0][0, NSTATE]
-            lo, hi = pos, end
-            while hi - lo > 1:
-                q = (lo + hi) // 2
-                b1, b2, b4 = _dense_weights((q - pos) / (end - pos))
-                dc = (b1 * ks[0] + b2 * (ks[1] + ks[2]) + b4 * ks[3])[:, :NSTATE]
-                d = loop.rhs(tb + q * (h / U), X + hh * dc, k, rows, limits=True)
-                if d[0, NSTATE] == c1:
-                    lo = q
-                else:
-                    hi = q
-            if lo > pos:  # up to the part first, then the part
-                end, klo, khi = lo, lo, hi
-            else:
-                end = hi
-            ks = None
-            continue
-        X = _combine(loop, X, hh, ks, rows)
-        ks = None
-        pos = end
-        end = khi if pos == klo else U
-    return X, steps, located
-
-
-def _rk4(loop, X, t0, k, m, h, rows, work, splits):
-    """m RK4 steps of length h from (t0, X) in noise interval k for the runs ``rows``
-    (X theirs only), as the compiled engine takes them (:func:`unidyn.engine.kernels._steps_lanes`):
-    a run's step that crosses a change of the limits (on its accelerations or its
-    command) is split
-    there (:func:`_split`). work and splits (per run of the batch) count the RK4
-    steps beyond m and the changes located."""
-    from .kernels import split_depth  # numba loads with the kernels
-    depth = getattr(split_depth, "py_func", split_depth)(m, SPLIT_PARTS)  # plain Python here
-    for j in range(m):
-        tb = t0 + j * h
-        ks = _stages(loop, X, tb, h, k, rows)
-        Xn = _combine(loop, X, h, ks, rows)
-        if depth > 0:
-            for r in np.flatnonzero(_changes(ks)):
-                Xn[r], steps, located = _split(loop, X[r:r + 1], tb, h, k, depth,
-                                               tuple(d[r:r + 1] for d in ks), rows[r])
-                work[rows[r]] += steps
-                splits[rows[r]] += located
-        X = Xn
-    return X
-
-
-def _steps(run, loop, X, m, h, check, record, bar):
-    from .kernels import OK, STEP  # numba loads with the kernels
-    Ts, n, L = loop.Ts, loop.steps, run.L
-    checked = np.isfinite(run.rate_max)
-    for k in range(n):
-        running = run.status == OK
-        if not running.any():
-            break
+    while k < n and (run.status == kernels.OK).any():
         loop.next_noise_window(k)
-        t0 = k * Ts
-        finer = np.zeros(loop.B, dtype=bool)
-        mk = np.full(loop.B, m, dtype=np.int64)  # this interval's steps, run by run
-        if (checked & running).any():  # as kernels._interval_steps
-            rate = np.where(checked & running, loop.step_rate(t0, X, k), 0.0)  # NaN: not finer
-            run.seen = np.fmax(run.seen, rate)
-            finer = rate > run.rate_max
-            need = Ts * rate / STEP_RATE_REFINED
-            too = finer & ~(need <= MAX_SUBSTEPS)
-            run.status[too], run.last[too] = STEP, k
-            running &= ~too
-            finer &= ~too
-            mk = np.where(finer, np.ceil(np.where(finer, need, 0.0)), m).astype(np.int64)
-            run.m_max = np.maximum(run.m_max, mk)
-            run.work += np.where(finer, mk, 0)
-            if not running.any():
-                break
-        run.work += np.where(running, m, 0)
-        work, split = np.zeros(loop.B, dtype=np.int64), np.zeros(loop.B, dtype=np.int64)
-        X0, X = X, _rk4(loop, X, t0, k, m, h, np.arange(loop.B), work, split)
-        run.work += np.where(running, work, 0)
-        run.splits += np.where(running & ~finer, split, 0)
-        for mk_value in np.unique(mk[finer]):
-            # these runs' interval again, with their own finer step (each row of the
-            # numpy engine is computed independently of the others)
-            rows = np.flatnonzero(finer & (mk == mk_value))
-            X[rows] = _rk4(loop, X0[rows], t0, k, int(mk_value), Ts / mk_value, rows,
-                           run.work, run.splits)
-        status = np.where(running, check(X), run.status)
-        stopped = running & (status != OK)
-        # the sample at the end of interval k is logged with interval k's
-        # measurement, as the diagram logs it just before the clock tick
-        if (k + 1) % L == 0 or stopped.any():
-            rows = np.where(stopped & ((k + 1) % L != 0), (k + 1) // L + 1, (k + 1) // L)
-            record(rows, X, (k + 1) * Ts, k, running & (stopped | ((k + 1) % L == 0)))
-        run.last[running] = k + 1
-        run.status[:] = status
-        bar.advance(1)
+        k1 = min(n, k + S, loop.noise_end)
+        call = kernels.Call(float(loop.Ts), loop.noise_k0, n, run.L, STEP_RATE_REFINED,
+                            MAX_SUBSTEPS, SPLIT_PARTS)
+        # a run that diverges overflows, and is stopped by its check: as compiled code
+        # does, plain Python goes on with inf and NaN, without numpy's warnings
+        with np.errstate(all="ignore"):
+            kernels.run_groups(group, runs(), call, k, k1)
+        bar.advance(k1 - k)
+        k = k1
 
 
 _CAUSE = {

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import importlib.util
 import os
 import shutil
 import sys
@@ -241,7 +242,7 @@ def jit(f=None, *, parallel: bool = False, inline: bool = False, entry: str = ""
     Division by zero gives inf or NaN as in numpy (``error_model="numpy"``), which the
     engines' checks for non-finite states then report."""
     def wrap(g):
-        if not AVAILABLE:
+        if not AVAILABLE or _loading_plain:
             return g
         options = dict(nogil=True, parallel=parallel, error_model="numpy",
                        inline="always" if inline else "never")
@@ -254,5 +255,28 @@ def jit(f=None, *, parallel: bool = False, inline: bool = False, entry: str = ""
     return wrap if f is None else wrap(f)
 
 
-#: numba.prange where numba is installed, else range.
+#: numba.prange where numba is installed, else range (numba.prange is range in Python).
 prange = numba.prange if AVAILABLE else range
+
+#: Set while :func:`plain_copy` loads a module: its functions stay plain Python.
+_loading_plain = []
+
+
+def plain_copy(module):
+    """``module`` (whose functions :func:`jit` compiles) loaded once more as a module of
+    its own, ``<name>_plain``, whose functions are the same source run by Python, not
+    compiled. It answers at once where the compiled one would first have to be
+    compiled, and runs what compiled code cannot call (a reference that is a Python
+    function)."""
+    name = module.__name__ + "_plain"
+    if name in sys.modules:
+        return sys.modules[name]
+    spec = importlib.util.spec_from_file_location(name, module.__file__)
+    plain = importlib.util.module_from_spec(spec)
+    _loading_plain.append(True)
+    try:
+        spec.loader.exec_module(plain)
+    finally:
+        _loading_plain.pop()
+    sys.modules[name] = plain
+    return plain

@@ -1,18 +1,24 @@
-"""Compiled batch engine: the Fig. 2 loop of :func:`unidyn.model.equations.loop_rates`
-integrated with RK4, runs side by side in SIMD lanes (numba).
+"""The batch engine's step rule, once: RK4 over the Fig. 2 loop for runs side by side.
 
-The right-hand side is the very function the numpy engine
-(:class:`unidyn.engine.rhs.ClosedLoop`) evaluates on arrays of runs, here compiled
-for the values of one run held in registers; the per-run parameters are the rows of
-the named table :data:`unidyn.model.equations.LOOP_PARAMETERS`
-(:meth:`ClosedLoop.parameter_table`). Runs that take the same RK4 steps and follow
-the same reference form a group of up to :data:`LANES`; a thread integrates a
-group's runs in one loop over its lanes, which the compiler vectorises (each
-instruction serves several runs), with the reference evaluated once per stage for
-the whole group. Lanes are independent: a run's numbers are the same bit for bit
-whichever runs share its group. Used by :func:`unidyn.simulate_batch` when numba is
-installed (``pip install unidyn[fast]``); without numba the same code runs as plain
-Python, which ``tests/evals/test_engines.py`` checks against the numpy engine.
+The right-hand side is :func:`unidyn.model.equations.loop_rates_and_limits` for one run's
+values; the per-run parameters are the rows of the named table
+:data:`unidyn.model.equations.LOOP_PARAMETERS`. How a call runs, from the top:
+
+- :func:`run_groups` hands each group of up to :data:`LANES` runs (same steps per
+  sample, same reference) to a thread; :func:`_run_group` takes it over the sample
+  intervals, logging and checking each run (:func:`check_state`);
+- :func:`_interval_steps` checks each run's loop rate at an interval's start; a run
+  too fast for the group's step takes that interval again alone, finer
+  (:func:`_lane_alone`);
+- :func:`_steps_lanes` takes the RK4 steps (:func:`_stages`, :func:`_step`); a run's
+  step across a change of the limits is taken again alone, split where the change is
+  (:func:`_split`).
+
+A group's values are stored lane-minor (value i of lane b at [i * LANES + b]), so the
+compiler turns the loop over lanes into vector instructions; lanes never mix, and a
+run's numbers are the same bit for bit whichever runs share its group. The module is
+compiled by numba where installed (:mod:`unidyn.engine.jit`); :func:`unidyn.engine.jit.plain_copy`
+runs the same source as plain Python.
 """
 
 from __future__ import annotations
@@ -24,6 +30,9 @@ import numpy as np
 
 from ..model import equations as eq
 from .jit import AVAILABLE, jit, prange
+
+if AVAILABLE:
+    from numba.extending import overload
 from ..model.equations import P, S
 
 __all__ = ["AVAILABLE", "compiled", "Groups", "Runs", "Call", "LOG_COLUMNS", "reference", "rhs", "run_groups", "start", "LANES", "OK", "NONFINITE",
@@ -36,10 +45,34 @@ CODE = NSTATE
 NSTAGE = NSTATE + 1
 
 
+#: The references that are Python functions (:class:`~unidyn.model.trajectories.FunctionTrajectory`,
+#: trajectory code -1, their index in path1), set by the engine before it runs them: the
+#: plain copy of this module evaluates them (:func:`unidyn.engine.jit.plain_copy`); the
+#: compiled one runs only the built-in trajectories.
+PYTHON_REFERENCES = []
+
+
+def python_reference(t, index):
+    """(x_d, y_d, x_d', y_d', x_d'', y_d'') of reference ``PYTHON_REFERENCES[index]``."""
+    tr = PYTHON_REFERENCES[int(index)]
+    (x, y), (dx, dy), (ddx, ddy) = tr.position(t), tr.velocity(t), tr.acceleration(t)
+    return float(x), float(y), float(dx), float(dy), float(ddx), float(ddy)
+
+
+if AVAILABLE:
+    @overload(python_reference)
+    def _python_reference_compiled(t, index):
+        """Compiled code cannot call the Python function: NaN (never run, the engine
+        sends such runs to the plain copy)."""
+        return lambda t, index: (math.nan, math.nan, math.nan, math.nan, math.nan, math.nan)
+
+
 @jit(inline=True)
 def reference(t, p):
     """(x_d, y_d, x_d', y_d', x_d'', y_d'') of the run with parameters p at time t."""
     kind = p[P.trajectory]
+    if kind < 0.0:
+        return python_reference(t, p[P.path1])
     if kind == 0.0:
         return eq.figure_eight(t, p[P.path1], p[P.path2], p[P.path3], p[P.path4],
                                p[P.path5], p[P.path6])
@@ -113,6 +146,8 @@ def log_signals(t, X, p, noise, out):
 #: constants, which lets the compiler prove that lanes do not overlap.
 LANES = 8
 NPARAM = len(eq.LOOP_PARAMETERS)
+#: Zeros the size of a stage's lanes (the first stage's increment).
+ZERO = np.zeros((len(eq.STATE) + 1) * LANES)
 
 
 #: The tuples below are written out (numba keeps a tuple of floats in registers and
@@ -212,16 +247,14 @@ Work = namedtuple("Work", "stages crossed before alone alone_stages probe alone_
 
 
 @jit
-def _stage(t, ref, lanes, a, DL, first, out):
-    """One RK4 stage for the lanes in use: out = the loop's rates at state + a DL (at
-    the state itself when ``first``), time t, reference ref (all lane-minor).
+def _stage(t, ref, lanes, a, DL, out):
+    """One RK4 stage for the lanes in use: out = the loop's rates at state + a DL, time
+    t, reference ref (all lane-minor).
     Compiled once and called for the four stages: the equations are inlined into
     this one loop, which the compiler vectorises over the lanes."""
     XL, PL, NL = lanes.state, lanes.params, lanes.noise
     for b in range(lanes.count):
-        X = _lane_state(XL, b)
-        if not first:
-            X = _axpy(X, a, _lane_state(DL, b))
+        X = _axpy(_lane_state(XL, b), a, _lane_state(DL, b))
         d, code = eq.loop_rates_and_limits(t, X, ref, _lane_params(PL, b), _lane_noise(NL, b))
         for i in range(NSTATE):
             out[i * LANES + b] = d[i]
@@ -261,11 +294,12 @@ def _stages(t, h, lanes, p0, D):
     """RK4's four stages of the step of length h from t for the lanes in use into
     D[0..3]; the reference (p0's) is evaluated once a stage for all lanes."""
     r2 = reference(t + 0.5 * h, p0)
-    # first: a literal, so that numba compiles the stage without the branch
-    _stage(t, reference(t, p0), lanes, 0.0, D[0], True, D[0])
-    _stage(t + 0.5 * h, r2, lanes, 0.5 * h, D[0], False, D[1])
-    _stage(t + 0.5 * h, r2, lanes, 0.5 * h, D[1], False, D[2])
-    _stage(t + h, reference(t + h, p0), lanes, h, D[2], False, D[3])
+    # the first stage at the state itself: state + 0 * ZERO (one compiled stage serves all
+    # four; a flag would be compiled once for each of its values)
+    _stage(t, reference(t, p0), lanes, 0.0, ZERO, D[0])
+    _stage(t + 0.5 * h, r2, lanes, 0.5 * h, D[0], D[1])
+    _stage(t + 0.5 * h, r2, lanes, 0.5 * h, D[1], D[2])
+    _stage(t + h, reference(t + h, p0), lanes, h, D[2], D[3])
 
 
 @jit
@@ -329,7 +363,7 @@ def _split(work, p0, tb, h, depth, tried):
                     DC[0][i * LANES] = (b1 * D[0][i * LANES] + b2 * (D[1][i * LANES] + D[2][i * LANES])
                                         + b4 * D[3][i * LANES])
                 tq = tb + q * (h / U)
-                _stage(tq, reference(tq, p0), alone, hh, DC[0], False, DC[1])
+                _stage(tq, reference(tq, p0), alone, hh, DC[0], DC[1])
                 if DC[1][ic] == c1:
                     lo = q
                 else:
@@ -379,7 +413,7 @@ def _steps_lanes(lanes, p0, t0, h, m, depth, work):
                 for s_ in range(4):
                     for q in range(NSTAGE):
                         work.alone_stages[s_][q * LANES] = D[s_][q * LANES + b]
-                steps, splits = _split(work, p0, t, h, depth, True)
+                steps, splits = _split(work, p0, t, h, depth, work.crossed[b] != 0.0)
                 work.extra_steps[b] += steps
                 work.located[b] += splits
                 for q in range(NSTATE):
@@ -492,8 +526,10 @@ def _lane_alone(start_state, lanes, b, p0, t0, m, call, work):
     steps = 0
     splits = 0
     depth = split_depth(m, call.split_parts)
+    # False, as a value the compiler does not fold (a literal would compile _split twice)
+    tried = m < 0
     for j in range(m):
-        st, sp = _split(work, p0, t0 + j * h, h, depth, False)
+        st, sp = _split(work, p0, t0 + j * h, h, depth, tried)
         steps += st
         splits += sp
     for q in range(NSTATE):

@@ -2,10 +2,11 @@ r"""The closed loop of Fig. 2 as one pure right-hand side, batched over scenario
 
 This is the same loop the bdsim diagram of :func:`unidyn.diagrams.build_fig2`
 wires block by block, here as one function of time and state,
-:func:`unidyn.model.equations.loop_derivative`, evaluated on all runs at once (the
-compiled engine, :mod:`unidyn.engine.kernels`, evaluates the same equations,
-:func:`unidyn.model.equations.loop_rates`, on runs side by side in SIMD lanes). It is the reference the diagram is tested against, and the right-hand
-side of the batch engine. Continuous control only
+:func:`unidyn.model.equations.loop_derivative`, evaluated on all runs at once with numpy:
+what ``solve_ivp`` integrates for the converged references the diagram and the batch
+engine are tested against. It also gives the batch engine its runs' parameter table,
+noise and initial state (the engine's kernels, :mod:`unidyn.engine.kernels`, evaluate
+the same equations one run at a time). Continuous control only
 (``Scenario.control == "continuous"``). The runs' parameters are one named
 table (:meth:`ClosedLoop.parameter_table`).
 
@@ -69,7 +70,10 @@ class ClosedLoop:
             if key not in self._traj:
                 self._traj[key] = (len(self._traj), s.trajectory)
             self.traj_index[i] = self._traj[key][0]
-        self._trajs = [tr for _, tr in sorted(self._traj.values(), key=lambda p: p[0])]
+        self.trajectories = [tr for _, tr in sorted(self._traj.values(), key=lambda p: p[0])]
+        # a reference that is a Python function: its index among them, for the engine
+        python = self.P[:, P.trajectory] < 0
+        self.P[python, P.path1] = self.traj_index[python]
         # noise, held per interval: a window of rows at a time (noise_window)
         self._noise_sources = []
         for s in scs:
@@ -121,7 +125,7 @@ class ClosedLoop:
     def reference(self, t):
         """h_d, h_d_dot, h_d_ddot at time t, each (B, 2)."""
         out = []
-        for tr in self._trajs:
+        for tr in self.trajectories:
             out.append((tr.position(t), tr.velocity(t), tr.acceleration(t)))
         idx = self.traj_index
         return tuple(np.array([o[j] for o in out])[idx] for j in range(3))
@@ -180,34 +184,16 @@ class ClosedLoop:
         return (self.pos_noise[:, j, 0], self.pos_noise[:, j, 1],
                 self.vel_noise[:, j, 0], self.vel_noise[:, j, 1])
 
-    def signals(self, t, X, k):
-        """Everything the loop computes at (t, X) in interval k: a dict of (B, ...) arrays
-        (:func:`unidyn.model.equations.loop_signals`)."""
-        ref = self._reference_tuple(t)
-        ud, wd, udd, wdd, G, u_ref, w_ref, um, wm = equations.loop_signals(
-            X.T, ref, self.P.T, self._noise(k))
-        stack = lambda a, b: np.stack(np.broadcast_arrays(a, b), axis=-1)  # noqa: E731
-        G = np.stack([np.broadcast_to(g, (self.B,)) for g in G], axis=-1).reshape(self.B, 2, 6)
-        return dict(h_d=stack(ref[0], ref[1]), v_d=stack(ud, wd), v_d_dot=stack(udd, wdd),
-                    G=G, v_ref=stack(u_ref, w_ref), v_meas=stack(um, wm))
-
     def step_rate(self, t, X, k):
         """The loop's state-dependent fastest rate (1/s) of every run at (t, X) in
         interval k (:func:`unidyn.model.equations.loop_step_rate`)."""
         return np.broadcast_to(equations.loop_step_rate(
             t, X.T, self._reference_tuple(t), self.P.T, self._noise(k)), (self.B,))
 
-    def rhs(self, t, X, k, rows=None, limits=False):
+    def rhs(self, t, X, k):
         """dX/dt, (B, 13), at time t in noise interval k
         (:func:`unidyn.model.equations.loop_derivative` on all runs at once). k must lie in
-        the current noise window (:meth:`noise_window`; the first is drawn on creation).
-        With ``rows`` (an index array), X and dX/dt are those runs' only. With
-        ``limits``, (B, 14): a last column says which limits act
-        (:func:`unidyn.model.equations.limit_state`)."""
-        ref, P, noise = self._reference_tuple(t), self.P, self._noise(k)
-        if rows is not None:
-            ref = tuple(r[rows] for r in ref)
-            P, noise = P[rows], tuple(v[rows] for v in noise)
-        dX = np.empty((NSTATE + bool(limits), X.shape[0]))
-        equations.loop_derivative(t, X.T, ref, P.T, noise, dX)
+        the current noise window (:meth:`noise_window`; the first is drawn on creation)."""
+        dX = np.empty((NSTATE, X.shape[0]))
+        equations.loop_derivative(t, X.T, self._reference_tuple(t), self.P.T, self._noise(k), dX)
         return dX.T

@@ -105,7 +105,7 @@ class Result:
     :ivar message: why the run stopped early ("" for a complete run)
     :ivar engine: ``"bdsim"`` (the diagram) or ``"batch"``
     :ivar backend: what actually integrated the run: ``"solve_ivp RK45"`` (or the
-        solver method used) for the diagram, ``"numba (compiled)"`` or ``"numpy"``
+        solver method used) for the diagram, ``"compiled"`` or ``"numpy"``
         for the batch engine
     :ivar log_every: samples are logged every ``log_every`` steps of ``Ts``
     :ivar substeps: the batch engine's RK4 steps per sample interval (``None`` for the
