@@ -46,12 +46,12 @@ myst_heading_anchors = 3
 # them, top to bottom in a fresh kernel in a temporary folder, so each page shows what
 # its notebook prints and draws with the code of this checkout: an output cannot go
 # stale, and a notebook that fails fails the build. All seven take about a minute and a
-# half; the first use of the batch engine (notebook 3) adds its numba compilation,
-# about a minute, when the compiled engine is not cached yet. The test suite runs them
-# too (tests/test_notebooks.py).
+# half; where the batch engine's numba compilation is not cached yet (a fresh install, or
+# its sources changed), notebook 3 compiles it, which adds about two minutes once. The
+# test suite runs them too (tests/test_notebooks.py).
 nb_execution_mode = "force"
 nb_execution_in_temp = True
-nb_execution_timeout = 180   # s per cell: a cell that compiles the batch engine takes about a minute
+nb_execution_timeout = 180   # s per cell: the longest compiling cell takes about a minute
 nb_execution_raise_on_error = True
 
 # -- autodoc ------------------------------------------------------------------------
