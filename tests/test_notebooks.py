@@ -1,4 +1,5 @@
-"""Every notebook in examples/ runs top to bottom in a fresh kernel without an error.
+"""Every notebook in examples/ runs top to bottom in a fresh kernel without an error,
+and uses only unidyn's public names.
 
 The kernel is this test's own Python (``sys.executable``), whatever kernelspecs the
 user has installed elsewhere: the test writes a kernelspec for it into a temporary
@@ -6,9 +7,12 @@ folder and hands nbclient a kernel manager that only looks there. Each notebook
 runs with a temporary working folder (files it writes land there) and a 120 s
 limit per cell. ``test_kernel_runs_this_python`` checks the kernel choice itself.
 
-Marked ``slow`` (about two minutes for all notebooks): deselect with ``-m "not slow"``.
+The runs are marked ``slow`` (about two minutes for all notebooks, a minute more
+where the batch engine is not compiled yet): deselect with ``-m "not slow"``. The
+public-name check reads the notebooks without running them (fast).
 """
 
+import ast
 import json
 import os
 import sys
@@ -20,8 +24,6 @@ import pytest
 nbformat = pytest.importorskip("nbformat")
 nbclient = pytest.importorskip("nbclient")
 pytest.importorskip("ipykernel")
-
-pytestmark = pytest.mark.slow
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 NOTEBOOKS = sorted(EXAMPLES.glob("*.ipynb"))
@@ -73,6 +75,92 @@ def test_examples_are_present():
     assert tuple(p.name for p in NOTEBOOKS) == EXPECTED
 
 
+#: the subpackages a notebook may import from, by their public names (``__all__``)
+SUBPACKAGES = ("blocks", "diagrams", "identification")
+#: a module outside ``unidyn.__all__`` and the names ``unidyn`` loads on use, which the
+#: notebooks use for unidyn's figure style (documented in the reference's tools page)
+FIGURE_STYLE = "figstyle"
+
+
+def _public_uses(path):
+    """Every way the notebook at ``path`` reaches into unidyn that is not a public
+    name: ``[(cell index, description)]``."""
+    import importlib
+
+    import unidyn
+    top = set(unidyn.__all__) | {n for n in unidyn._LAZY if not n.startswith("_")} | \
+        set(SUBPACKAGES) | {FIGURE_STYLE, "__file__", "__version__"}
+    exported = {s: set(importlib.import_module(f"unidyn.{s}").__all__) for s in SUBPACKAGES}
+    bad = []
+    aliases = {"unidyn": None}          # local name -> subpackage (None: unidyn itself)
+    for i, cell in enumerate(nbformat.read(path, as_version=4).cells):
+        if cell.cell_type != "code":
+            continue
+        # IPython's magics and shell escapes are not Python
+        src = "\n".join("" if ln.lstrip().startswith(("%", "!")) else ln
+                        for ln in cell.source.splitlines())
+        tree = ast.parse(src)
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                for a in node.names:
+                    if a.name.startswith("unidyn."):
+                        sub = a.name.removeprefix("unidyn.")
+                        if sub not in SUBPACKAGES:
+                            bad.append((i, f"import {a.name}"))
+                        elif a.asname:
+                            aliases[a.asname] = sub
+            elif isinstance(node, ast.ImportFrom) and (node.module or "").startswith("unidyn"):
+                sub = node.module.removeprefix("unidyn").removeprefix(".")
+                for a in node.names:
+                    if sub == "":
+                        if a.name not in top:
+                            bad.append((i, f"from unidyn import {a.name}"))
+                        elif a.name in SUBPACKAGES:
+                            aliases[a.asname or a.name] = a.name
+                    elif sub not in SUBPACKAGES:
+                        bad.append((i, f"from {node.module} import {a.name}"))
+                    elif a.name not in exported[sub]:
+                        bad.append((i, f"from {node.module} import {a.name} (not in its __all__)"))
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) \
+                    and node.value.id in aliases:
+                sub = aliases[node.value.id]
+                if (sub is None and node.attr not in top) or \
+                        (sub is not None and node.attr not in exported[sub]):
+                    bad.append((i, f"{node.value.id}.{node.attr}"))
+            if isinstance(node, ast.Attribute) and node.attr.startswith("_") \
+                    and not node.attr.startswith("__") and "unidyn" in ast.unparse(node.value):
+                bad.append((i, ast.unparse(node)))
+    return bad
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
+def test_notebook_uses_only_public_names(path):
+    """A notebook reaches unidyn through ``unidyn.NAME`` (its ``__all__`` and the names it
+    loads on use) and the public names of unidyn.blocks, unidyn.diagrams and
+    unidyn.identification, never a module imported by its file name: modules may move,
+    the public names stay."""
+    assert _public_uses(path) == []
+
+
+def test_public_name_check_catches_private_uses(tmp_path):
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(src) for src in (
+        "%matplotlib inline\nimport unidyn\nfrom unidyn import simulate_batch, figstyle\n"
+        "from unidyn import identification as ident\nident.identify\nunidyn.control.PAPER_GAMMA",
+        "from unidyn.batch import simulate_batch",
+        "import unidyn.runner",
+        "from unidyn import _jit",
+        "unidyn.sweep.run_sweep",
+        "from unidyn import identification as ident\nident.fit_output_error",
+        "unidyn.model._helper",
+        "from unidyn.diagrams import build_fig2, _private",
+    )])
+    path = tmp_path / "x.ipynb"
+    nbformat.write(nb, path)
+    assert sorted({i for i, _ in _public_uses(path)}) == [1, 2, 3, 4, 5, 6, 7]
+
+
+@pytest.mark.slow
 def test_kernel_runs_this_python(kernel_spec_dir, tmp_path):
     nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(
         "import os, sys, unidyn\nprint(sys.executable)\nprint(os.getcwd())")])
@@ -96,6 +184,7 @@ def _grey_fraction(png_base64: str) -> float:
     return float(np.all(np.abs(rgb - GGPLOT_GREY) <= 1, axis=-1).mean())
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
 def test_notebook_runs(path, kernel_spec_dir, tmp_path):
     """Each notebook runs; its figures are drawn in unidyn's style even with another
