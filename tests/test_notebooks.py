@@ -75,22 +75,25 @@ def test_examples_are_present():
     assert tuple(p.name for p in NOTEBOOKS) == EXPECTED
 
 
-#: the subpackages a notebook may import from, by their public names (``__all__``)
-SUBPACKAGES = ("blocks", "diagrams", "identification")
-#: a module outside ``unidyn.__all__`` and the names ``unidyn`` loads on use, which the
-#: notebooks use for unidyn's figure style (documented in the reference's tools page)
-FIGURE_STYLE = "figstyle"
+#: the parts a notebook may import from, by their public names (``__all__``) and their
+#: public modules
+SUBPACKAGES = ("model", "results", "blocks", "diagrams", "engine", "identification",
+               "sweeps", "teaching")
 
 
 def _public_uses(path):
     """Every way the notebook at ``path`` reaches into unidyn that is not a public
     name: ``[(cell index, description)]``."""
     import importlib
+    import pkgutil
 
     import unidyn
-    top = set(unidyn.__all__) | {n for n in unidyn._LAZY if not n.startswith("_")} | \
-        set(SUBPACKAGES) | {FIGURE_STYLE, "__file__", "__version__"}
-    exported = {s: set(importlib.import_module(f"unidyn.{s}").__all__) for s in SUBPACKAGES}
+    top = {n for n in dir(unidyn) if not n.startswith("_")} | {"__file__", "__version__"}
+    exported = {}
+    for s in SUBPACKAGES:
+        mod = importlib.import_module(f"unidyn.{s}")
+        exported[s] = set(getattr(mod, "__all__", ())) | {
+            m.name for m in pkgutil.iter_modules(mod.__path__) if not m.name.startswith("_")}
     bad = []
     aliases = {"unidyn": None}          # local name -> subpackage (None: unidyn itself)
     for i, cell in enumerate(nbformat.read(path, as_version=4).cells):
@@ -136,17 +139,17 @@ def _public_uses(path):
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
 def test_notebook_uses_only_public_names(path):
-    """A notebook reaches unidyn through ``unidyn.NAME`` (its ``__all__`` and the names it
-    loads on use) and the public names of unidyn.blocks, unidyn.diagrams and
-    unidyn.identification, never a module imported by its file name: modules may move,
-    the public names stay."""
+    """A notebook reaches unidyn through ``unidyn.NAME`` (the names ``dir(unidyn)``
+    lists) and the public names and modules of its parts (``unidyn.results.figstyle``),
+    never a private name."""
     assert _public_uses(path) == []
 
 
 def test_public_name_check_catches_private_uses(tmp_path):
     nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(src) for src in (
-        "%matplotlib inline\nimport unidyn\nfrom unidyn import simulate_batch, figstyle\n"
-        "from unidyn import identification as ident\nident.identify\nunidyn.control.PAPER_GAMMA",
+        "%matplotlib inline\nimport unidyn\nfrom unidyn import simulate_batch\n"
+        "from unidyn.results import figstyle\nfrom unidyn.teaching import animation\n"
+        "from unidyn import identification as ident\nident.identify\nunidyn.laws.PAPER_GAMMA",
         "from unidyn.batch import simulate_batch",
         "import unidyn.runner",
         "from unidyn import _jit",
