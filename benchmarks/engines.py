@@ -8,7 +8,7 @@ Rows:
   2. the same run through a bare bdsim loop: one block holding the whole closed loop
      (the same equations, unidyn.engine.rhs) with the same noise clock and tolerances,
      i.e. what bdsim costs without our decomposition into blocks
-  3. the same run through the batch engine (numba and numpy backends)
+  3. the same run through the batch engine (compiled, and the same kernels as plain Python)
   4. the full Fig. 11 sweep (4 cases x 70 gains x 250 s) through the batch engine,
      and through bdsim (estimated from a sample of points: a full bdsim sweep takes hours)
   5. import plus first run of `unidyn run --paper 4` in a fresh interpreter (cold start)
@@ -441,10 +441,10 @@ def main(argv=None):
     if _kernels.AVAILABLE:
         simulate_batch([sc.replace(T=1.0)], backend="compiled")  # compile or load the cache
         t_nb, _ = timed(lambda: simulate_batch([sc], backend="compiled"), repeat=3)
-        rows.append(("paper sim. 4 (200 s), batch engine, numba", t_nb,
+        rows.append(("paper sim. 4 (200 s), batch engine, compiled", t_nb,
                      f"{t_diag / t_nb:.0f}x faster than the diagram"))
     t_np, _ = timed(lambda: simulate_batch([sc], backend="plain"))
-    rows.append(("paper sim. 4 (200 s), batch engine, numpy", t_np,
+    rows.append(("paper sim. 4 (200 s), batch engine, plain Python", t_np,
                  f"{t_diag / t_np:.2g}x faster than the diagram"))
 
     scs = fig11_scenarios()
@@ -461,7 +461,7 @@ def main(argv=None):
             run_steps = sum(r.rk4_steps for r in res)  # refined intervals and split steps included
             extra = run_steps - sum(r.substeps * r.scenario.steps for r in res)
             ns = t_run / run_steps * 1e9 * min(os.cpu_count() or 1, n_pts)
-            rows.append((f"Fig. 11 sweep ({n_pts} runs x 250 s{label}), batch engine, numba, "
+            rows.append((f"Fig. 11 sweep ({n_pts} runs x 250 s{label}), batch engine, compiled, "
                          f"median of 5", t_run,
                          f"{run_steps / 1e6:.1f} M RK4 run-steps ({DEFAULT_SUBSTEPS} to "
                          f"{max(r.substeps for r in res)} per 0.1 s; {extra / 1e6:.2f} M more in "

@@ -54,7 +54,8 @@ if AVAILABLE:
 
     from . import vecmath
 
-    _OVERLOADED = (equations.select, equations.sin, equations.cos, equations.tanh)
+    _OVERLOADED = (equations.select, equations.saturate, equations.sin, equations.cos,
+                   equations.tanh)
     # called, not inlined: a whole loop evaluation that a caller makes several times
     # (inlined, each copy costs numba's compiler seconds)
     _CALLED = (equations.loop_acceleration, equations.loop_step_rate)
@@ -76,6 +77,12 @@ if AVAILABLE:
     _elementary(equations.sin, vecmath.sin, np.sin)
     _elementary(equations.cos, vecmath.cos, np.cos)
     _elementary(equations.tanh, vecmath.tanh, np.tanh)
+
+    @overload(equations.saturate, inline="always")
+    def _saturate(x, limit):
+        """equations.saturate compiled: numpy's NaN-keeping minimum and maximum (its
+        Python form takes a shortcut for one value)."""
+        return lambda x, limit: np.minimum(np.maximum(x, -limit), limit)
 
     @overload(equations.select)
     def _select(condition, a, b):

@@ -47,8 +47,10 @@ SWITCH_TOL = 1e-9
 
 
 def select(condition, a, b):
-    """a where condition holds, else b (``np.where``; on floats in compiled code, a
-    plain branch)."""
+    """a where condition holds, else b: ``np.where`` on arrays, a branch on one value
+    (as in compiled code)."""
+    if isinstance(condition, (bool, np.bool_)):
+        return a if condition else b
     return np.where(condition, a, b)
 
 
@@ -107,6 +109,8 @@ def dynamics_regressor(u, w, du, dw):
 
 def saturate(x, limit):
     """x clipped to [-limit, limit] (limit may be inf); NaN stays NaN."""
+    if isinstance(x, float) and isinstance(limit, float):  # one value (np.float64 too)
+        return min(max(x, -limit), limit)
     return np.minimum(np.maximum(x, -limit), limit)
 
 
