@@ -70,7 +70,7 @@ def test_the_cache_is_written_in_the_version_folder_numba_is_told(tmp_path):
 
 
 def _edit_eq2(pkg):
-    eqs = pkg / "equations.py"
+    eqs = pkg / "model" / "equations.py"
     text = eqs.read_text()
     edited = text.replace("(th3 * w * w - th4 * u + u_ref) / th1",
                           "(th3 * w * w - th4 * u + 0.5 * u_ref) / th1")
@@ -93,7 +93,7 @@ def test_an_edited_equation_is_compiled_anew(tmp_path):
     assert after == pytest.approx(_run(tmp_path, cache, PROBE, "plain"), rel=1e-9)
     assert len(_versions(cache)) == 2  # a folder of its own
     # the old version, back (a git checkout), runs from its own files again
-    (pkg / "equations.py").write_text((SRC / "equations.py").read_text())
+    (pkg / "model" / "equations.py").write_text((SRC / "model" / "equations.py").read_text())
     assert _run(tmp_path, cache, PROBE, "compiled") == before
 
 

@@ -1,6 +1,7 @@
 """numba, where installed: :func:`jit` of a function that calls the paper's
 equations (:mod:`unidyn.model.equations`), and the same function as plain Python where
-numba is absent (``pip install unidyn[fast]`` for the compiled one).
+numba is absent (``pip install unidyn[fast]`` for the compiled one) or not wanted
+(:func:`plain_copy`: the module's source loaded again, not compiled).
 
 Every public function of :mod:`unidyn.model.equations` is registered with numba's
 ``register_jitable`` (inlined into its callers): it stays the plain function for
@@ -9,7 +10,7 @@ the equations the rest of the library runs, not a copy of them.
 
 **The on-disk cache.** numba (``cache=True``) keys a cached function on its own
 source file only, not on the files of the functions it inlines (numba's documented
-limitation): a kernel cached beside ``_kernels.py`` would keep running an edited
+limitation): a kernel cached beside ``kernels.py`` would keep running an edited
 :mod:`unidyn.model.equations` as it was. So the package's compiled functions are cached
 in a folder of their own per version of the compiled sources
 (:data:`COMPILED_SOURCES`, hashed into :data:`STAMP`):

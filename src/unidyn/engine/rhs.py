@@ -157,7 +157,7 @@ class ClosedLoop:
                 path = (tr.radius, tr.omega, tr.center[0], tr.center[1], tr.phase)
             elif kind == "line":
                 path = (*tr.start, *tr.velocity_)
-            else:  # evaluated by its own methods (the numpy engine only)
+            else:  # a Python function: the kernels' plain copy calls it (path1: its index)
                 path = ()
             for j, v in enumerate(path):
                 values[f"path{j + 1}"] = v
