@@ -375,7 +375,7 @@ class _Run:
         n, B = loop.steps, loop.B
         self.L = L = int(loop.scenarios[0].log_every)
         rows = n // L + 2  # every L-th sample, plus the one a run stops at
-        from .kernels import log_layout  # (here: importing _kernels loads numba)
+        from .kernels import log_layout  # numba loads with the kernels
         sc0 = loop.scenarios[0]
         # only the columns of the series asked for (Scenario.log_series)
         self.cols, self.layout = log_layout(ALWAYS_LOGGED + sc0.log_series)
