@@ -305,13 +305,19 @@ def test_two_processes_into_one_empty_folder_one_writes_the_other_is_refused(tmp
 
 
 def test_ctrl_c_during_the_renames_is_held_back():
-    with outdir._interrupts_deferred():
-        signal.raise_signal(signal.SIGINT)  # arrives inside: held back, then dropped
-    with pytest.raises(KeyboardInterrupt):
+    # Python's own Ctrl-C handler, as in a process started in the foreground (one started
+    # in the background of a shell script begins with SIGINT ignored)
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
         with outdir._interrupts_deferred():
-            signal.raise_signal(signal.SIGINT)
-            raise OSError("a rename failed")  # not done: the Ctrl-C is raised after all
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+            signal.raise_signal(signal.SIGINT)  # arrives inside: held back, then dropped
+        with pytest.raises(KeyboardInterrupt):
+            with outdir._interrupts_deferred():
+                signal.raise_signal(signal.SIGINT)
+                raise OSError("a rename failed")  # not done: the Ctrl-C is raised after all
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        signal.signal(signal.SIGINT, before)
 
 
 def test_sigterm_during_the_renames_is_held_back_then_delivered():
