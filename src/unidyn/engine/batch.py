@@ -40,7 +40,7 @@ from .._errors import SimulationInterrupted
 from .._errors import AccuracyWarning
 from .._validate import ValidationError, integer
 from .rhs import ClosedLoop
-from ..model.equations import STATE, SWITCH_TOL, TRAJECTORY_KINDS, P
+from ..model.equations import SWITCH_TOL, TRAJECTORY_KINDS, P
 from ..results.result import Result
 from ..model.scenario import ALWAYS_LOGGED, HIGH_GAIN, Scenario
 
@@ -51,17 +51,6 @@ __all__ = ["simulate_batch", "DEFAULT_SUBSTEPS", "AccuracyWarning"]
 #: per sample, 5.1e-6 for exact compensation at the highest gains (benchmarks/engines.py prints
 #: the measured accuracy).
 DEFAULT_SUBSTEPS = 10
-#: The loop's state count (:data:`unidyn.model.equations.STATE`).
-NSTATE = len(STATE)
-
-
-def _group(scenarios):
-    groups = {}
-    for i, s in enumerate(scenarios):
-        groups.setdefault((s.T, s.Ts), []).append(i)
-    return groups
-
-
 BACKENDS = ("auto", "compiled", "plain")
 
 #: RK4 is stable for real eigenvalues lambda with |lambda h| < 2.78, and accurate
@@ -280,7 +269,7 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
     from .jit import plain_copy
     compilable = all(getattr(s.trajectory, "kind", None) in TRAJECTORY_KINDS for s in scs)
     if backend == "compiled" and not kernels.AVAILABLE:
-        raise ValidationError("backend='compiled' needs numba (pip install numba)")
+        raise ValidationError("backend='compiled' needs numba (pip install unidyn[fast])")
     if backend == "compiled" and not compilable:
         raise ValidationError("backend='compiled' runs the figure_eight, circle and line "
                               "trajectories only; use backend='plain' for a FunctionTrajectory")
@@ -295,8 +284,7 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
     groups = {}
     for i, s in enumerate(scs):
         groups.setdefault((s.T, s.Ts, s.log_every, s.log_dtype, s.log_series), []).append(i)
-    bar = _Progress(progress, sum(scs[i].steps * m_all[i] for i in range(len(scs))),
-                    sum(scs[g[0]].steps for g in groups.values()))
+    bar = _Progress(progress, steps, sum(scs[g[0]].steps for g in groups.values()))
     results = [None] * len(scs)
     interrupted = False
     try:

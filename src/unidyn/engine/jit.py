@@ -234,10 +234,6 @@ class Compiled:
             self.cached = CACHE_FOLDER is not None and any(CACHE_FOLDER.glob(f"{self.name}-*.ready"))
         return self.cached
 
-    @property
-    def py_func(self):
-        return self.dispatcher.py_func
-
 
 def jit(f=None, *, parallel: bool = False, inline: bool = False, entry: str = ""):
     """``numba.njit(cache=True, nogil=True)`` of f; f itself without numba.

@@ -165,11 +165,6 @@ class ClosedLoop:
                 table[i, getattr(P, name)] = v
         return table
 
-    @property
-    def compilable(self) -> bool:
-        """Whether the compiled engine can evaluate every run's reference itself."""
-        return bool((self.P[:, P.trajectory] >= 0).all())
-
     def _reference_tuple(self, t):
         h_d, h_d_dot, h_d_ddot = self.reference(t)
         return (h_d[:, 0], h_d[:, 1], h_d_dot[:, 0], h_d_dot[:, 1], h_d_ddot[:, 0],
