@@ -12,8 +12,9 @@ from unidyn.model import robots
 from unidyn.teaching.widgets import LoopExplorer, with_payload
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture
 def explorer():
+    """A new explorer for each test: tests may run in any order and in any worker."""
     return LoopExplorer(k=0.1, payload=1.0, noise=True, case=4)
 
 
@@ -35,15 +36,20 @@ def test_initial_drawing_is_the_papers_simulation_4(explorer):
     assert explorer.result.metrics["iae"] == r.metrics["iae"]
 
 
-@pytest.mark.parametrize("moves, expect", [
-    (dict(case=2, k=1.5, noise=False), dict(case=2, k=1.5, payload=1.0, noise=False)),
-    (dict(payload=2.0), dict(case=2, k=1.5, payload=2.0, noise=False)),  # the rest kept
-    (dict(case=3, noise=True), dict(case=3, k=1.5, payload=2.0, noise=True,
-                                    theta_hat0="p3dx_laser")),
+_MOVES = [dict(case=2, k=1.5, noise=False), dict(payload=2.0), dict(case=3, noise=True)]
+
+
+@pytest.mark.parametrize("n_moves, expect", [
+    (1, dict(case=2, k=1.5, payload=1.0, noise=False)),
+    (2, dict(case=2, k=1.5, payload=2.0, noise=False)),  # the rest kept
+    (3, dict(case=3, k=1.5, payload=2.0, noise=True, theta_hat0="p3dx_laser")),
 ])
-def test_callback_redraws_the_run_it_describes(explorer, moves, expect):
+def test_callback_redraws_the_run_it_describes(explorer, n_moves, expect):
+    """The slider moves of _MOVES[:n_moves], one after the other, from the initial drawing."""
+    for moves in _MOVES[:n_moves - 1]:
+        explorer.update(**moves)
     before = explorer.drawn["error"].copy()
-    explorer.update(**moves)
+    explorer.update(**_MOVES[n_moves - 1])
     expect = dict(expect)
     r = _direct(expect.pop("case"), expect.pop("k"), expect.pop("payload"), expect.pop("noise"),
                 **expect)
