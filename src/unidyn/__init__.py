@@ -45,7 +45,7 @@ _LAZY = {
     # (bdsim loads with it), and the batch engine
     "run": ("engines", "run"),
     "simulate": ("diagrams.simulate", "simulate"),
-    "SimulationError": ("diagrams.simulate", "SimulationError"),
+    "SimulationError": ("_errors", "SimulationError"),
     "simulate_batch": ("engine.batch", "simulate_batch"),
     # python-control and ipywidgets are optional (unidyn[control], unidyn[teach])
     "to_iosys": ("teaching.iosys", "to_iosys"),

@@ -20,6 +20,16 @@ class MissingDependency(ImportError):
     """An optional dependency needed for the requested feature is not installed."""
 
 
+class SimulationError(RuntimeError):
+    """A run stopped early (e.g. a non-finite signal). ``result`` holds what was
+    computed up to the failure, marked ``complete=False``; the message says when,
+    where and for which scenario."""
+
+    def __init__(self, message, result=None):
+        super().__init__(message)
+        self.result = result
+
+
 class SimulationInterrupted(KeyboardInterrupt):
     """A run (or batch of runs) stopped by Ctrl-C. ``result`` is the computed part
     of the (first) run, ``results`` that of every run (``None`` for a run not yet

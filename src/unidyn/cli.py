@@ -27,7 +27,8 @@ import time
 from pathlib import Path
 
 from . import process
-from ._errors import Interrupted, MissingDependency, ValidationError
+from ._errors import (Interrupted, MissingDependency, SimulationError, SimulationInterrupted,
+                      ValidationError)
 
 __all__ = ["main"]
 
@@ -274,7 +275,6 @@ def _run_staged(staging, sc, engine, out, animation):
             print(f"unidyn: replacing {out}/ ({replaced}) once the new run is written; "
                   f"kept as they are if it fails or is interrupted", file=sys.stderr, flush=True)
         t0 = time.perf_counter()
-        from .diagrams.simulate import SimulationError, SimulationInterrupted
         from .engines import run
         interrupted = False
         try:

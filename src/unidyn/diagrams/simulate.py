@@ -10,23 +10,13 @@ import warnings
 
 import numpy as np
 
-from .._errors import AccuracyWarning, SimulationInterrupted
+from .._errors import AccuracyWarning, SimulationError, SimulationInterrupted
 from .._validate import NonFiniteSignalError, ValidationError, positive
 from ..model.equations import saturate
 from ..results.result import Result
 from ..model.scenario import HIGH_GAIN, Scenario
 
 __all__ = ["simulate", "SimulationError", "SimulationInterrupted", "DEFAULT_RTOL", "DEFAULT_ATOL"]
-
-
-class SimulationError(RuntimeError):
-    """A run stopped early (e.g. a non-finite signal). ``result`` holds what was
-    computed up to the failure, marked ``complete=False``; the message says when,
-    where and for which scenario."""
-
-    def __init__(self, message, result=None):
-        super().__init__(message)
-        self.result = result
 
 
 def _root_cause(err):
