@@ -86,7 +86,7 @@ STYLE = {
     "axes.formatter.limits": (-3, 4),
     "figure.dpi": 100,
     "savefig.dpi": DPI,
-    "savefig.bbox": "tight",
+    "savefig.bbox": None,  # the size asked for: constrained layout fits the content
     "savefig.pad_inches": 0.03,
     "figure.constrained_layout.use": True,
 }
