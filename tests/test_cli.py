@@ -361,6 +361,7 @@ def _env():
     return env
 
 
+@pytest.mark.slow
 def test_python_m_unidyn_and_console_script(tmp_path):
     out = tmp_path / "run"
     p = subprocess.run([sys.executable, "-m", "unidyn", "run", "--paper", "3", "--T", "1",

@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
@@ -20,6 +21,7 @@ def unidyn_cli(*args, cwd):
                           capture_output=True, text=True, env=env, timeout=300)
 
 
+@pytest.mark.slow
 def test_example_scenario_runs_and_tracks_the_circle(tmp_path):
     out = tmp_path / "run"
     r = unidyn_cli("run", EXAMPLES / "scenario.toml", "--out", out, cwd=tmp_path)
@@ -41,6 +43,7 @@ def test_example_scenario_runs_and_tracks_the_circle(tmp_path):
         assert (out / name).stat().st_size > 5000
 
 
+@pytest.mark.slow
 def test_example_sweep_runs_with_its_labelled_variants(tmp_path):
     out = tmp_path / "sweep"
     r = unidyn_cli("sweep", EXAMPLES / "sweep.toml", "--out", out, cwd=tmp_path)

@@ -28,6 +28,7 @@ def _run(code, env=None):
                               capture_output=True, text=True, env=full, cwd=cwd, timeout=300)
 
 
+@pytest.mark.slow
 def test_bdsim_with_toolboxes_has_unicycle_vehicleplot_and_our_blocks():
     # Guards the pin of roboticstoolbox-python < 1.5: with rtb 1.5.0, bdsim 1.4.0's
     # block loader raises KeyError: 'type' inside bdsim.BDSim().
@@ -45,6 +46,7 @@ def test_bdsim_with_toolboxes_has_unicycle_vehicleplot_and_our_blocks():
     assert r.returncode == 0 and "ok" in r.stdout, r.stdout + r.stderr
 
 
+@pytest.mark.slow
 def test_import_first_serves_a_checkout_used_without_install():
     # with no hook (BDSIMPATH emptied, as for src/ on PYTHONPATH), 'import unidyn'
     # before bdsim.BDSim() makes the blocks available
@@ -59,6 +61,7 @@ def test_import_first_serves_a_checkout_used_without_install():
     assert r.returncode == 0 and "FigureEight" in r.stdout, r.stdout + r.stderr
 
 
+@pytest.mark.slow
 def test_import_changes_only_bdsimpath_in_this_process(tmp_path):
     """import unidyn leaves sys.path and the temp folder as they were; it adds
     unidyn to BDSIMPATH (documented; an installed unidyn's start-up hook has done so
@@ -83,6 +86,7 @@ def test_import_changes_only_bdsimpath_in_this_process(tmp_path):
     assert r.returncode == 0 and "ok" in r.stdout, r.stdout + r.stderr
 
 
+@pytest.mark.slow
 def test_python_started_in_the_checkout_imports_the_package_not_a_folder():
     """From the checkout's own folder (sys.path[0] = ''), import unidyn and its
     diagrams resolve to the package, never to a top-level folder of the checkout."""
@@ -105,6 +109,7 @@ def test_core_does_not_import_bdsim():
     assert r.returncode == 0 and r.stdout.strip() == "False", r.stdout + r.stderr
 
 
+@pytest.mark.slow
 def test_import_is_light_and_the_core_is_reached_from_it():
     """``import unidyn`` loads no numpy (so the command's Ctrl-C handling is in place
     at once); what it used to load eagerly is still reached as an attribute."""
@@ -238,6 +243,7 @@ def test_sdist_and_wheel_pass_twine_and_the_wheel_behaves_as_the_editable_instal
     _check_install(python, site)
 
 
+@pytest.mark.slow
 def test_unidyn_and_bdsim_run_without_roboticstoolbox():
     """roboticstoolbox-python is the optional extra "toolbox": with it not importable,
     a simulation, a Fig. 2 diagram run by bdsim and a .bd file loaded by bdsim work."""

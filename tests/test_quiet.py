@@ -6,6 +6,8 @@ import subprocess
 import sys
 import textwrap
 
+import pytest
+
 
 def _run(code):
     env = {**os.environ, "MPLBACKEND": "Agg"}
@@ -15,6 +17,7 @@ def _run(code):
     return p.stdout, p.stderr
 
 
+@pytest.mark.slow
 def test_simulate_prints_nothing():
     out, err = _run("""
         import unidyn
@@ -25,6 +28,7 @@ def test_simulate_prints_nothing():
     assert out == "" and err == "", (out, err)
 
 
+@pytest.mark.slow
 def test_a_fig2_diagram_in_a_quiet_user_simulator_compiles_and_runs_silently():
     out, err = _run("""
         import unidyn, bdsim

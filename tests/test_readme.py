@@ -193,6 +193,7 @@ def run_python_block(block, tmp_path):
     return ws, r
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("block", _runnable("python"))
 def test_python_block_runs(block, tmp_path):
     ws, r = run_python_block(block, tmp_path)

@@ -58,6 +58,7 @@ def _versions(cache):
     return {f.name: {p.name for p in f.rglob("*.nb[ic]")} for f in root.iterdir() if f.is_dir()}
 
 
+@pytest.mark.slow
 def test_the_cache_is_written_in_the_version_folder_numba_is_told(tmp_path):
     """If numba stops reading NUMBA_CACHE_DIR when a function is declared (how the
     package points it at its version folder), this fails."""
@@ -111,6 +112,7 @@ def test_the_cache_keeps_the_current_version_and_the_two_used_last(tmp_path):
     assert {p.name for p in tmp_path.iterdir()} == {_jit.STAMP, f"{1:012x}", f"{2:012x}"}
 
 
+@pytest.mark.slow
 def test_a_process_waits_while_another_compiles_into_the_same_cache(tmp_path):
     """numba writes its cache without a lock between processes; the package's compiled
     entry points load or compile under one (unidyn.engine.jit.Compiled), so processes that
@@ -157,6 +159,7 @@ def _stderr_on_a_terminal(cache):
     return said.decode(errors="replace")
 
 
+@pytest.mark.slow
 def test_a_compile_says_so_on_the_terminal_once_per_install(tmp_path):
     first = _stderr_on_a_terminal(tmp_path)
     assert "compiling the log simulator of identification, once per install" in first, first

@@ -280,6 +280,7 @@ def test_cmd_timeout_zeroes_stale_commands(tmp_path):
 
 # ------------------------------------------------------------------ command line
 
+@pytest.mark.slow
 def test_cli_identifies_several_bags_and_records_the_topics(tmp_path, bags):
     out = tmp_path / "id"
     p = run_cli("identify", bags["ros1"], bags["mcap"], "--out", out, "--no-validate",
@@ -294,6 +295,7 @@ def test_cli_identifies_several_bags_and_records_the_topics(tmp_path, bags):
     assert np.all(np.abs(err[list(POSITIVE)]) < 0.03), (err, p.stdout)
 
 
+@pytest.mark.slow
 def test_several_topics_are_listed_with_type_count_and_rate(tmp_path):
     rec = recording(seed=1, T=30.0, gap=None)
     bag = write_bag(tmp_path / "two", rec, "mcap",
@@ -309,6 +311,7 @@ def test_several_topics_are_listed_with_type_count_and_rate(tmp_path):
         ident.read_bag(bag, cmd="/joy_vel")
 
 
+@pytest.mark.slow
 def test_missing_topics_name_the_file_and_what_it_has(tmp_path):
     rec = recording(seed=1, T=30.0, gap=None)
     bag = write_bag(tmp_path / "odom_only.bag", rec, "ros1", cmd_topic=None)
@@ -339,6 +342,7 @@ def test_missing_topics_name_the_file_and_what_it_has(tmp_path):
     assert "/cmd_vel (geometry_msgs/msg/Twist, 50 messages" in p.stderr
 
 
+@pytest.mark.slow
 def test_options_that_do_not_apply_are_refused(tmp_path, bags):
     csv = tmp_path / "log.csv"
     csv.write_text("t,u_ref,w_ref,u,w\n" + "".join(f"{k * 0.1},0,0,0,0\n" for k in range(30)))
@@ -366,6 +370,7 @@ def test_simulation_clock_in_the_stamps_is_told_and_handled(tmp_path, bags):
     assert np.all(np.abs(err[list(POSITIVE)]) < 0.03), err
 
 
+@pytest.mark.slow
 def test_bad_files_give_one_line_naming_them(tmp_path, bags):
     folder = tmp_path / "notabag"
     folder.mkdir()
@@ -393,6 +398,7 @@ def test_bad_files_give_one_line_naming_them(tmp_path, bags):
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.slow
 def test_too_short_and_empty_topics(tmp_path):
     rec = recording(seed=2, T=30.0, gap=None)
     (tc, uc, wc), (to, tr, uo, wo) = rec
@@ -407,6 +413,7 @@ def test_too_short_and_empty_topics(tmp_path):
         ident.read_bag(bag)
 
 
+@pytest.mark.slow
 def test_without_rosbags_one_line_names_the_extra(tmp_path, bags):
     """rosbags hidden from the child process (a module of that name that fails)."""
     hide = tmp_path / "hide"

@@ -84,6 +84,7 @@ def covers(res, theta):
 
 # ------------------------------------------------------------ a fast robot at 10 Hz
 
+@pytest.mark.slow
 def test_fast_robot_at_10hz_returns_and_says_its_time_constant_is_not_resolved(tmp_path):
     """Khepera III: theta1/theta4 = 0.023 s, a quarter of a 10 Hz sample. The fit
     must return promptly (it once explored time constants of 1e-4 s and took

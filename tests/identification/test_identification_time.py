@@ -111,6 +111,7 @@ def test_a_1_khz_log_in_ms_passes_the_step_check_but_its_time_constants_are_flag
     assert [str(w.message) for w in rec] == res.warnings
 
 
+@pytest.mark.slow
 def test_command_line_refuses_a_ms_and_a_ns_log_in_one_line_and_reads_them_with_the_flag(
         tmp_path, p3_log):
     for unit, scale in (("ms", 1e3), ("ns", 1e9)):
@@ -133,6 +134,7 @@ def test_command_line_refuses_a_ms_and_a_ns_log_in_one_line_and_reads_them_with_
 
 # ------------------------------------------------------------ nothing dropped silently
 
+@pytest.mark.slow
 def test_every_row_dropped_or_skipped_is_reported_on_screen_in_the_result_and_theta_json(
         tmp_path, p3_log):
     rows = [",".join(f"{p3_log[k][i]:.10g}" for k in ident.COLUMNS)

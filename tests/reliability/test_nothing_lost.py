@@ -155,6 +155,7 @@ def test_an_interrupted_overwrite_keeps_the_old_run_or_writes_the_new(tmp_path):
     print(outcomes)
 
 
+@pytest.mark.slow
 def test_ctrl_c_after_the_command_finished_keeps_its_status_and_prints_no_traceback(tmp_path):
     """Ctrl-C in the second that Python takes to shut down after a finished command
     (numba's, matplotlib's and bdsim's finalisers run then): the results are whole,
@@ -198,6 +199,7 @@ def test_an_interrupted_command_run_in_process_returns_130_and_leaves_the_caller
     assert p.stderr.strip() == "unidyn: interrupted", p.stderr
 
 
+@pytest.mark.slow
 def test_an_interrupted_first_run_leaves_nothing_or_everything(tmp_path):
     rng = random.Random(7)
     for i, sig in enumerate((signal.SIGINT, signal.SIGKILL, signal.SIGINT)):
@@ -332,6 +334,7 @@ def test_sweeps_killed_at_random_rows_resume_byte_identical(tmp_path, engine, T,
 CONSOLE_SCRIPT = Path(sys.executable).with_name("unidyn")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("launch", [
     [sys.executable, "-m", "unidyn"],
     pytest.param([str(CONSOLE_SCRIPT)], marks=pytest.mark.skipif(
@@ -431,6 +434,7 @@ def test_sigterm_stops_a_sweep_like_ctrl_c_and_leaves_no_staging_folder(tmp_path
     assert not [q for q in (tmp_path / "S").iterdir() if q.name.endswith(".tmp")]
 
 
+@pytest.mark.slow
 def test_two_sweeps_into_one_folder_never_both_write_it(tmp_path):
     f = sweep_file(tmp_path, T=1, gains="[1.0, 2.0, 4.0]")
     common = ["--engine", "bdsim", "--no-progress"]

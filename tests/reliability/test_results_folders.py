@@ -58,6 +58,7 @@ def T_of(folder: Path) -> float:
     return json.loads((folder / "summary.json").read_text())["scenario"]["T"]
 
 
+@pytest.mark.slow
 def test_out_as_a_symbolic_link_writes_into_its_target(tmp_path):
     store = tmp_path / "store" / "results"
     store.mkdir(parents=True)
@@ -77,6 +78,7 @@ def test_out_as_a_symbolic_link_writes_into_its_target(tmp_path):
     assert [n for n in os.listdir(store) if n.startswith(".unidyn")] == [".unidyn-run.json"]
 
 
+@pytest.mark.slow
 def test_a_users_folder_keeps_its_files_and_folders_byte_for_byte(tmp_path):
     home = tmp_path / "home"
     home.mkdir()
@@ -106,6 +108,7 @@ _LOGGER = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow
 def test_another_process_writing_inside_out_during_an_overwrite_loses_nothing(tmp_path):
     out = tmp_path / "out"
     assert cli(tmp_path, "run", "--T", "1", "--out", out)[0] == 0
@@ -119,6 +122,7 @@ def test_another_process_writing_inside_out_during_an_overwrite_loses_nothing(tm
     assert T_of(out) == 2.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("where", [".", ".."])
 def test_out_as_the_working_folder_or_its_parent(tmp_path, where):
     top = tmp_path / "top"
@@ -161,6 +165,7 @@ def _umount(path: Path) -> None:
     subprocess.run(["umount", str(path)], check=False)
 
 
+@pytest.mark.slow
 def test_a_file_system_mounted_inside_out_is_left_alone(tmp_path):
     out = tmp_path / "out"
     _mount_tmpfs(out / "mnt", "1m")
@@ -175,6 +180,7 @@ def test_a_file_system_mounted_inside_out_is_left_alone(tmp_path):
         _umount(out / "mnt")
 
 
+@pytest.mark.slow
 def test_a_full_disk_names_the_file_and_keeps_the_earlier_results(tmp_path):
     out = tmp_path / "small"
     _mount_tmpfs(out, "1m")
@@ -200,6 +206,7 @@ def test_a_full_disk_names_the_file_and_keeps_the_earlier_results(tmp_path):
         _umount(out)
 
 
+@pytest.mark.slow
 def test_save_from_python_keeps_the_command_lines_rule(tmp_path):
     from unidyn import ValidationError
     from unidyn.engine.batch import simulate_batch
@@ -222,6 +229,7 @@ def test_save_from_python_keeps_the_command_lines_rule(tmp_path):
     assert code == 0, err
 
 
+@pytest.mark.slow
 def test_run_from_a_folder_whose_replacement_was_cut_short_says_so(tmp_path):
     out = tmp_path / "R"
     assert cli(tmp_path, "run", "--T", "1", "--out", out)[0] == 0
@@ -232,6 +240,7 @@ def test_run_from_a_folder_whose_replacement_was_cut_short_says_so(tmp_path):
     assert not (tmp_path / "again").exists()
 
 
+@pytest.mark.slow
 def test_sweep_messages_speak_in_flags(tmp_path):
     f = tmp_path / "s.toml"
     f.write_text('[base]\ncase = "kinematic"\nT = 0.5\nnoise = "off"\n[grid]\nkx = [1.0, 2.0]\n')
@@ -248,6 +257,7 @@ def test_sweep_messages_speak_in_flags(tmp_path):
     assert json.loads(record.read_text())["finished"] is True
 
 
+@pytest.mark.slow
 def test_sweep_and_identify_into_the_working_folder_touch_only_their_files(tmp_path):
     """``unidyn sweep --out .`` started over, ``unidyn identify --out .`` replaced: the
     working folder stays the same folder, with the user's files byte for byte."""

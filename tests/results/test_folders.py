@@ -213,6 +213,7 @@ _WRITER = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL, signal.SIGTERM])
 def test_processes_killed_at_random_moments_leave_old_or_new_never_a_mix(tmp_path, sig):
     """Real processes, real signals: after each one, ``out`` holds every file of one
@@ -288,6 +289,7 @@ _RACER = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow
 def test_two_processes_into_one_empty_folder_one_writes_the_other_is_refused(tmp_path):
     script = tmp_path / "racer.py"
     script.write_text(_RACER)

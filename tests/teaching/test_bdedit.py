@@ -71,6 +71,7 @@ window.close()
 """
 
 
+@pytest.mark.slow
 def test_bdedit_opens_every_fig2_file(qt):
     """Each file in bdedit's scene: every block (type, title, ports, icon, parameters) and
     every wire, checked against the file and against bdload's diagram of it."""
@@ -143,6 +144,7 @@ def _as_bdload(value):
         return value
 
 
+@pytest.mark.slow
 def test_palette_blocks_build_with_bdedit_defaults(qt):
     """A fixed-port block dragged from bdedit's palette has the class's ports, and the
     defaults bdedit reads from its docstring build the block as bdload would."""
@@ -176,6 +178,7 @@ def _png_size(path: Path):
     return struct.unpack(">II", head[16:24])
 
 
+@pytest.mark.slow
 def test_screenshot_script_renders_the_loop(qt, tmp_path):
     png = tmp_path / "fig2.png"
     proc = subprocess.run([sys.executable, str(ROOT / "tools" / "bdedit_screenshot.py"),
@@ -267,6 +270,7 @@ def _svg_titles(svg: str) -> dict[str, tuple[float, float]]:
     return found
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", SHIPPED, ids=lambda p: p.name)
 def test_bdedit_command_draws_each_block_where_the_file_places_it(bdedit_command, path, tmp_path):
     """``bdedit FILE -p OUT.svg`` (bdedit's own export, through the same start-up and
@@ -307,6 +311,7 @@ print("RESULT " + json.dumps(out))
 """
 
 
+@pytest.mark.slow
 def test_unidyn_edit_window_shows_the_files_simulation_time_and_blocks(qt):
     paths = [str(p) for p in SHIPPED]
     proc = _python(SIM_TIME, *paths)
@@ -319,6 +324,7 @@ def test_unidyn_edit_window_shows_the_files_simulation_time_and_blocks(qt):
         assert got[path][1] == sorted(b["title"] for b in data["blocks"]), path
 
 
+@pytest.mark.slow
 def test_unidyn_edit_runs_until_terminated(qt):
     """The command opens the editor and keeps it open; SIGTERM (and Ctrl-C) end it,
     although Python's own handlers never run inside Qt's event loop."""

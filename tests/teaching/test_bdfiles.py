@@ -107,6 +107,7 @@ def _bdrun(path, T, out, timeout):
         return pickle.load(f)
 
 
+@pytest.mark.slow
 def test_bdrun_runs_case4_headless(tmp_path):
     """The command line route: bdrun FILE.bd (a separate process, no display) with
     simulate's solver settings gives simulate's numbers."""
