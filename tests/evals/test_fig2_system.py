@@ -9,6 +9,8 @@ from unidyn import NO_LIMITS
 from unidyn.engine.rhs import ClosedLoop
 from unidyn.model.scenario import Scenario
 
+pytestmark = pytest.mark.slow  # the whole-system tier (tests/README.md)
+
 TOL = dict(rtol=1e-10, atol=1e-12)
 
 

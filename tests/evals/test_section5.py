@@ -6,6 +6,8 @@ import pytest
 import unidyn
 from unidyn.paper import section5_claims
 
+pytestmark = pytest.mark.slow  # the whole-system tier (tests/README.md)
+
 
 @pytest.fixture(scope="module")
 def runs():

@@ -151,7 +151,7 @@ ZERO = np.zeros((len(eq.STATE) + 1) * LANES)
 
 
 #: The tuples below are written out (numba keeps a tuple of floats in registers and
-#: has no tuple comprehension); tests/evals/test_engines.py checks them against the
+#: has no tuple comprehension); tests/engine/test_kernels.py checks them against the
 #: lengths of :data:`unidyn.model.equations.STATE` and :data:`~unidyn.model.equations.LOOP_PARAMETERS`.
 @jit(inline=True)
 def _lane_state(A, b):

@@ -27,7 +27,7 @@ most others build):
 Within 2 units in the last place (ulp) of numpy for sin and cos, 3 for tanh
 (numpy's are within 1 of the exact value). NaN gives NaN, +-inf gives NaN for sin
 and cos and +-1 for tanh, as in numpy.
-``tests/evals/test_vecmath.py`` compares them with numpy on seeded random inputs from
+``tests/engine/test_vecmath.py`` compares them with numpy on seeded random inputs from
 1e-300 to 1e8 (and beside multiples of pi/2) and on the special values.
 """
 
