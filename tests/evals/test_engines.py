@@ -25,7 +25,7 @@ def _fig11_cases(k, T, noise=None):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("noise", [None, unidyn.NoiseSpec(seed=3)])
-def test_numba_and_numpy_backends_agree(noise):
+def test_compiled_and_plain_kernels_agree(noise):
     if not _kernels.AVAILABLE:
         pytest.skip("numba not installed")
     scs = [s for k in (0.5, 4.0) for s in _fig11_cases(k, T=30.0, noise=noise)]

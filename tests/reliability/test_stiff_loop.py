@@ -128,7 +128,7 @@ def test_both_backends_stop_a_loop_too_fast_at_the_same_sample_with_the_same_rea
     assert np.abs(a.pose - b.pose).max() < 1e-12
 
 
-def test_the_numpy_backend_takes_only_the_runs_that_need_it_again():
+def test_the_plain_kernels_take_only_the_runs_that_need_it_again():
     """Its refined runs are integrated as a batch of their own; the others keep their
     numbers, and each run is the run alone, bit for bit."""
     pts = [_far(1.0, T=2.0), _far(100.0, T=2.0), _far(2.0, T=2.0), _far(150.0, T=2.0)]
