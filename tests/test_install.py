@@ -128,6 +128,21 @@ def test_import_is_light_and_the_core_is_reached_from_it():
     assert r.stdout.split("\n")[:2] == ["False", "True True []"], r.stdout
 
 
+@pytest.mark.slow
+def test_a_run_on_the_batch_engine_loads_no_bdsim():
+    """bdsim (and the toolboxes it loads) is for the diagram: ``unidyn run`` on the batch
+    engine, its files and figures included, loads none of it."""
+    r = _run("""
+        import sys, tempfile
+        from unidyn.cli import main
+        code = main(["run", "--T", "1", "--engine", "batch", "--out", tempfile.mkdtemp() + "/o"])
+        print(code, sorted(m for m in ("bdsim", "roboticstoolbox", "spatialmath")
+                           if m in sys.modules))
+    """)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert r.stdout.splitlines()[-1] == "0 []", r.stdout
+
+
 def _fresh_venv(path: Path) -> Path:
     """A new virtual environment whose own site-packages holds nothing but what is
     installed into it; the dependencies come from this interpreter's site-packages,
