@@ -56,8 +56,26 @@ def _xy(x, y):
     return out
 
 
+class _FromEquations(Trajectory):
+    """A trajectory given by one function of :mod:`unidyn.model.equations`, which
+    ``_eval(t)`` calls: its six values (x, y, x', y', x'', y'') are the position, velocity and
+    acceleration."""
+
+    def _eval(self, t):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def position(self, t):
+        return _xy(*self._eval(t)[0:2])
+
+    def velocity(self, t):
+        return _xy(*self._eval(t)[2:4])
+
+    def acceleration(self, t):
+        return _xy(*self._eval(t)[4:6])
+
+
 @dataclass(frozen=True)
-class FigureEight(Trajectory):
+class FigureEight(_FromEquations):
     r"""The paper's figure eight (Section 5), starting at the origin:
 
     .. math:: x_d = A_x\sin(\omega_x t),\quad y_d = A_y(\cos(\omega_y t) - 1)
@@ -86,18 +104,9 @@ class FigureEight(Trajectory):
     def _eval(self, t):
         return eq.figure_eight(_t(t), self.ax, self.ay, self.wx, self.wy, *self.center)
 
-    def position(self, t):
-        return _xy(*self._eval(t)[0:2])
-
-    def velocity(self, t):
-        return _xy(*self._eval(t)[2:4])
-
-    def acceleration(self, t):
-        return _xy(*self._eval(t)[4:6])
-
 
 @dataclass(frozen=True)
-class Circle(Trajectory):
+class Circle(_FromEquations):
     r"""A circle travelled at constant angular rate:
 
     .. math:: h_d = c + R\,[\cos(\omega t + \phi), \sin(\omega t + \phi)]
@@ -126,18 +135,9 @@ class Circle(Trajectory):
     def _eval(self, t):
         return eq.circle(_t(t), self.radius, self.omega, *self.center, self.phase)
 
-    def position(self, t):
-        return _xy(*self._eval(t)[0:2])
-
-    def velocity(self, t):
-        return _xy(*self._eval(t)[2:4])
-
-    def acceleration(self, t):
-        return _xy(*self._eval(t)[4:6])
-
 
 @dataclass(frozen=True)
-class Line(Trajectory):
+class Line(_FromEquations):
     r"""A straight line at constant velocity: :math:`h_d = p_0 + v t`.
 
     :param start: p_0, m
@@ -154,15 +154,6 @@ class Line(Trajectory):
 
     def _eval(self, t):
         return eq.line(_t(t), *self.start, *self.velocity_)
-
-    def position(self, t):
-        return _xy(*self._eval(t)[0:2])
-
-    def velocity(self, t):
-        return _xy(*self._eval(t)[2:4])
-
-    def acceleration(self, t):
-        return _xy(*self._eval(t)[4:6])
 
     def to_spec(self) -> dict:
         return {"type": self.kind, "start": list(self.start), "velocity": list(self.velocity_)}
