@@ -11,6 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+# each test starts a process of its own (tests/README.md)
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
 
@@ -21,7 +24,6 @@ def unidyn_cli(*args, cwd):
                           capture_output=True, text=True, env=env, timeout=300)
 
 
-@pytest.mark.slow
 def test_example_scenario_runs_and_tracks_the_circle(tmp_path):
     out = tmp_path / "run"
     r = unidyn_cli("run", EXAMPLES / "scenario.toml", "--out", out, cwd=tmp_path)
@@ -43,7 +45,6 @@ def test_example_scenario_runs_and_tracks_the_circle(tmp_path):
         assert (out / name).stat().st_size > 5000
 
 
-@pytest.mark.slow
 def test_example_sweep_runs_with_its_labelled_variants(tmp_path):
     out = tmp_path / "sweep"
     r = unidyn_cli("sweep", EXAMPLES / "sweep.toml", "--out", out, cwd=tmp_path)

@@ -8,6 +8,9 @@ import textwrap
 
 import pytest
 
+# each test starts a process of its own (tests/README.md)
+pytestmark = pytest.mark.slow
+
 
 def _run(code):
     env = {**os.environ, "MPLBACKEND": "Agg"}
@@ -17,7 +20,6 @@ def _run(code):
     return p.stdout, p.stderr
 
 
-@pytest.mark.slow
 def test_simulate_prints_nothing():
     out, err = _run("""
         import unidyn
@@ -28,7 +30,6 @@ def test_simulate_prints_nothing():
     assert out == "" and err == "", (out, err)
 
 
-@pytest.mark.slow
 def test_a_fig2_diagram_in_a_quiet_user_simulator_compiles_and_runs_silently():
     out, err = _run("""
         import unidyn, bdsim

@@ -23,7 +23,6 @@ def _fig11_cases(k, T, noise=None):
             Scenario(case="compensated", **base)]
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("noise", [None, unidyn.NoiseSpec(seed=3)])
 def test_compiled_and_plain_kernels_agree(noise):
     if not _kernels.AVAILABLE:
@@ -39,7 +38,6 @@ def test_compiled_and_plain_kernels_agree(noise):
         assert abs(x.metrics["iae"] - y.metrics["iae"]) <= 1e-10 * x.metrics["iae"]
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("k", [1.0, 10.0, 35.0])
 def test_batch_engine_agrees_with_the_bdsim_diagram_without_noise(k):
     # every case of the Fig. 11 grid (and the kinematic robot) at a few gains;

@@ -14,14 +14,12 @@ def runs():
     return [unidyn.simulate(unidyn.Scenario.paper(n)) for n in (1, 2, 3, 4)]
 
 
-@pytest.mark.slow
 def test_every_section5_claim_holds(runs):
     claims = section5_claims(*runs)
     failed = [c for c in claims if not c.holds]
     assert not failed, "\n".join(f"{c.case}: {c.paper}: {c.measured}" for c in failed)
 
 
-@pytest.mark.slow
 def test_ordering_of_the_four_cases(runs):
     iae = [r.metrics["iae"] for r in runs]
     # the dynamic robot without compensation is far worse than with it
@@ -33,7 +31,6 @@ def test_ordering_of_the_four_cases(runs):
     assert r4.window(150, 200)["iae"] < 0.5 * r4.window(50, 100)["iae"]
 
 
-@pytest.mark.slow
 def test_limits_hold_in_the_dynamic_runs(runs):
     lim = unidyn.PAPER_LIMITS
     for r in runs[1:]:
