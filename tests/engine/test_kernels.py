@@ -1,7 +1,7 @@
 """The batch engine's kernels (unidyn.engine.kernels) against an independent implementation
 of the same right-hand side: the closed loop of unidyn.engine.rhs, all runs at once as
-arrays with the reference from the trajectory objects; and the lane tuples written out
-by hand against the lengths the equations define."""
+arrays with the reference from the trajectory objects; and its RK4 against what the
+classical method gives by construction."""
 
 import numpy as np
 import pytest
@@ -16,8 +16,9 @@ from unidyn.model.trajectories import Circle, Line
 # the kernel's right-hand side (one run at a time, its reference evaluated from the
 # parameter table) as plain Python (what runs without numba) always, and compiled where
 # numba is installed
-KERNEL_RHS = [pytest.param(getattr(_kernels.rhs, "py_func", _kernels.rhs), id="python")] + (
-    [pytest.param(_kernels.rhs, id="compiled")] if _kernels.AVAILABLE else [])
+KERNEL_RHS = [pytest.param(getattr(_kernels.loop_rates, "py_func", _kernels.loop_rates),
+                           id="python")] + (
+    [pytest.param(_kernels.loop_rates, id="compiled")] if _kernels.AVAILABLE else [])
 
 
 @pytest.mark.parametrize("rhs", KERNEL_RHS)
@@ -39,23 +40,68 @@ def test_kernel_rhs_equals_the_closed_loop_of_all_runs_as_arrays(rhs):
         ref = loop.rhs(t, X, k)
         for i in range(loop.B):
             dX = np.empty(13)
-            rhs(t, X[i], loop.P[i], (*loop.pos_noise[i, k], *loop.vel_noise[i, k]), dX)
+            rhs(t, X[i], (loop.P[i], (*loop.pos_noise[i, k], *loop.vel_noise[i, k])), dX)
             worst = max(worst, np.max(np.abs(dX - ref[i]) / (1.0 + np.abs(ref[i]))))
     assert worst < 1e-12
 
 
-def test_the_written_out_lane_tuples_cover_the_state_and_the_parameter_table():
-    """The compiled engine's tuples, written out by hand, against the lengths the
-    equations define and the lane-minor layout (value i of lane b at i * LANES + b)."""
-    L, ns, npar = _kernels.LANES, len(unidyn.model.equations.STATE), len(unidyn.model.equations.LOOP_PARAMETERS)
-    rng = np.random.default_rng(1)
-    A = rng.normal(size=npar * L)
-    for b in range(L):
-        assert _kernels._lane_state(A, b) == tuple(A[b::L][:ns])
-        assert _kernels._lane_params(A, b) == tuple(A[b::L][:npar])
-    X, D1, D2, D3, D4 = (tuple(rng.normal(size=ns)) for _ in range(5))
-    np.testing.assert_array_equal(_kernels._axpy(X, 0.3, D1), np.add(X, 0.3 * np.array(D1)))
-    np.testing.assert_allclose(
-        _kernels._rk4(X, 0.3, D1, D2, D3, D4),
-        np.array(X) + 0.05 * (np.array(D1) + 2 * np.array(D2) + 2 * np.array(D3) + np.array(D4)),
-        rtol=1e-15, atol=1e-15)
+def _linear(t, x, A, out):
+    """dx/dt = A x."""
+    for i in range(x.size):
+        out[i] = 0.0
+        for j in range(x.size):
+            out[i] += A[i, j] * x[j]
+
+
+def _cubic(t, x, args, out):
+    """dx/dt = 3 t^2 (x = t^3), for each entry."""
+    for i in range(x.size):
+        out[i] = 3.0 * t * t
+
+
+def _py(f):
+    return getattr(f, "py_func", f)
+
+
+# RK4 as plain Python with Python right-hand sides; compiled with compiled ones
+RK4 = [pytest.param((_py(_kernels.rk4_stages), _py(_kernels.rk4_advance),
+                     _py(_kernels.rk4_dense), _linear, _cubic), id="python")]
+if _kernels.AVAILABLE:
+    import numba
+    RK4.append(pytest.param((_kernels.rk4_stages, _kernels.rk4_advance, _kernels.rk4_dense,
+                             numba.njit(_linear), numba.njit(_cubic)), id="compiled"))
+
+
+@pytest.mark.parametrize("rk4", RK4)
+def test_an_rk4_step_is_the_fourth_order_taylor_polynomial_of_a_linear_system(rk4):
+    """For dx/dt = A x one classical RK4 step is exactly (I + hA + (hA)^2/2 + (hA)^3/6
+    + (hA)^4/24) x: on seeded random A, x and h."""
+    stages, advance, _, linear, _ = rk4
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        n = int(rng.integers(1, 6))
+        A, x, h = rng.normal(size=(n, n)), rng.normal(size=n), float(rng.uniform(0.01, 0.5))
+        K, y = np.empty((4, n + 1)), np.empty(n)  # the stages may have rows longer than x
+        stages(linear, 0.0, x, h, A, K, y)
+        got = x.copy()
+        advance(got, h, K)
+        hA = h * A
+        taylor = np.eye(n) + hA + hA @ hA / 2 + hA @ hA @ hA / 6 + hA @ hA @ hA @ hA / 24
+        np.testing.assert_allclose(got, taylor @ x, rtol=1e-13, atol=1e-13)
+
+
+@pytest.mark.parametrize("rk4", RK4)
+def test_the_continuous_extension_is_exact_for_a_cubic_and_meets_the_step_at_its_ends(rk4):
+    """RK4's continuous extension is third order: exact along x = t^3, the state at
+    theta = 0 and 1 the step's start and end."""
+    stages, advance, dense, _, cubic = rk4
+    t0, h, x = 0.7, 0.3, np.array([0.7 ** 3, 0.7 ** 3])
+    K, y, out = np.empty((4, 2)), np.empty(2), np.empty(2)
+    stages(cubic, t0, x, h, 0.0, K, y)
+    for theta in np.linspace(0.0, 1.0, 11):
+        dense(x, h, K, theta, out)
+        np.testing.assert_allclose(out, (t0 + theta * h) ** 3, rtol=1e-14)
+    end = x.copy()
+    advance(end, h, K)
+    dense(x, h, K, 1.0, out)
+    np.testing.assert_allclose(out, end, rtol=1e-15)

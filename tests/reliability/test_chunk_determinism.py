@@ -45,17 +45,15 @@ def test_order_within_a_call_does_not_matter():
         assert a.metrics == b.metrics
 
 
-def test_runs_side_by_side_in_simd_lanes_are_each_run_alone():
-    """The compiled engine integrates runs that share their steps in SIMD lanes
-    (groups of up to _kernels.LANES): 11 such runs are a full group and a partial one,
-    computed by the vectorised loop and its scalar remainder; each run's numbers are
-    still those of the run alone, bit for bit."""
+def test_runs_shared_among_threads_are_each_run_alone():
+    """The compiled engine shares a call's runs among a thread per core: each of 11 runs
+    with the same steps has the numbers of the run alone, bit for bit."""
     from unidyn.engine import kernels as _kernels
     if not _kernels.AVAILABLE:
         pytest.skip("numba not installed")
     base = Scenario.paper(3, T=3.0)
     pts = [base.replace(kx=k, ky=k, noise=NoiseSpec(seed=i))
-           for i, k in enumerate(np.linspace(0.5, 3.0, _kernels.LANES + 3))]
+           for i, k in enumerate(np.linspace(0.5, 3.0, 11))]
     together = simulate_batch(pts, backend="compiled")
     assert len({r.substeps for r in together}) == 1
     for p, a in zip(pts, together):

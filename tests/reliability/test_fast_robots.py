@@ -28,11 +28,8 @@ def test_the_batch_engine_picks_a_stable_step_from_the_time_constant(robot):
     assert rate == pytest.approx(robot.theta4 / robot.theta1)
     m = stable_substeps(sc, 1)
     assert sc.Ts / m * rate <= 0.5 + 1e-12    # well inside RK4's stability region (2.78)
-    # the fewest steps that are, rounded up to the next of the shared counts
-    # 2^e * (4, 5, 6, 7) / 4 (at most 25 % more)
-    fewest = int(np.ceil(sc.Ts * rate / 0.5 - 1e-9))
-    shared = sorted({2 ** e * q // 4 for e in range(2, 16) for q in (4, 5, 6, 7)} | {1, 2, 3})
-    assert m == min(v for v in shared if v >= fewest) and m <= 1.25 * fewest
+    # and the fewest steps that are
+    assert sc.Ts / (m - 1) * rate > 0.5
     # asking for a coarse step does not give garbage: the step is refined
     r = simulate_batch([sc], substeps=1)[0]
     assert r.substeps == m and r.complete

@@ -103,9 +103,9 @@ def test_both_backends_split_the_same_steps():
         assert np.abs(x.pose - y.pose).max() < 1e-10
 
 
-def test_runs_split_in_a_group_are_the_runs_alone_bit_for_bit():
-    """A lane whose step is split leaves its SIMD group for that step; its numbers and
-    its neighbours' are those of each run alone."""
+def test_runs_split_in_one_call_are_the_runs_alone_bit_for_bit():
+    """Runs whose steps are split at the limits, in one call: each run's numbers are
+    those of the run alone."""
     from unidyn.engine import kernels as _kernels
     if not _kernels.AVAILABLE:
         pytest.skip("numba not installed")

@@ -49,7 +49,7 @@ def test_the_velocity_loop_rate_is_the_loops_own(c):
         X = loop.initial_state()[0] + rng.normal(scale=0.3, size=13)
         X[5:11] = sc.theta_hat_initial
         t = float(rng.uniform(0, 5))
-        rate = equations.velocity_loop_rate(X[:, None], loop._reference_tuple(t), loop.P.T,
+        rate = equations.velocity_loop_rate(X[:, None], loop.reference(t), loop.P.T,
                                             (0.0, 0.0, 0.0, 0.0))[0][0]
         assert rate == pytest.approx(_jacobian_radius(sc, X, t), rel=1e-4)
 
@@ -88,15 +88,15 @@ def test_both_backends_refine_the_same_intervals():
     assert np.abs(a.pose - b.pose).max() < 1e-9
 
 
-def test_runs_refined_in_a_group_are_the_runs_alone_bit_for_bit():
-    """A run that takes an interval with finer steps leaves its SIMD group for it; its
-    numbers (and its neighbours') are those of each run alone."""
+def test_runs_refined_in_one_call_are_the_runs_alone_bit_for_bit():
+    """Runs that take intervals with finer steps, in one call with runs that do not:
+    each run's numbers are those of the run alone."""
     from unidyn.engine import kernels as _kernels
     if not _kernels.AVAILABLE:
         pytest.skip("numba not installed")
     pts = [_far(c, T=2.0) for c in (1.0, 60.0, 2.0, 100.0, 3.0, 150.0, 1.5, 80.0, 2.5)]
     together = simulate_batch(pts, backend="compiled")
-    assert len({r.substeps for r in together}) == 1  # one group and a remainder
+    assert len({r.substeps for r in together}) == 1
     assert sum(r.substeps_max > r.substeps for r in together) >= 3
     for p, a in zip(pts, together):
         b, = simulate_batch([p], backend="compiled")

@@ -9,7 +9,7 @@ interval, as in the bdsim diagram, and results are sampled at t = k Ts like
 - the step is short enough for the loop's fastest rate (:func:`stable_substeps`), and
   where a compensated run's loop is faster at an interval's start than that step
   resolves (:func:`unidyn.model.equations.loop_step_rate`, an estimate far from theta),
-  that interval is taken again for that run alone, finer (|rate h| <= STEP_RATE_REFINED);
+  that interval is taken with finer steps (|rate h| <= STEP_RATE_REFINED);
 - a step across a change of the limits (one starts or stops clipping: a kink of the
   right-hand side) is split where the change is, located to Ts / :data:`SPLIT_PARTS`;
 - a speed limit is hard: a step that would end beyond it ends on it.
@@ -19,20 +19,20 @@ proportional to the step. ``tests/evals/`` checks the engine against the bdsim
 diagram and a converged ``solve_ivp`` solution; ``benchmarks/engines.py`` times it.
 
 **Where each piece lives.** The equations: :mod:`unidyn.model.equations`. The step
-rule, once: :mod:`unidyn.engine.kernels`, runs side by side in groups of up to
-:data:`~unidyn.engine.kernels.LANES`. It runs compiled by numba (where installed;
-:mod:`unidyn.engine.jit` keeps numba's cache) or, the same source, as plain Python
+rule, once: :mod:`unidyn.engine.kernels`, one run at a time, the runs shared among a
+thread per core. It runs compiled by numba (where installed; :mod:`unidyn.engine.jit`
+keeps numba's cache) or, the same source, as plain Python
 (:func:`unidyn.engine.jit.plain_copy`): a process answers with the plain copy until it
 has done :data:`READY_STEPS` steps, unless the compiled one is in the cache already.
-This module sets the steps, groups the runs and reads the results; the runs'
-parameter table, noise and initial state come from :class:`unidyn.engine.rhs.ClosedLoop`.
+This module sets the steps and reads the results; the runs' parameter table, noise and
+initial state come from :class:`unidyn.engine.rhs.ClosedLoop`.
 """
 
 from __future__ import annotations
 
-import contextlib
 import os
 import warnings
+from concurrent.futures import ThreadPoolExecutor, wait
 
 import numpy as np
 
@@ -46,10 +46,8 @@ from ..model.scenario import ALWAYS_LOGGED, HIGH_GAIN, Scenario
 
 __all__ = ["simulate_batch", "DEFAULT_SUBSTEPS", "AccuracyWarning"]
 
-#: RK4 steps per sample interval Ts. With Ts = 0.1 s this is a 10 ms step; on the
-#: noise-free Fig. 11 grid the IAE is then within 7.7e-7 (relative) of a run at 200 steps
-#: per sample, 5.1e-6 for exact compensation at the highest gains (benchmarks/engines.py prints
-#: the measured accuracy).
+#: RK4 steps per sample interval Ts: a 10 ms step at Ts = 0.1 s (``python
+#: benchmarks/engines.py`` prints the noise-free Fig. 11 IAE against 200 steps per sample).
 DEFAULT_SUBSTEPS = 10
 BACKENDS = ("auto", "compiled", "plain")
 
@@ -63,10 +61,9 @@ STEP_RATE_LIMIT = 0.5
 #: that interval is integrated with steps short enough for |rate h| <= STEP_RATE_REFINED.
 STEP_RATE_CHECK = 2.0
 STEP_RATE_REFINED = 1.0
-#: A step across a change of the limits (on the robot's accelerations or its command) is split where
-#: the change is, located to a part of at most Ts / SPLIT_PARTS
-#: (:func:`unidyn.engine.kernels.split_depth`; measured on the noise-free Fig. 11 grid: the
-#: IAE within 5e-7 of a converged run with 160, 2.3e-6 with 80, 1e-5 with 40).
+#: A step across a change of the limits (on the robot's accelerations or its command) is
+#: split where the change is, located to a part of at most Ts / SPLIT_PARTS
+#: (:func:`unidyn.engine.kernels.split_depth`).
 SPLIT_PARTS = 160
 
 
@@ -106,17 +103,9 @@ def fastest_rate(sc: Scenario) -> tuple[float, str]:
     Eqs. 18/20: sqrt(q), from the regressor G at its typical magnitudes,
     :func:`_regressor_scale`) and the leakage rate gamma_j sigma_j (Eq. 20).
 
-    These are rates of the scenario. The loop's rate also moves with its state: the
-    velocity loop that the compensator closes scales with theta_hat / theta
-    (:func:`unidyn.model.equations.velocity_loop_rate`), and the update law drifts theta_hat
-    far from theta under noise. The engine checks that rate at every sample and takes
-    the intervals that need it with finer steps (:func:`simulate_batch`). Measured
-    along the Fig. 11 runs with the paper's noise: the update law's own sqrt(q) peaks
-    at 11 to 33 1/s, 20 to 60 times below the candidate above, while theta_hat2
-    reaches 60 to 320 times theta2 and the velocity loop 650 to 3,300 1/s, for about
-    one sample in a hundred (k = 5 to 35). The candidate still sets the step of the
-    other samples, and that step is what keeps the IAE at k = 5 and 15 within 1e-5 of
-    the diagram's (10 steps per sample with the same check: 3.5e-3 off).
+    These are rates of the scenario; the loop's rate also moves with its state (the
+    velocity loop the compensator closes scales with theta_hat / theta), which the
+    engine checks at every sample (:func:`unidyn.model.equations.loop_step_rate`).
     """
     th = sc.robot.theta
     vmax = sc.limits.speed_max if np.isfinite(sc.limits.speed_max) else 1.0
@@ -165,8 +154,7 @@ MAX_SUBSTEPS = 10_000
 def stable_substeps(sc: Scenario, substeps: int) -> int:
     """``substeps``, raised where needed so that the RK4 step Ts/substeps stays
     below STEP_RATE_LIMIT / :func:`fastest_rate` (a fast robot such as the
-    Khepera III needs a shorter step than the Pioneer, and so does a high gain); a
-    raised count is rounded up to one of few values (:func:`_round_up`).
+    Khepera III needs a shorter step than the Pioneer, and so does a high gain).
 
     :raises ValidationError: if that needs more than :data:`MAX_SUBSTEPS` steps per
         sample; the message names the time constant responsible
@@ -179,23 +167,13 @@ def stable_substeps(sc: Scenario, substeps: int) -> int:
             f"steps per {sc.Ts:g} s sample for the fastest rate of this loop ({what}); use a "
             f"shorter Ts, or unidyn.simulate (the bdsim diagram, adaptive step)")
     m = int(np.ceil(need - 1e-9))
-    return int(substeps) if m <= substeps else min(_round_up(m), MAX_SUBSTEPS)
+    return int(substeps) if m <= substeps else min(m, MAX_SUBSTEPS)
 
 
-def _round_up(m: int) -> int:
-    """m rounded up to the next number of the form 2^e (4, 5, 6 or 7) / 4 (at most
-    25 % more steps). Raised step counts then fall on few values, so runs whose
-    rates differ a little (a sweep over gains) share their steps and can be
-    integrated side by side (:data:`unidyn.engine.kernels.LANES`); each run's count still
-    depends on that run alone."""
-    e = max(0, m.bit_length() - 3)
-    return -(-m // (1 << e)) << e
-
-
-#: RK4 steps the compiled engine takes per thread between returns to Python (a group
-#: of runs in SIMD lanes counts as one): the interpreter can then handle Ctrl-C and
-#: update the progress bar (about 0.1 s). Intervals taken again with finer steps are
-#: not foreseen: a slice where many are takes longer (Ctrl-C waits for it).
+#: RK4 steps the compiled engine takes per thread between returns to Python: the
+#: interpreter can then handle Ctrl-C and update the progress bar (a fraction of a
+#: second). Intervals taken with finer steps are not foreseen: a slice where many are
+#: takes longer (Ctrl-C waits for it).
 SLICE_STEPS = 200_000
 #: Show a progress bar (on a terminal) when a call takes at least this many RK4 steps.
 PROGRESS_STEPS = 5_000_000
@@ -217,23 +195,13 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
     cause; the other runs continue.
 
     :param scenarios: a sequence of :class:`~unidyn.Scenario`
-    :param substeps: RK4 steps per sample interval, integer >= 1; raised
-        automatically where a run's fastest time constant needs a shorter step for
-        RK4 to be stable (:func:`stable_substeps`; the value used is
-        ``Result.substeps``), and for the intervals where a compensated run's loop is
-        faster than that step resolves: the engine checks the loop's
-        state-dependent rate (:func:`unidyn.model.equations.loop_step_rate`) at the start of
-        every interval, and where |rate h| > STEP_RATE_CHECK that run's interval is
-        integrated alone with ceil(Ts rate / STEP_RATE_REFINED) steps (the most it
-        took is ``Result.substeps_max``; it depends on that run alone). A step
-        across a change of the limits (a limit starts or stops clipping the robot's
-        accelerations or its command, or a speed limit is reached: a kink or a jump
-        of the right-hand side, where RK4 loses its order; the step's stages
-        disagree on which limits act) is split there: the change is located by bisection to a
-        part of at most Ts / SPLIT_PARTS, and the step up to that part, the part and
-        the rest are steps of their own (``Result.split_steps`` counts the splits).
-        Without it the noise-free Fig. 11 IAE was up to 1e-4 from a converged run at
-        the default step
+    :param substeps: RK4 steps per sample interval, integer >= 1; raised where a run's
+        fastest rate needs a shorter step (:func:`stable_substeps`; ``Result.substeps``),
+        and for each interval where a compensated run's loop is faster at its start
+        than that step resolves (|rate h| > STEP_RATE_CHECK: ceil(Ts rate /
+        STEP_RATE_REFINED) steps; the most is ``Result.substeps_max``). A step across a
+        change of the limits is split there (``Result.split_steps``; the module's
+        docstring)
     :param backend: ``"compiled"`` (the kernels compiled by numba: needs numba and the
         built-in trajectories), ``"plain"`` (the same kernels run by Python: no compiling,
         any trajectory, slower per step), or ``"auto"`` (compiled where it can be, except
@@ -293,8 +261,7 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
             m = np.array([m_all[i] for i in idx], dtype=np.int64)
             run = _Run(loop, m, asked=int(substeps), backend="compiled" if compiled else "plain")
             try:
-                with _threads_take_one_group_at_a_time(compiled):
-                    _integrate(run, engine, bar)
+                _integrate(run, engine, bar)
             except KeyboardInterrupt:
                 run.interrupted = True
             for j, r in enumerate(run.results()):
@@ -310,21 +277,6 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
             f"interrupted: {sum(r.complete for r in done)} of {len(scs)} run(s) complete; "
             f"the computed part of the others is kept, marked incomplete", results=results)
     return results
-
-
-@contextlib.contextmanager
-def _threads_take_one_group_at_a_time(compiled: bool):
-    """Groups differ in cost (their steps per sample): numba's threads take them one at a
-    time, not in two contiguous halves."""
-    if not compiled:
-        yield
-        return
-    import numba
-    previous = numba.set_parallel_chunksize(1)
-    try:
-        yield
-    finally:
-        numba.set_parallel_chunksize(previous)
 
 
 class _Progress:
@@ -385,59 +337,46 @@ class _Run:
         return _results(self)
 
 
-def _lane_groups(loop: ClosedLoop, m):
-    """The runs of ``loop`` in groups of at most LANES that share their steps per
-    interval and their reference (the compiled engine integrates a group in SIMD
-    lanes), the costliest first: (runs (G, LANES), lanes used (G,), steps (G,))."""
-    from .kernels import LANES  # numba loads with the kernels
-    ref = loop.P[:, P.trajectory:]
-    keys = {}
-    for i in range(loop.B):
-        keys.setdefault((int(m[i]),) + tuple(ref[i]), []).append(i)
-    groups = [(key[0], idx[j:j + LANES]) for key, idx in keys.items()
-              for j in range(0, len(idx), LANES)]
-    groups.sort(key=lambda g: -g[0] * len(g[1]))
-    runs = np.zeros((len(groups), LANES), dtype=np.int64)
-    for g, (_, idx) in enumerate(groups):
-        runs[g, :len(idx)] = idx
-        runs[g, len(idx):] = idx[0]  # unused lanes: never computed
-    return (runs, np.array([len(idx) for _, idx in groups], dtype=np.int64),
-            np.array([mg for mg, _ in groups], dtype=np.int64))
-
-
 def _integrate(run: _Run, kernels, bar):
-    """Run the groups of ``run`` through ``kernels``: the compiled module or its plain
-    copy (:func:`unidyn.engine.jit.plain_copy`), the same source either way."""
+    """Advance the runs of ``run`` through ``kernels`` (the compiled module or its plain
+    copy, :func:`unidyn.engine.jit.plain_copy`) in slices of sample intervals. Compiled,
+    a thread per core advances its share of the runs (compiled code releases the GIL);
+    Ctrl-C then waits for the slice to end, so every run's log stays whole."""
     loop = run.loop
     n = loop.steps
-    X = loop.initial_state()
     kernels.PYTHON_REFERENCES[:] = loop.trajectories  # the plain copy's, for FunctionTrajectory
-
-    def runs():  # the per-run arrays (the noise window's arrays change as it moves on)
-        return kernels.Runs(loop.P, loop.pos_noise, loop.vel_noise, run.bounds, run.rate_max,
-                            run.cols, run.LOG, run.status, run.last, run.seen, run.m_max,
-                            run.work, run.splits)
-    kernels.start(X, runs())
-    lanes, count, steps = _lane_groups(loop, run.m)
-    # lane-minor: value i of lane b at [i * LANES + b]
-    group = kernels.Groups(
-        np.ascontiguousarray(X[lanes].transpose(0, 2, 1)).reshape(len(lanes), -1),
-        np.ascontiguousarray(loop.P[lanes].transpose(0, 2, 1)).reshape(len(lanes), -1),
-        lanes, count, steps)
-    per_thread = -(-len(lanes) // max(1, min(len(lanes), os.cpu_count() or 1)))
-    S = max(1, SLICE_STEPS // (int(steps.max()) * per_thread))
+    state = loop.initial_state()
+    threads = min(loop.B, os.cpu_count() or 1) if run.backend == "compiled" else 1
+    # the costliest first, dealt in turn: each thread's share costs about the same
+    order = np.argsort(-run.m, kind="stable")
+    shares = [np.ascontiguousarray(order[j::threads]) for j in range(threads)]
+    S = max(1, SLICE_STEPS * threads // int(run.m.sum()))
     k = 0
-    while k < n and (run.status == kernels.OK).any():
-        loop.next_noise_window(k)
-        k1 = min(n, k + S, loop.noise_end)
-        call = kernels.Call(float(loop.Ts), loop.noise_k0, n, run.L, STEP_RATE_REFINED,
-                            MAX_SUBSTEPS, SPLIT_PARTS)
-        # a run that diverges overflows, and is stopped by its check: as compiled code
-        # does, plain Python goes on with inf and NaN, without numpy's warnings
-        with np.errstate(all="ignore"):
-            kernels.run_groups(group, runs(), call, k, k1)
-        bar.advance(k1 - k)
-        k = k1
+    with ThreadPoolExecutor(threads) as pool:
+        while True:
+            loop.next_noise_window(k)
+            k1 = min(n, k + S, loop.noise_end)
+            runs = kernels.Runs(state, loop.P, run.m, loop.pos_noise, loop.vel_noise, run.bounds,
+                                run.rate_max, run.cols, run.LOG, run.status, run.last,
+                                run.seen, run.m_max, run.work, run.splits)
+            call = kernels.Call(float(loop.Ts), loop.noise_k0, n, run.L, STEP_RATE_REFINED,
+                                MAX_SUBSTEPS, SPLIT_PARTS)
+            # a run that diverges overflows, and is stopped by its check: as compiled code
+            # does, plain Python goes on with inf and NaN, without numpy's warnings
+            with np.errstate(all="ignore"):
+                if threads == 1:
+                    kernels.advance(runs, call, k, k1, order)
+                else:
+                    slices = [pool.submit(kernels.advance, runs, call, k, k1, s) for s in shares]
+                    try:
+                        for f in slices:
+                            f.result()
+                    finally:
+                        wait(slices)
+            bar.advance(k1 - k)
+            k = k1
+            if k >= n or not (run.status == kernels.OK).any():
+                break
 
 
 _CAUSE = {
@@ -456,27 +395,26 @@ _CAUSE = {
 
 
 def _unvouched(sc: Scenario, m_max: int, asked: int) -> str:
-    """Why the engine cannot vouch for a complete run's accuracy, or "". At SPLIT_PARTS
-    steps per sample or more, a step that crosses a change of the limits is no longer
-    split (:func:`unidyn.engine.kernels.split_depth`): RK4 is then second order across each
-    kink, and at high adaptation gains the estimate drifts from a converged solution
-    (Scenario(gamma=[1000] * 6, adapt_from=0, T=20, noise=None): theta_hat 1.2e-3 off,
-    against 5.5e-6 at gamma = 100)."""
+    """Why the engine cannot vouch for a complete run's accuracy, or "". Above
+    :data:`unidyn.model.scenario.HIGH_GAIN` the update law drives the robot across its
+    speed and acceleration limits so often that RK4, each crossing located to Ts /
+    SPLIT_PARTS, drifts from a converged solution (Scenario(gamma=[g] * 6, adapt_from=0,
+    T=20, noise=None), theta_hat off by 1.1e-5 at g = 100, 4e-5 at 300, 1.1e-3 at 1000;
+    tests/evals/test_high_gain.py)."""
     lim = sc.limits
     limited = any(np.isfinite(v) for v in (*lim.speed, *lim.accel))
-    # a step the caller chose is as accurate as that step: second order at the kinks,
-    # as documented under ``substeps``; only steps the engine had to shorten on its own
-    # (stiffness) leave the caller unaware of it. Below HIGH_GAIN, and without
-    # adaptation, runs at these steps agree with the diagram to 1e-6 (Fig. 11's gains
-    # up to 35, tests/evals/test_engines.py); a high-gain update law is what drifts
-    if (m_max < SPLIT_PARTS or m_max <= asked or not limited or sc.case != "adaptive"
+    # a step the caller chose is as accurate as that step, as documented under
+    # ``substeps``; only steps the engine had to shorten on its own (stiffness) leave the
+    # caller unaware of it
+    if (m_max <= asked or not limited or sc.case != "adaptive"
             or max(sc.gamma) <= HIGH_GAIN):
         return ""
-    text = (f"complete, but its accuracy is not vouched for: the loop needed {m_max} RK4 steps "
-            f"per {sc.Ts:g} s sample (at least {SPLIT_PARTS}), where the engine no longer "
-            f"splits steps at the speed and acceleration limits and is second order there; "
-            f"lower the adaptation gain gamma or the controller gains, or run it through "
-            f"unidyn.simulate (the bdsim diagram) with a tight rtol (scenario {sc.name or sc.case})")
+    text = (f"complete, but its accuracy is not vouched for: with adaptation gain gamma up to "
+            f"{max(sc.gamma):g} (above {HIGH_GAIN:g}) the loop crosses its speed and "
+            f"acceleration limits so often that the engine's steps ({m_max} per {sc.Ts:g} s "
+            f"sample) drift from a converged solution; lower gamma or the controller gains, "
+            f"or run it through unidyn.simulate (the bdsim diagram) with a tight rtol "
+            f"(scenario {sc.name or sc.case})")
     warnings.warn(text, AccuracyWarning, stacklevel=5)  # at the caller of simulate_batch
     return text
 

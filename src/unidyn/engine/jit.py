@@ -1,31 +1,23 @@
-"""numba, where installed: :func:`jit` of a function that calls the paper's
-equations (:mod:`unidyn.model.equations`), and the same function as plain Python where
-numba is absent (``pip install unidyn[fast]`` for the compiled one) or not wanted
-(:func:`plain_copy`: the module's source loaded again, not compiled).
+"""numba, where installed: :func:`jit` compiles a function that calls the paper's
+equations (:mod:`unidyn.model.equations`); without numba (``pip install unidyn[fast]``),
+or where not wanted (:func:`plain_copy`), the same function runs as plain Python.
 
 Every public function of :mod:`unidyn.model.equations` is registered with numba's
-``register_jitable`` (inlined into its callers): it stays the plain function for
-Python callers and becomes compilable inside compiled code, so the engines compile
-the equations the rest of the library runs, not a copy of them.
+``register_jitable``: it stays the plain function for Python callers and is compiled
+into its compiled callers, inlined by LLVM (numba's documented ``forceinline``), so the
+engines compile the equations the rest of the library runs, not a copy of them.
 
-**The on-disk cache.** numba (``cache=True``) keys a cached function on its own
-source file only, not on the files of the functions it inlines (numba's documented
-limitation): a kernel cached beside ``kernels.py`` would keep running an edited
-:mod:`unidyn.model.equations` as it was. So the package's compiled functions are cached
-in a folder of their own per version of the compiled sources
-(:data:`COMPILED_SOURCES`, hashed into :data:`STAMP`):
-``<cache>/unidyn-numba/<STAMP>``, where ``<cache>`` is ``NUMBA_CACHE_DIR`` if the user
-set it, else the user's cache folder. numba is pointed there through its documented
-``NUMBA_CACHE_DIR`` while the package's functions are declared (the user's own
-functions keep numba's usual place). Folders of older versions beyond
-:data:`KEEP_VERSIONS` are removed.
-
-numba writes its cache without a lock between processes (numba issues #4807 and
-#10128: a process that loads files two processes wrote at once can crash). The first
-call of each compiled entry point in a process, where numba loads or compiles it, is
-made under a ``filelock`` lock of the version folder (:class:`Compiled`); processes
-that start together (pytest-xdist workers, a Dask cluster) then load what the first
-one wrote.
+**The on-disk cache.** numba (``cache=True``) keys a cached function on its own source
+file, not on the files of the functions it inlines (a documented limitation): a kernel
+cached beside ``kernels.py`` would keep running an edited :mod:`unidyn.model.equations`.
+So the package caches its compiled functions in a folder per version of the compiled
+sources (:data:`COMPILED_SOURCES`, hashed into :data:`STAMP`),
+``<cache>/unidyn-numba/<STAMP>``, ``<cache>`` being ``NUMBA_CACHE_DIR`` if set, else the
+user's cache folder; numba is pointed there through ``NUMBA_CACHE_DIR`` while the
+package's functions are declared. numba writes its cache without a lock between
+processes (numba issues #4807, #10128), so the first call of each compiled entry point
+in a process, where numba loads or compiles it, holds a ``filelock`` lock of that folder
+(:class:`Compiled`): processes that start together load what the first one wrote.
 """
 
 from __future__ import annotations
@@ -55,21 +47,21 @@ if AVAILABLE:
 
     from . import vecmath
 
+    # inlined by LLVM (forceinline), not by numba (inline="always"), which types every
+    # copy again: a minute of compiling instead of seconds
     _OVERLOADED = (equations.select, equations.saturate, equations.sin, equations.cos,
                    equations.tanh)
-    # called, not inlined: a whole loop evaluation that a caller makes several times
-    # (inlined, each copy costs numba's compiler seconds)
-    _CALLED = (equations.loop_acceleration, equations.loop_step_rate)
     for _name in equations.__all__:
         _f = getattr(equations, _name)
         if (callable(_f) and getattr(_f, "__module__", None) == equations.__name__
                 and _f not in _OVERLOADED):
-            register_jitable(inline="never" if _f in _CALLED else "always")(_f)
+            register_jitable(forceinline=True)(_f)
+    _INLINE = dict(jit_options=dict(forceinline=True))
 
     def _elementary(function, vectorisable, ufunc):
         """Compile function (equations.sin, ...) of a float64 as the vectorisable
         intrinsic, of anything else (an array, a float32) as numpy's ufunc."""
-        @overload(function, inline="always")
+        @overload(function, **_INLINE)
         def _compiled(x):
             if x == types.float64:
                 return lambda x: vectorisable(x)
@@ -79,13 +71,13 @@ if AVAILABLE:
     _elementary(equations.cos, vecmath.cos, np.cos)
     _elementary(equations.tanh, vecmath.tanh, np.tanh)
 
-    @overload(equations.saturate, inline="always")
+    @overload(equations.saturate, **_INLINE)
     def _saturate(x, limit):
         """equations.saturate compiled: numpy's NaN-keeping minimum and maximum (its
         Python form takes a shortcut for one value)."""
         return lambda x, limit: np.minimum(np.maximum(x, -limit), limit)
 
-    @overload(equations.select)
+    @overload(equations.select, **_INLINE)
     def _select(condition, a, b):
         """equations.select compiled: a branch on scalars (np.where would allocate a 0-d
         array per call), np.where on arrays."""
@@ -182,7 +174,7 @@ def _numba_cache_dir(folder):
 
 #: Said once per process on stderr (a terminal) before a compile of the engine.
 NOTICE = ("unidyn: compiling {what}, once per install and version "
-          "(a minute or so; later runs load it from the cache) ...")
+          "(some seconds; later runs load it from the cache) ...")
 _noticed = []
 
 
@@ -235,21 +227,19 @@ class Compiled:
         return self.cached
 
 
-def jit(f=None, *, parallel: bool = False, inline: bool = False, entry: str = ""):
+def jit(f=None, *, inline: bool = False, entry: str = ""):
     """``numba.njit(cache=True, nogil=True)`` of f; f itself without numba.
 
-    ``parallel=True``: numba's threads over ``numba.prange``; ``inline=True``: f is
-    inlined into its compiled callers (as the equations are), which saves a call
-    with reference counting of its array arguments at every right-hand side;
-    ``entry``: f is called from Python (:class:`Compiled`); what it is, for the notice
-    of its compile (``"the batch engine"``).
+    ``inline=True``: f is inlined into its compiled callers (numba's ``forceinline``,
+    as the equations are); ``entry``: f is called from Python (:class:`Compiled`); what
+    it is, for the notice of its compile (``"the batch engine"``). ``nogil``: threads
+    run compiled functions side by side.
     Division by zero gives inf or NaN as in numpy (``error_model="numpy"``), which the
     engines' checks for non-finite states then report."""
     def wrap(g):
         if not AVAILABLE or _loading_plain:
             return g
-        options = dict(nogil=True, parallel=parallel, error_model="numpy",
-                       inline="always" if inline else "never")
+        options = dict(nogil=True, error_model="numpy", forceinline=inline)
         if CACHE_FOLDER is None:
             compiled = numba.njit(**options)(g)
         else:
@@ -258,9 +248,6 @@ def jit(f=None, *, parallel: bool = False, inline: bool = False, entry: str = ""
         return Compiled(compiled, g.__qualname__, entry) if entry else compiled
     return wrap if f is None else wrap(f)
 
-
-#: numba.prange where numba is installed, else range (numba.prange is range in Python).
-prange = numba.prange if AVAILABLE else range
 
 #: Set while :func:`plain_copy` loads a module: its functions stay plain Python.
 _loading_plain = []

@@ -123,12 +123,10 @@ class ClosedLoop:
         return X
 
     def reference(self, t):
-        """h_d, h_d_dot, h_d_ddot at time t, each (B, 2)."""
-        out = []
-        for tr in self.trajectories:
-            out.append((tr.position(t), tr.velocity(t), tr.acceleration(t)))
-        idx = self.traj_index
-        return tuple(np.array([o[j] for o in out])[idx] for j in range(3))
+        """(x_d, y_d, x_d', y_d', x_d'', y_d''), each (B,), at time t."""
+        values = np.array([(*tr.position(t), *tr.velocity(t), *tr.acceleration(t))
+                           for tr in self.trajectories])[self.traj_index]
+        return tuple(values.T)
 
     def parameter_table(self) -> np.ndarray:
         """The per-run parameters, (B, len(LOOP_PARAMETERS)): row i holds run i's
@@ -165,11 +163,6 @@ class ClosedLoop:
                 table[i, getattr(P, name)] = v
         return table
 
-    def _reference_tuple(self, t):
-        h_d, h_d_dot, h_d_ddot = self.reference(t)
-        return (h_d[:, 0], h_d[:, 1], h_d_dot[:, 0], h_d_dot[:, 1], h_d_ddot[:, 0],
-                h_d_ddot[:, 1])
-
     def _noise(self, k):
         """The held noise of interval k (inside the current window; see noise_window)."""
         if not self.noise_k0 <= k < self.noise_end:
@@ -183,12 +176,12 @@ class ClosedLoop:
         """The loop's state-dependent fastest rate (1/s) of every run at (t, X) in
         interval k (:func:`unidyn.model.equations.loop_step_rate`)."""
         return np.broadcast_to(equations.loop_step_rate(
-            t, X.T, self._reference_tuple(t), self.P.T, self._noise(k)), (self.B,))
+            t, X.T, self.reference(t), self.P.T, self._noise(k)), (self.B,))
 
     def rhs(self, t, X, k):
         """dX/dt, (B, 13), at time t in noise interval k
         (:func:`unidyn.model.equations.loop_derivative` on all runs at once). k must lie in
         the current noise window (:meth:`noise_window`; the first is drawn on creation)."""
         dX = np.empty((NSTATE, X.shape[0]))
-        equations.loop_derivative(t, X.T, self._reference_tuple(t), self.P.T, self._noise(k), dX)
+        equations.loop_derivative(t, X.T, self.reference(t), self.P.T, self._noise(k), dX)
         return dX.T

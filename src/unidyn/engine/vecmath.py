@@ -1,14 +1,13 @@
 """sin, cos and tanh of a float64 for compiled code, as straight-line arithmetic
-that the compiler vectorises (numba; imported by :mod:`unidyn.engine.jit` only).
+(numba; imported by :mod:`unidyn.engine.jit` only).
 
 numba compiles ``np.sin``, ``np.cos`` and ``np.tanh`` of a scalar to calls into the
-C maths library. Inside the engine's loop over SIMD lanes (:mod:`unidyn.engine.kernels`)
-such a call cannot be vectorised: the compiler splits the vector, makes one call
-per lane and joins the results, several times per right-hand side. The functions
-here are numba intrinsics: each call site receives LLVM instructions without a
-call or a branch (argument reduction, a polynomial, selects), which the loop
-vectoriser turns into vector instructions like the rest of the equations, and which
-cost numba's compiler nothing (no Python function to type and inline).
+C maths library, which the optimiser can neither inline nor share between the
+equations. The functions here are numba intrinsics: each call site receives LLVM
+instructions without a call or a branch (argument reduction, a polynomial, selects),
+which the optimiser schedules with the rest of the right-hand side, merges where two
+equations take the sine of the same angle, and vectorises where a loop allows
+(``python benchmarks/engines.py`` prints their cost beside the library's).
 
 The methods are the classical ones of fdlibm (the C maths library of Sun, on which
 most others build):

@@ -3,9 +3,9 @@
 The commands of a log are held from each time stamp to the next (as robot
 firmware applies them) or vary linearly between them, optionally delayed. Two
 independent integrators do this, both restarting wherever a command jumps or
-kinks: :func:`simulate_held`, a classical RK4 of the velocities compiled by
-numba when it is installed (the output-error fit of
-:func:`unidyn.identification.identify` and
+kinks: :func:`simulate_held`, the batch engine's RK4
+(:func:`unidyn.engine.kernels.rk4_stages`), compiled where numba is installed (the
+output-error fit of :func:`unidyn.identification.identify` and
 :func:`unidyn.identification.validate`), and :func:`simulate_stepwise`, scipy's
 DOP853 on the full state of Eqs. (1)-(2) (the held and linear logs of
 :func:`unidyn.identification.simulate_log`, and validation with limits).
@@ -19,6 +19,7 @@ import numpy as np
 
 from ..engine.jit import AVAILABLE as FAST
 from ..engine.jit import jit
+from ..engine.kernels import rk4_advance, rk4_stages
 from ..model.equations import point_velocity_components, robot_acceleration
 from ..model.unicycle import unicycle_deriv
 
@@ -26,33 +27,43 @@ from ..model.unicycle import unicycle_deriv
 COMMAND_CONVENTIONS = ("held", "linear")
 
 
+@jit(inline=True)
+def robot_rates(t, v, args, out):
+    """Eq. (2): (u', w') at velocities v under the command of one piece of a log,
+    args = (theta, u_ref, w_ref, its slopes in time, the time they are read at)."""
+    th, cu, cw, su, sw, t0 = args
+    out[0], out[1] = robot_acceleration(v[0], v[1], cu + su * (t - t0), cw + sw * (t - t0),
+                                        th[0], th[1], th[2], th[3], th[4], th[5])
+
+
 def _sim_segments(theta, t, u_ref, w_ref, segments, v0, delay, linear, hmax, out):
     """Integrate Eq. (2) over each segment [segments[s, 0], segments[s, 1]) of a log
-    (rows of the log's arrays), from
-    the velocities v0[s], with the logged commands held from their time stamp to
-    the next (``linear`` false) or interpolated linearly between them, delayed by
-    ``delay`` seconds; writes the velocities at the time stamps into out (N, 2).
+    (rows of the log's arrays), from the velocities v0[s], with the logged commands
+    held from their time stamp to the next (``linear`` false) or interpolated linearly
+    between them, delayed by ``delay`` seconds; writes the velocities at the time
+    stamps into out (N, 2).
 
-    Classical RK4 with steps of at most ``hmax`` seconds; every instant at which
-    the (delayed) command jumps or kinks is a step boundary, so the integration
-    never crosses a discontinuity and keeps its fourth order. Before a
-    segment's first time stamp (plus the delay) its first command is in force.
+    RK4 with steps of at most ``hmax`` seconds; every instant at which the (delayed)
+    command jumps or kinks is a step boundary, so the integration never crosses a
+    discontinuity and keeps its fourth order. Before a segment's first time stamp
+    (plus the delay) its first command is in force.
     """
-    t1, t2, t3, t4, t5, t6 = theta[0], theta[1], theta[2], theta[3], theta[4], theta[5]
+    th = (theta[0], theta[1], theta[2], theta[3], theta[4], theta[5])
+    v = np.empty(2)
+    K = np.empty((4, 2))
+    y = np.empty(2)
     for s in range(segments.shape[0]):
         a = segments[s, 0]
         b = segments[s, 1]
-        u = v0[s, 0]
-        w = v0[s, 1]
-        out[a, 0] = u
-        out[a, 1] = w
+        v[0] = v0[s, 0]
+        v[1] = v0[s, 1]
+        out[a, 0] = v[0]
+        out[a, 1] = v[1]
         j = a
         for k in range(a, b - 1):
-            ta = t[k]
             tb = t[k + 1]
-            dtk = tb - ta
-            eps = 1e-9 * dtk
-            cur = ta
+            eps = 1e-9 * (tb - t[k])
+            cur = t[k]
             while cur < tb - eps:
                 while j + 1 < b and t[j + 1] + delay <= cur + eps:
                     j += 1
@@ -61,46 +72,21 @@ def _sim_segments(theta, t, u_ref, w_ref, segments, v0, delay, linear, hmax, out
                     nxt = t[j + 1] + delay
                 if cur + eps < t[j] + delay < nxt:     # a linear ramp starts (first command)
                     nxt = t[j] + delay
-                span = nxt - cur
-                n = int(math.ceil(span / hmax - 1e-6))
-                if n < 1:
-                    n = 1
-                h = span / n
-                # command over this piece: constant (held) or a line in time (linear)
-                cu0 = u_ref[j]
-                cw0 = w_ref[j]
+                n = max(1, int(math.ceil((nxt - cur) / hmax - 1e-6)))
+                h = (nxt - cur) / n
+                # the command over this piece: constant (held) or a line in time (linear)
                 su = 0.0
                 sw = 0.0
-                tj = t[j] + delay
-                if linear and j + 1 < b and cur + eps >= tj:
-                    gap = t[j + 1] - t[j]
-                    su = (u_ref[j + 1] - u_ref[j]) / gap
-                    sw = (w_ref[j + 1] - w_ref[j]) / gap
-                else:
-                    tj = cur
+                if linear and j + 1 < b and cur + eps >= t[j] + delay:
+                    su = (u_ref[j + 1] - u_ref[j]) / (t[j + 1] - t[j])
+                    sw = (w_ref[j + 1] - w_ref[j]) / (t[j + 1] - t[j])
+                args = (th, u_ref[j], w_ref[j], su, sw, t[j] + delay)
                 for i in range(n):
-                    tt = cur + i * h - tj
-                    ca = cu0 + su * tt
-                    da = cw0 + sw * tt
-                    cm = cu0 + su * (tt + 0.5 * h)
-                    dm = cw0 + sw * (tt + 0.5 * h)
-                    cb = cu0 + su * (tt + h)
-                    db = cw0 + sw * (tt + h)
-                    k1u, k1w = robot_acceleration(u, w, ca, da, t1, t2, t3, t4, t5, t6)
-                    uu = u + 0.5 * h * k1u
-                    ww = w + 0.5 * h * k1w
-                    k2u, k2w = robot_acceleration(uu, ww, cm, dm, t1, t2, t3, t4, t5, t6)
-                    uu = u + 0.5 * h * k2u
-                    ww = w + 0.5 * h * k2w
-                    k3u, k3w = robot_acceleration(uu, ww, cm, dm, t1, t2, t3, t4, t5, t6)
-                    uu = u + h * k3u
-                    ww = w + h * k3w
-                    k4u, k4w = robot_acceleration(uu, ww, cb, db, t1, t2, t3, t4, t5, t6)
-                    u = u + h / 6.0 * (k1u + 2.0 * k2u + 2.0 * k3u + k4u)
-                    w = w + h / 6.0 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w)
+                    rk4_stages(robot_rates, cur + i * h, v, h, args, K, y)
+                    rk4_advance(v, h, K)
                 cur = nxt
-            out[k + 1, 0] = u
-            out[k + 1, 1] = w
+            out[k + 1, 0] = v[0]
+            out[k + 1, 1] = v[1]
 
 
 # compiled where numba is installed (the ``fast`` extra); without it the same code runs
