@@ -125,14 +125,12 @@ class KinematicController(FunctionBlock):
         h_d = as_vector(inports[0], 2, self, "h_d", t)
         h_d_dot = as_vector(inports[1], 2, self, "h_d_dot", t)
         q = as_vector(inports[2], 3, self, "q", t)
-        v_d = laws.kinematic_control(h_d, h_d_dot, q[:2], q[2], self.a, self.k, self.l)
         if not self.rate:
-            return [v_d]
+            return [laws.kinematic_control(h_d, h_d_dot, q[:2], q[2], self.a, self.k, self.l)]
         h_d_ddot = as_vector(inports[3], 2, self, "h_d_ddot", t)
         v = as_vector(inports[4], 2, self, "v", t)
-        v_d_dot = laws.kinematic_control_rate(h_d, h_d_dot, h_d_ddot, q[:2], q[2], v,
-                                                 self.a, self.k, self.l)
-        return [v_d, v_d_dot]
+        return list(laws.kinematic_control_and_rate(h_d, h_d_dot, h_d_ddot, q[:2], q[2], v,
+                                                    self.a, self.k, self.l))
 
 
 class SampledKinematicController(SampledBlock):

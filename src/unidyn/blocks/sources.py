@@ -75,8 +75,7 @@ class TrajectorySource(SourceBlock):
         self.type = "trajectorysource"
 
     def output(self, t, inports, x):
-        tr = self.trajectory
-        return [tr.position(t), tr.velocity(t), tr.acceleration(t)]
+        return list(self.trajectory.evaluate(t))
 
 
 class FigureEight(TrajectorySource):

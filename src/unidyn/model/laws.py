@@ -14,9 +14,9 @@ from . import equations as eq
 from .equations import SWITCH_TOL
 from .unicycle import _join, _pair, _parts, _scalar
 
-__all__ = ["kinematic_control", "kinematic_control_rate", "compensation_regressor",
-           "compensation", "adaptation_rate", "leakage_rate", "LEAKAGE_FORMS", "PAPER_GAMMA",
-           "PAPER_SIGMA", "SWITCH_TOL"]
+__all__ = ["kinematic_control", "kinematic_control_rate", "kinematic_control_and_rate",
+           "compensation_regressor", "compensation", "adaptation_rate", "leakage_rate",
+           "LEAKAGE_FORMS", "PAPER_GAMMA", "PAPER_SIGMA", "SWITCH_TOL"]
 
 #: Forms of the sigma-modification (leakage) term in the update law:
 #: ``"paper"`` is Eq. (20), ``- gamma Sigma theta_hat``; ``"fx44850"`` is the
@@ -72,9 +72,16 @@ def kinematic_control_rate(h_d, h_d_dot, h_d_ddot, h, psi, v, a, k, l):
     :param v: the robot's actual (or measured) velocities [u, w], shape ``(..., 2)``
     :return: [u_d', w_d'], shape ``(..., 2)``
     """
-    out = eq.kinematic_law_rate(*_parts(h_d), *_parts(h_d_dot), *_parts(h_d_ddot), *_parts(h),
-                                _scalar(psi), *_parts(v), a, *_parts(k, 2), *_parts(l, 2))
-    return _pair(out[2], out[3])
+    return kinematic_control_and_rate(h_d, h_d_dot, h_d_ddot, h, psi, v, a, k, l)[1]
+
+
+def kinematic_control_and_rate(h_d, h_d_dot, h_d_ddot, h, psi, v, a, k, l):
+    """Eq. (10) and its time derivative at once (:func:`kinematic_control`,
+    :func:`kinematic_control_rate`): (v_d, v_d'), each shape ``(..., 2)``."""
+    ud, wd, udd, wdd = eq.kinematic_law_rate(
+        *_parts(h_d), *_parts(h_d_dot), *_parts(h_d_ddot), *_parts(h), _scalar(psi), *_parts(v),
+        a, *_parts(k, 2), *_parts(l, 2))
+    return _pair(ud, wd), _pair(udd, wdd)
 
 
 def compensation_regressor(v_d, v_d_dot, v, k, l):

@@ -39,17 +39,25 @@ class Trajectory:
         """(h_d, h_d_dot) at time t."""
         return self.position(t), self.velocity(t)
 
+    def evaluate(self, t):
+        """(h_d, h_d_dot, h_d_ddot) at time t: position, velocity and acceleration."""
+        return self.position(t), self.velocity(t), self.acceleration(t)
+
     def to_spec(self) -> dict:
         """A plain dict that :func:`from_spec` turns back into this trajectory."""
         return {"type": self.kind, **asdict(self)}
 
 
 def _t(t):
-    return np.asarray(t, dtype=float)
+    """t as a float (arithmetic on a float is several times faster than on a 0-d
+    array, which matters in the blocks, called once per solver stage), else an array."""
+    return t if isinstance(t, float) else np.asarray(t, dtype=float)
 
 
 def _xy(x, y):
     """Stack two arrays of equal shape into shape + (2,) (faster than np.stack)."""
+    if np.ndim(x) == 0 and np.ndim(y) == 0:
+        return np.array([x, y], dtype=float)
     out = np.empty(np.broadcast_shapes(np.shape(x), np.shape(y)) + (2,))
     out[..., 0] = x
     out[..., 1] = y
@@ -72,6 +80,10 @@ class _FromEquations(Trajectory):
 
     def acceleration(self, t):
         return _xy(*self._eval(t)[4:6])
+
+    def evaluate(self, t):
+        x, y, dx, dy, ddx, ddy = self._eval(t)
+        return _xy(x, y), _xy(dx, dy), _xy(ddx, ddy)
 
 
 @dataclass(frozen=True)
@@ -188,7 +200,7 @@ class FunctionTrajectory(Trajectory):
             raise ValidationError(f"f(0.0) must return (h_d, h_d_dot), two 2-vectors: {err}") from None
 
     def _map(self, t, fn):
-        t = _t(t)
+        t = np.asarray(t, dtype=float)
         flat = [np.asarray(fn(float(ti)), dtype=float) for ti in t.reshape(-1)]
         return np.array(flat).reshape(t.shape + (2,))
 

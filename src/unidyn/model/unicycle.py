@@ -227,13 +227,6 @@ def storage(v, theta):
     return 0.5 * (t1 * v[..., 0] ** 2 + t2 * v[..., 1] ** 2)
 
 
-def _limit_velocity_rate(v, vdot, limits: Limits):
-    """Clip accelerations, and stop a velocity already at its speed limit from growing
-    (:func:`unidyn.model.equations.limited_acceleration`)."""
-    return _pair(*eq.limited_acceleration(*_parts(v), *_parts(vdot), *limits.speed.tolist(),
-                                          *limits.accel.tolist()))
-
-
 def unicycle_deriv(x, v_ref, theta, a, limits: Limits = NO_LIMITS, delta=None):
     r"""Full state derivative of the dynamic unicycle, Eqs. (1) and (2).
 
@@ -248,22 +241,19 @@ def unicycle_deriv(x, v_ref, theta, a, limits: Limits = NO_LIMITS, delta=None):
         added to x', y', u', w' (Eqs. 1-2; psi' has none)
     :return: x', shape ``(..., 5)``
     """
-    x = np.asarray(x, dtype=float)
-    v_ref = np.asarray(v_ref, dtype=float)
-    v = x[..., 3:5]
+    _, _, psi, u, w = _parts(x)
+    u_ref, w_ref = _parts(v_ref)
+    speed, accel = limits.speed.tolist(), limits.accel.tolist()
     if limits.active:
-        v_ref = _pair(*(eq.saturate(c, m) for c, m in zip(_parts(v_ref), limits.speed.tolist())))
-    vdot = dynamics(v, v_ref, theta)
-    out = np.empty(np.broadcast_shapes(x.shape[:-1], vdot.shape[:-1]) + (5,))
-    out[..., 0:3] = kinematics(x, a)
+        u_ref, w_ref = eq.saturate(u_ref, speed[0]), eq.saturate(w_ref, speed[1])
+    du, dw = eq.robot_acceleration(u, w, u_ref, w_ref, *_th(theta))
+    dx, dy = eq.point_velocity_components(psi, u, w, a)
     if delta is not None:
-        delta = np.asarray(delta, dtype=float)
-        out[..., 0:2] += delta[..., 0:2]
-        vdot = vdot + delta[..., 2:4]
+        ex, ey, eu, ew = _parts(delta)
+        dx, dy, du, dw = dx + ex, dy + ey, du + eu, dw + ew
     if limits.active:
-        vdot = _limit_velocity_rate(v, vdot, limits)
-    out[..., 3:5] = vdot
-    return out
+        du, dw = eq.limited_acceleration(u, w, du, dw, *speed, *accel)
+    return _join(dx, dy, w, du, dw)
 
 
 def kinematic_unicycle_deriv(q, v_ref, a, limits: Limits = NO_LIMITS):
@@ -274,9 +264,9 @@ def kinematic_unicycle_deriv(q, v_ref, a, limits: Limits = NO_LIMITS):
         have no meaning for a robot without velocity states and are ignored)
     :return: q', shape ``(..., 3)``
     """
-    q = np.asarray(q, dtype=float)
-    v = np.asarray(v_ref, dtype=float)
+    _, _, psi = _parts(q)
+    u, w = _parts(v_ref)
     if limits.active:
-        v = _pair(*(eq.saturate(c, m) for c, m in zip(_parts(v), limits.speed.tolist())))
-    hdot = point_velocity(q[..., 2], v, a)
-    return np.concatenate([hdot, v[..., 1:2]], axis=-1)
+        speed = limits.speed.tolist()
+        u, w = eq.saturate(u, speed[0]), eq.saturate(w, speed[1])
+    return _join(*eq.point_velocity_components(psi, u, w, a), w)
