@@ -18,17 +18,20 @@ def explorer():
     return LoopExplorer(k=0.1, payload=1.0, noise=True, case=4)
 
 
-def _direct(case, k, payload, noise, theta_hat0=None):
-    """The same run built here from the paper's scenario, without the widget."""
+def _direct(case, k, payload, noise, theta_hat0=None, backend="auto"):
+    """The same run built here from the paper's scenario, without the widget (on the
+    backend that ran the widget's: a process's first steps run as plain Python, whose sin
+    and cos may differ from the compiled ones in the last bit)."""
     th = robots.get("p3dx_laser").theta * np.array([payload, payload, payload, 1, payload, 1])
     sc = unidyn.Scenario.paper(case, robot=RobotParameters.from_vector(th), kx=k, ky=k,
                                theta_hat0=theta_hat0, noise=unidyn.NoiseSpec() if noise else None)
-    (r,) = unidyn.simulate_batch([sc], progress=False)
+    (r,) = unidyn.simulate_batch([sc], progress=False, backend=backend)
     return r
 
 
 def test_initial_drawing_is_the_papers_simulation_4(explorer):
-    (r,) = unidyn.simulate_batch([unidyn.Scenario.paper(4)], progress=False)
+    (r,) = unidyn.simulate_batch([unidyn.Scenario.paper(4)], progress=False,
+                                 backend=explorer.result.backend)
     d = explorer.drawn
     np.testing.assert_array_equal(d["path"], r.pose[:, :2])
     np.testing.assert_array_equal(d["reference"], r.reference)
@@ -52,7 +55,7 @@ def test_callback_redraws_the_run_it_describes(explorer, n_moves, expect):
     explorer.update(**_MOVES[n_moves - 1])
     expect = dict(expect)
     r = _direct(expect.pop("case"), expect.pop("k"), expect.pop("payload"), expect.pop("noise"),
-                **expect)
+                backend=explorer.result.backend, **expect)
     d = explorer.drawn
     np.testing.assert_array_equal(d["path"], r.pose[:, :2])
     np.testing.assert_array_equal(d["error"], np.c_[r.t, r.error])
