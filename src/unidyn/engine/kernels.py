@@ -3,11 +3,10 @@ the Fig. 2 loop, one run after another.
 
 How a call runs, from the top:
 
-- :func:`advance` takes a list of runs over sample intervals k0..k1-1 (the engine calls
-  it from a few threads, each with its own runs);
-- :func:`advance_run` takes one run over those intervals: it checks the loop's rate at
-  each interval's start and takes ``steps`` RK4 steps, or more where the loop is faster
-  than they resolve; it checks the state and logs it after each interval;
+- :func:`advance` takes runs, one after another, over sample intervals k0..k1-1 (the
+  engine calls it from a thread per core, each with its own runs): it checks the loop's
+  rate at each interval's start and takes ``steps`` RK4 steps, or more where the loop is
+  faster than they resolve; it checks the state and logs it after each interval;
 - :func:`loop_step` takes one RK4 step of the loop, split where it crosses a change of
   the speed and acceleration limits (a kink or a jump of the right-hand side);
 - :func:`rk4_stages`, :func:`rk4_advance` and :func:`rk4_dense` are RK4 itself, for any
@@ -306,77 +305,67 @@ def log_index(k, L, stopped):
     return -1
 
 
-@jit(inline=True)
-def _noise(runs, i, r):
-    return (runs.noise_pos[i, r, 0], runs.noise_pos[i, r, 1], runs.noise_vel[i, r, 0],
-            runs.noise_vel[i, r, 1])
-
-
-@jit
-def advance_run(i, runs, call, k0, k1, w):
-    """Run i over sample intervals k0..k1-1 (sample 0 logged and checked first where
+@jit(entry="the batch engine")
+def advance(runs, call, k0, k1, which):
+    """Advance the runs ``which`` (indices into :data:`Runs`) over sample intervals
+    k0..k1-1, with the numbers of :data:`Call` (sample 0 logged and checked first where
     k0 = 0). Where a compensated run's loop is faster at an interval's start
     (:func:`unidyn.model.equations.loop_step_rate`) than ``rate_max``, that interval
     takes ceil(Ts rate / refined_rate) steps instead of ``steps``, or the run stops
     with status STEP beyond max_steps. Interval k's noise is held over it, and the
     sample at its end is logged with it, as the diagram logs it before the tick."""
-    X = w.x
-    for q in range(NSTATE):  # (a loop: an array assignment compiles its error messages)
-        X[q] = runs.state[i, q]
-    p = runs.params[i]
-    Ts = call.Ts
-    status, last = runs.status[i], runs.last[i]
-    fastest, most = runs.fastest[i], runs.most_steps[i]
-    work = 0
-    splits = 0
-    if k0 == 0:
-        log_row(0.0, X, p, _noise(runs, i, 0), runs.log_columns, w.row, runs.log[i, 0])
-        status = check_state(X, runs.bounds[i])
-    for k in range(k0, k1):
-        if status != OK:
-            break
-        noise = _noise(runs, i, k - call.noise_first)
-        t = k * Ts
-        m = runs.steps[i]
-        if runs.rate_max[i] != np.inf:
-            rate = eq.loop_step_rate(t, X, reference(t, p), p, noise)
-            fastest = max(fastest, rate)
-            if rate > runs.rate_max[i]:
-                need = Ts * rate / call.refined_rate
-                if not need <= call.max_steps:
-                    status, last = STEP, k
-                    break
-                m = math.ceil(need)
-                most = max(most, m)
-        depth = split_depth(m, call.split_parts)
-        h = Ts / m
-        for j in range(m):
-            done, located = loop_step(t + j * h, X, h, depth, (p, noise), w)
-            work += done
-            splits += located
-        status = check_state(X, runs.bounds[i])
-        row = log_index(k + 1, call.log_every, status != OK)
-        if row >= 0:
-            log_row((k + 1) * Ts, X, p, noise, runs.log_columns, w.row, runs.log[i, row])
-        last = k + 1
-    # written back once: threads advancing neighbouring runs never share a cache line
-    # in the loop above
-    for q in range(NSTATE):
-        runs.state[i, q] = X[q]
-    runs.status[i], runs.last[i] = status, last
-    runs.fastest[i], runs.most_steps[i] = fastest, most
-    runs.rk4_steps[i] += work
-    runs.splits[i] += splits
-
-
-@jit(entry="the batch engine")
-def advance(runs, call, k0, k1, which):
-    """Advance the runs ``which`` (indices into :data:`Runs`) over sample intervals
-    k0..k1-1 (:func:`advance_run`), with the numbers of :data:`Call`."""
     w = Work(np.empty((4, NSTATE + 1)), np.empty(NSTATE), np.empty(NSTATE + 1),
              np.empty(NSTATE), np.empty(NLOG))
+    X = w.x
+    Ts = call.Ts
     for i in which:
-        advance_run(i, runs, call, k0, k1, w)
+        for q in range(NSTATE):  # (a loop: an array assignment compiles its error messages)
+            X[q] = runs.state[i, q]
+        p = runs.params[i]
+        status, last = runs.status[i], runs.last[i]
+        fastest, most = runs.fastest[i], runs.most_steps[i]
+        work = 0
+        splits = 0
+        for k in range(k0, k1):
+            r = k - call.noise_first
+            noise = (runs.noise_pos[i, r, 0], runs.noise_pos[i, r, 1], runs.noise_vel[i, r, 0],
+                     runs.noise_vel[i, r, 1])
+            if k == 0:
+                log_row(0.0, X, p, noise, runs.log_columns, w.row, runs.log[i, 0])
+                status = check_state(X, runs.bounds[i])
+            if status != OK:
+                break
+            t = k * Ts
+            m = runs.steps[i]
+            if runs.rate_max[i] != np.inf:
+                rate = eq.loop_step_rate(t, X, reference(t, p), p, noise)
+                fastest = max(fastest, rate)
+                if rate > runs.rate_max[i]:
+                    need = Ts * rate / call.refined_rate
+                    if not need <= call.max_steps:
+                        status, last = STEP, k
+                        break
+                    m = math.ceil(need)
+                    most = max(most, m)
+            depth = split_depth(m, call.split_parts)
+            h = Ts / m
+            for j in range(m):
+                done, located = loop_step(t + j * h, X, h, depth, (p, noise), w)
+                work += done
+                splits += located
+            status = check_state(X, runs.bounds[i])
+            row = log_index(k + 1, call.log_every, status != OK)
+            if row >= 0:
+                log_row((k + 1) * Ts, X, p, noise, runs.log_columns, w.row, runs.log[i, row])
+            last = k + 1
+        # written back once: threads advancing neighbouring runs never share a cache
+        # line in the loop above
+        for q in range(NSTATE):
+            runs.state[i, q] = X[q]
+        runs.status[i], runs.last[i] = status, last
+        runs.fastest[i], runs.most_steps[i] = fastest, most
+        runs.rk4_steps[i] += work
+        runs.splits[i] += splits
 
 
 def compiled() -> bool:
