@@ -1,31 +1,29 @@
-"""Wall-time benchmarks of the engines, printed as a table (on the machine at hand).
+"""Timings of the engines on the machine at hand, printed as tables.
 
-    python benchmarks/engines.py            # everything (several minutes)
-    python benchmarks/engines.py --quick    # fewer bdsim points for the sweep estimate
+    python benchmarks/engines.py             # the engines side by side (several minutes)
+    python benchmarks/engines.py --quick     # fewer bdsim points for the sweep estimate
 
-Rows:
-  1. one 200 s adaptive run (paper simulation 4) through the bdsim diagram of Fig. 2
-  2. the same run through a bare bdsim loop: one block holding the whole closed loop
-     (the same equations, unidyn.engine.rhs) with the same noise clock and tolerances,
-     i.e. what bdsim costs without our decomposition into blocks
-  3. the same run through the batch engine (compiled, and the same kernels as plain Python)
-  4. the full Fig. 11 sweep (4 cases x 70 gains x 250 s) through the batch engine,
-     and through bdsim (estimated from a sample of points: a full bdsim sweep takes hours)
-  5. import plus first run of `unidyn run --paper 4` in a fresh interpreter (cold start)
-and the accuracy of the batch engine against the bdsim diagram on the sampled points;
-then peak memory (resident set, VmHWM, each in a fresh process) of long batch
-runs with and without thinning the log (``log_every``), in float64 and float32
-(``log_dtype``), and of writing their files; the bytes per logged sample are the
-result's own arrays.
+Rows: the paper's simulation 4 (200 s, adaptive) through the bdsim diagram of Fig. 2,
+through a bare bdsim loop (one block holding the whole loop: what bdsim costs without
+the diagram's blocks), and through the batch engine, compiled and as plain Python; the
+Fig. 11 sweep (4 cases x 70 gains x 250 s) through the batch engine, and through bdsim
+(estimated from a sample of points); a cold ``unidyn run --paper 4``; one right-hand
+side, compiled and in numpy; the compiled sin, cos and tanh against the maths library's.
+Then the batch engine's accuracy against the diagram, and against 200 steps per sample.
 
-    python benchmarks/engines.py --cold   # first and second result, compile included
+    python benchmarks/engines.py --cold [--against REV]
 
-``--cold`` times, each in fresh processes with an empty compiler cache (a fresh
-``NUMBA_CACHE_DIR``), the first and then the second: ``unidyn run
-examples/scenario.toml``; ``simulate_batch`` of the paper's 200 s run (simulation 4) in
-a fresh Python; the Fig. 11 sweep (280 runs of 250 s). The first minus the second is
-the compile (and cache writing). Run it on two versions in one sitting, each with
-PYTHONPATH pointing at its ``src``, to compare them.
+The first and the second result, each in fresh processes with an empty compiler cache
+(a new ``NUMBA_CACHE_DIR``): ``unidyn run examples/scenario.toml``; ``simulate_batch``
+of the paper's 200 s run; the Fig. 11 sweep (the second in the same process). The first
+minus the second is the compile. With ``--against REV`` (a git revision of this
+checkout, such as ``HEAD~3`` or a tag) the same rows for that version too, the two
+versions in turn, so that both are measured in one sitting.
+
+    python benchmarks/engines.py --section5 [--against REV] [--repeat N]
+
+The README's job, ``examples/paper_section5.py`` (the four Section 5 runs through the
+bdsim diagram), timed N times (default 2), in turn with REV's.
 
     python benchmarks/engines.py --memory            # the memory table only
     python benchmarks/engines.py --memory --long     # also two 10^7-sample runs (4-6 min)
@@ -39,17 +37,21 @@ import subprocess
 import sys
 import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 
 os.environ.setdefault("MPLBACKEND", "Agg")
 
 import unidyn  # noqa: E402
-from unidyn.engine import kernels as _kernels
 from unidyn.diagrams import simulate as runner  # noqa: E402
+from unidyn.engine import kernels  # noqa: E402
 from unidyn.engine.batch import DEFAULT_SUBSTEPS, simulate_batch  # noqa: E402
 from unidyn.engine.rhs import ClosedLoop  # noqa: E402
 from unidyn.model.scenario import Scenario  # noqa: E402
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
 
 
 def timed(f, repeat=1):
@@ -107,16 +109,23 @@ def bare_bdsim_run(sc, rtol, atol):
     return sim.run(bd, T=sc.T, dt=sc.Ts, watch=[plant[0]], solver_args=dict(rtol=rtol, atol=atol))
 
 
+#: The Fig. 11 sweep: the four cases at 70 gains k = kx = ky, 250 s each (written with
+#: the public API only, so that the probes below run it on any version).
+FIG11 = """
 def fig11_scenarios(T=250.0, noise=True):
+    import numpy as np
+    import unidyn
     theta = unidyn.model.robots.get("p3dx_laser").theta
     out = []
     for k in np.arange(0.5, 35.0 + 1e-9, 0.5):
         base = dict(T=T, kx=float(k), ky=float(k), **({} if noise else {"noise": None}))
-        out += [Scenario(case="uncompensated", **base),
-                Scenario(case="compensated", theta_hat0=0.9 * theta, **base),
-                Scenario(case="adaptive", theta_hat0=0.9 * theta, adapt_from=0.0, **base),
-                Scenario(case="compensated", **base)]
+        out += [unidyn.Scenario(case="uncompensated", **base),
+                unidyn.Scenario(case="compensated", theta_hat0=0.9 * theta, **base),
+                unidyn.Scenario(case="adaptive", theta_hat0=0.9 * theta, adapt_from=0.0, **base),
+                unidyn.Scenario(case="compensated", **base)]
     return out
+"""
+exec(FIG11)
 
 
 MEMORY_PROBE = """
@@ -155,98 +164,42 @@ print(len(r.t), base, run, written, sum(owners.values()))
 
 
 def rhs_rows():
-    """One right-hand side of the loop (unidyn.model.equations.loop_derivative) per run: compiled,
-    one run at a time (what the engine does), against numpy over 20,000 runs at once
-    (runs as the vectorised dimension), on one core."""
-    from unidyn.model import equations as eq
+    """One right-hand side of the loop per run: compiled, one run at a time (what the
+    engine does), against numpy over 20,000 runs at once, on one core."""
+    import numba
     loop = ClosedLoop([Scenario.paper(4, T=1.0, noise=None)])
     rng = np.random.default_rng(0)
     B = 20000
     X = (np.repeat(loop.initial_state(), B, axis=0) + rng.normal(scale=0.1, size=(B, 13)))
     P = np.repeat(loop.P, B, axis=0)
     noise = (0.0, 0.0, 0.0, 0.0)
-    dX = np.empty(13)
-    _kernels.rhs(0.5, X[0], P[0], noise, dX)
-    import numba
+    rates = kernels.loop_rates
 
     @numba.njit
     def compiled(X, P, dX):
         for i in range(X.shape[0]):
-            _kernels.rhs(0.5, X[i], P[i], noise, dX)
+            rates(0.5, X[i], (P[i], noise), dX)
+    dX = np.empty(14)
     compiled(X[:2], P[:2], dX)
     t_c, _ = timed(lambda: compiled(X, P, dX), repeat=5)
     Xt, Pt, dXt = X.T.copy(), P.T.copy(), np.empty((13, B))
-    ref = tuple(loop._reference_tuple(0.5)[j].repeat(B) for j in range(6))
-    t_v, _ = timed(lambda: eq.loop_derivative(0.5, Xt, ref, Pt, noise, dXt), repeat=5)
+    ref = tuple(loop.reference(0.5)[j].repeat(B) for j in range(6))
+    t_v, _ = timed(lambda: unidyn.model.equations.loop_derivative(0.5, Xt, ref, Pt, noise, dXt),
+                   repeat=5)
     return [("one right-hand side, compiled, one run at a time (per run)", t_c / B,
-             f"{t_c / B * 1e9:.0f} ns; an RK4 run-step is 4 of them"),
+             f"{t_c / B * 1e9:.0f} ns; an RK4 step is 4 of them"),
             ("one right-hand side, numpy, 20,000 runs at once (per run)", t_v / B,
-             f"{t_v / B * 1e9:.0f} ns: runs as the vectorised dimension, with its temporaries")]
+             f"{t_v / B * 1e9:.0f} ns")]
 
 
-TRANSCENDENTAL = ("sin", "cos", "tanh")
-
-
-def operation_counts():
-    """The operations of one right-hand side of the loop (the reference of the figure
-    eight plus unidyn.model.equations.loop_derivative), counted by running the equations on
-    an ndarray subclass that records every ufunc (and np.where) it goes through.
-    Transcendental calls on the same argument are counted once (the compiler can share
-    them: cos(psi) appears in Eqs. 1 and 10)."""
-    import collections
-
-    from unidyn.model import equations as eq
-    counts, seen = collections.Counter(), set()
-
-    class Counting(np.ndarray):
-        def __array_ufunc__(self, ufunc, method, *inputs, **kw):
-            args = [np.asarray(a) for a in inputs]
-            name = ufunc.__name__
-            key = (name, tuple(np.asarray(a, dtype=float).tobytes() for a in args))
-            if name not in TRANSCENDENTAL or key not in seen:
-                counts[name] += 1
-                seen.add(key)
-            return np.asarray(getattr(ufunc, method)(*args, **kw)).view(Counting)
-
-        def __array_function__(self, func, types, args, kwargs):
-            counts[func.__name__] += 1
-            out = func(*[np.asarray(a) if isinstance(a, Counting) else a for a in args],
-                       **kwargs)
-            return np.asarray(out).view(Counting) if isinstance(out, np.ndarray) else out
-
-    loop = ClosedLoop([Scenario.paper(4, T=1.0)])
-    rng = np.random.default_rng(1)
-    X = (loop.initial_state().T + rng.normal(scale=0.1, size=(13, 1))).view(Counting)
-    P = loop.P.T.copy().view(Counting)
-    ref = eq.figure_eight(np.array([0.5]).view(Counting),
-                          *[P[eq.P.path1 + j] for j in range(6)])
-    noise = tuple(np.full(1, 0.01).view(Counting) for _ in range(4))
-    eq.loop_derivative(np.array([150.0]).view(Counting), X, ref, P, noise, np.empty((13, 1)))
-    return counts
-
-
-def machine_rates():
-    """ns per operation on one core, compiled by numba: multiply-add over an L1-resident
-    array (vectorised by the compiler), divide, and each transcendental function as the
-    engine evaluates it (unidyn.engine.vecmath, vectorised by the compiler), and as the
-    maths library's scalar calls (``libm_sin``, ...: what numba makes of np.sin)."""
+def elementary_rows():
+    """ns per call of the compiled sin, cos and tanh (unidyn.engine.vecmath) and of the
+    maths library's (what numba makes of math.sin), over 4096 arguments."""
     import math
 
     import numba
 
-    from unidyn.engine import vecmath as _vecmath
-
-    @numba.njit
-    def mul_add(x, a, b, R):
-        for _ in range(R):
-            for i in range(x.size):
-                x[i] = x[i] * a + b
-
-    @numba.njit
-    def divide(x, a, b, R):
-        for _ in range(R):
-            for i in range(x.size):
-                x[i] = b / (x[i] + a)
+    from unidyn.engine import vecmath
 
     def calls(f):
         @numba.njit
@@ -256,72 +209,17 @@ def machine_rates():
                     y[i] += f(x[i])
         return g
 
-    def best(f, *a):
-        f(*a)
-        return min(timed(lambda: f(*a))[0] for _ in range(5))
-
-    R = 20000
-    rates = {"mul_add": best(mul_add, np.full(512, 0.3), 0.999, 1e-4, R) / (2 * 512 * R),
-             "divide": best(divide, np.full(512, 0.3), 1.0, 0.5, R) / (512 * R)}
     x, y = np.random.default_rng(0).uniform(-1, 1, 4096), np.zeros(4096)
-    for name in TRANSCENDENTAL:
-        rates[name] = best(calls(getattr(_vecmath, name)), x, y, 500) / (4096 * 500)
-        rates["libm_" + name] = best(calls(getattr(math, name)), x, y, 500) / (4096 * 500)
-    return {k: v * 1e9 for k, v in rates.items()}
-
-
-def arithmetic_limit(ns_measured=None):
-    """The least time one RK4 run-step can take on one core of this machine: 4
-    right-hand sides (operation_counts) plus the 13-state RK4 combination (12
-    multiply-adds a state), each arithmetic operation at the vectorised multiply-add
-    rate, each divide and transcendental call at its measured cost; printed beside the
-    engine's measured ns per run-step."""
-    counts, rates = operation_counts(), machine_rates()
-    n_trans = {k: counts.get(k, 0) for k in TRANSCENDENTAL}
-    n_div = counts.get("divide", 0)
-    n_arith = sum(v for k, v in counts.items() if k not in TRANSCENDENTAL and k != "divide")
-    t_trans = sum(n * rates[k] for k, n in n_trans.items())
-    rhs = n_arith * rates["mul_add"] + n_div * rates["divide"] + t_trans
-    combination = 13 * 12 * rates["mul_add"]
-    step = 4 * rhs + combination
-    print(f"\narithmetic limit of one RK4 run-step on one core: a right-hand side is {n_arith} "
-          f"arithmetic/compare/select operations, {n_div} divides and "
-          + ", ".join(f"{n} {k}" for k, n in n_trans.items())
-          + f"; this machine does a vectorised multiply-add in {rates['mul_add']:.3f} ns an "
-          f"operation, a divide in {rates['divide']:.2f} ns, "
-          + ", ".join(f"{k} in {rates[k]:.1f} ns" for k in TRANSCENDENTAL)
-          + " (unidyn.engine.vecmath, vectorised; the maths library's scalar calls take "
-          + ", ".join(f"{rates['libm_' + k]:.1f}" for k in TRANSCENDENTAL) + " ns). So a "
-          f"right-hand side takes at least {rhs:.0f} ns ({t_trans:.0f} of them the "
-          f"transcendental calls), and an RK4 run-step {step:.0f} ns"
-          + (f"; the engine's {ns_measured:.0f} ns is {ns_measured / step:.1f}x that"
-             if ns_measured else "") + ".")
-    return step
-
-
-def sweep_floor(scs, step_ns):
-    """The least time the Fig. 11 sweep can take on this machine with RK4: every run at
-    the default step (no interval taken finer, no split), each run-step at the
-    arithmetic limit, spread over the threads with the speed-up the engine gets from
-    them (the noise-free sweep timed on one thread and on all)."""
-    import numba
-    n_all = numba.get_num_threads()
-    times = {}
-    try:
-        for n in sorted({1, n_all}):
-            numba.set_num_threads(n)
-            times[n], _ = timed(lambda: simulate_batch(scs, backend="compiled", progress=False))
-    finally:
-        numba.set_num_threads(n_all)
-    speedup = times[1] / times[n_all]
-    least = sum(sc.steps for sc in scs) * DEFAULT_SUBSTEPS
-    floor = least * step_ns * 1e-9 / speedup
-    print(f"\nfloor of the Fig. 11 sweep with RK4 on this machine: {least / 1e6:.2f} M run-steps "
-          f"(every run at {DEFAULT_SUBSTEPS} steps per 0.1 s: no interval taken finer, no "
-          f"split) at the arithmetic limit ({step_ns:.0f} ns) on {n_all} threads, which speed "
-          f"the noise-free sweep up {speedup:.2f}x over one ({times[1]:.1f} s against "
-          f"{times[n_all]:.1f} s): {floor:.2f} s.")
-    return floor
+    rows = []
+    for name in ("sin", "cos", "tanh"):
+        ns = []
+        for f in (getattr(vecmath, name), getattr(math, name)):
+            g = calls(f)
+            g(x, y, 1)
+            ns.append(min(timed(lambda: g(x, y, 200))[0] for _ in range(5)) / (4096 * 200) * 1e9)
+        rows.append((f"{name}, compiled (unidyn.engine.vecmath)", ns[0] * 1e-9,
+                     f"{ns[0]:.1f} ns a call; the maths library's: {ns[1]:.1f} ns"))
+    return rows
 
 
 def memory_table(long=False):
@@ -348,97 +246,106 @@ def memory_table(long=False):
               f"| {(run - base) * 2**20 / (T / 0.1):.0f} | {series / n:.0f} |")
 
 
-COLD_PROBE = """
+COLD_PROBE = FIG11 + """
 import sys, time
-t0 = time.perf_counter()
-sys.path.insert(0, sys.argv[2])
 from unidyn import Scenario
 from unidyn.engine.batch import simulate_batch
-if sys.argv[1] == "paper":
-    runs = [Scenario.paper(4)]
-else:
-    from engines import fig11_scenarios
-    runs = fig11_scenarios()
+runs = [Scenario.paper(4)] if sys.argv[1] == "paper" else fig11_scenarios()
 times = []
-for _ in range(2):
-    t, c = time.perf_counter(), time.process_time()
+for _ in range(int(sys.argv[2])):
+    t = time.perf_counter()
     simulate_batch(runs, progress=False)
-    times += [time.perf_counter() - t, time.process_time() - c]
+    times.append(time.perf_counter() - t)
 print(*times)
 """
 
 
-def cold_table():
-    """First and second result with an empty compiler cache, each row in fresh
-    processes (see the module docstring)."""
-    here = os.path.dirname(os.path.abspath(__file__))
-    scenario = os.path.join(os.path.dirname(here), "examples", "scenario.toml")
-    rows = []
+def _versions(against):
+    """[(label, src folder)]: this checkout, and REV's files (git archive) where given."""
+    versions = [("this checkout", ROOT / "src")]
+    if against:
+        tmp = Path(tempfile.mkdtemp(prefix="unidyn-against-"))
+        archive = subprocess.run(["git", "-C", str(ROOT), "archive", against, "src", "examples"],
+                                 capture_output=True, check=True).stdout
+        subprocess.run(["tar", "-x", "-C", str(tmp)], input=archive, check=True)
+        versions.insert(0, (against, tmp / "src"))
+    return versions
+
+
+def _run(src, cache, args):
+    """Wall time of a fresh Python on ``src`` with numba's cache in ``cache``, and its
+    output."""
+    env = dict(os.environ, PYTHONPATH=str(src), NUMBA_CACHE_DIR=str(cache), MPLBACKEND="Agg")
+    t = time.perf_counter()
+    r = subprocess.run([sys.executable, *args], env=env, capture_output=True, text=True,
+                       cwd=tempfile.gettempdir())
+    if r.returncode != 0:
+        raise RuntimeError(f"{' '.join(args[:3])} failed: {r.stderr.strip()[-400:]}")
+    return time.perf_counter() - t, r.stdout
+
+
+def cold_table(against=None):
+    """First and second results from an empty compiler cache (module docstring)."""
+    versions = _versions(against)
+    rows = {}
     with tempfile.TemporaryDirectory() as tmp:
-        def env(name):
-            return dict(os.environ, NUMBA_CACHE_DIR=os.path.join(tmp, name), MPLBACKEND="Agg")
-        import resource
-        cli = []
-        for i in range(2):
-            t0 = time.perf_counter()
-            c0 = resource.getrusage(resource.RUSAGE_CHILDREN)
-            r = subprocess.run([sys.executable, "-m", "unidyn", "run", scenario, "--out",
-                                os.path.join(tmp, f"run{i}")], env=env("cli"),
-                               capture_output=True, text=True)
-            c1 = resource.getrusage(resource.RUSAGE_CHILDREN)
-            cli += [time.perf_counter() - t0,
-                    c1.ru_utime + c1.ru_stime - c0.ru_utime - c0.ru_stime]
-            if r.returncode != 0:
-                print(f"unidyn run FAILED: {r.stderr.strip()[-300:]}")
-        rows.append(("`unidyn run examples/scenario.toml` (fresh process each)", *cli))
-        for what, label in (("paper", "simulate_batch([Scenario.paper(4)]) in a fresh Python"),
-                            ("fig11", "Fig. 11 sweep, simulate_batch of 280 runs x 250 s")):
-            r = subprocess.run([sys.executable, "-c", COLD_PROBE, what, here], env=env(what),
-                               capture_output=True, text=True)
-            if r.returncode != 0:
-                print(f"{label} FAILED: {r.stderr.strip()[-300:]}")
-                continue
-            rows.append((label, *map(float, r.stdout.split()[-4:])))
-    print("\n| first and second result, empty compiler cache | first [s] | second [s] "
-          "| first / second | first - second (compile) [s] | CPU first, second [s] |")
-    print("|---|---:|---:|---:|---:|---:|")
-    for label, first, cpu1, second, cpu2 in rows:
-        print(f"| {label} | {first:.1f} | {second:.2f} | {first / second:.1f} "
-              f"| {first - second:.1f} | {cpu1:.1f}, {cpu2:.1f} |")
+        for what in ("cli", "paper", "fig11"):
+            for label, src in versions:  # the versions in turn, row by row
+                cache = Path(tmp) / f"{what}-{len(rows)}"
+                if what == "cli":
+                    toml = src.parent / "examples" / "scenario.toml"
+                    times = [_run(src, cache, ["-m", "unidyn", "run", str(toml), "--out",
+                                               str(Path(tmp) / f"run{len(rows)}-{i}")])[0]
+                             for i in range(2)]
+                elif what == "paper":  # each in a fresh Python
+                    times = [float(_run(src, cache, ["-c", COLD_PROBE, "paper", "1"])[1])
+                             for _ in range(2)]
+                else:  # the second in the same process
+                    times = [float(x) for x in _run(src, cache, ["-c", COLD_PROBE, "fig11", "2"])[1].split()]
+                rows[what, label] = times
+    names = {"cli": "`unidyn run examples/scenario.toml`, a fresh process each",
+             "paper": "`simulate_batch([Scenario.paper(4)])`, a fresh Python each",
+             "fig11": "Fig. 11 sweep, 280 runs x 250 s (the second in the same process)"}
+    print(f"\n{os.cpu_count()} cores; empty compiler cache before the first result\n")
+    print("| result | version | first [s] | second [s] | first / second | first - second [s] |")
+    print("|---|---|---:|---:|---:|---:|")
+    for (what, label), (first, second) in rows.items():
+        print(f"| {names[what]} | {label} | {first:.1f} | {second:.1f} | {first / second:.1f} "
+              f"| {first - second:.1f} |")
 
 
-def main(argv=None):
-    p = argparse.ArgumentParser(description="unidyn engine benchmarks")
-    p.add_argument("--quick", action="store_true", help="sample 4 bdsim sweep points, not 12")
-    p.add_argument("--memory", action="store_true", help="only the memory table")
-    p.add_argument("--cold", action="store_true",
-                   help="only first and second results with an empty compiler cache")
-    p.add_argument("--limit", action="store_true", help="only the arithmetic limit")
-    p.add_argument("--long", action="store_true",
-                   help="add 10^7-sample runs (float32; float64 with log_series=()) to the memory table (4-6 min)")
-    args = p.parse_args(argv)
-    if args.cold:
-        cold_table()
-        return
-    if args.memory:
-        memory_table(args.long)
-        return
-    if args.limit:
-        if not _kernels.AVAILABLE:
-            sys.exit("--limit measures compiled code: it needs numba (pip install unidyn[fast])")
-        arithmetic_limit()
-        return
+def section5_table(against=None, repeat=2):
+    """The README's job, this checkout and REV in turn (module docstring)."""
+    versions = _versions(against)
+    times = {label: [] for label, _ in versions}
+    with tempfile.TemporaryDirectory() as tmp:
+        for i in range(repeat):
+            for label, src in versions:
+                job = src.parent / "examples" / "paper_section5.py"
+                t, _ = _run(src, Path(tmp) / "cache", [str(job), "--out",
+                                                        str(Path(tmp) / f"out-{label}-{i}")])
+                times[label].append(t)
+    print(f"\n`python examples/paper_section5.py` ({os.cpu_count()} cores), {repeat} runs each, "
+          f"in turn\n")
+    print("| version | runs [s] | median [s] |")
+    print("|---|---|---:|")
+    for label, ts in times.items():
+        print(f"| {label} | {', '.join(f'{t:.1f}' for t in ts)} | {np.median(ts):.1f} |")
+    if against:
+        print(f"\nthis checkout / {against}: {np.median(times['this checkout']) / np.median(times[against]):.2f}")
+
+
+def engines_table(quick=False):
     rtol, atol = runner.DEFAULT_RTOL, runner.DEFAULT_ATOL
     rows = []
     sc = Scenario.paper(4)
-
     # best of two: single runs of several seconds vary by 10-20 % on a shared machine
     t_diag, _ = timed(lambda: unidyn.simulate(sc), repeat=2)
     rows.append(("paper sim. 4 (200 s), bdsim diagram (our blocks)", t_diag, ""))
     t_bare, _ = timed(lambda: bare_bdsim_run(sc, rtol, atol), repeat=2)
     rows.append(("paper sim. 4 (200 s), bare bdsim loop (one block, same equations)", t_bare,
                  f"our blocks add {100 * (t_diag / t_bare - 1):+.0f} %"))
-    if _kernels.AVAILABLE:
+    if kernels.AVAILABLE:
         simulate_batch([sc.replace(T=1.0)], backend="compiled")  # compile or load the cache
         t_nb, _ = timed(lambda: simulate_batch([sc], backend="compiled"), repeat=3)
         rows.append(("paper sim. 4 (200 s), batch engine, compiled", t_nb,
@@ -448,51 +355,45 @@ def main(argv=None):
                  f"{t_diag / t_np:.2g}x faster than the diagram"))
 
     scs = fig11_scenarios()
-    n_pts = len(scs)
-    batch_res, ns_run_step = None, None
-    quiet_res = None
-    if _kernels.AVAILABLE:
+    batch_res = quiet_res = t_sweep = None
+    if kernels.AVAILABLE:
         for label, cases in (("", scs), (", noise-free", fig11_scenarios(noise=False))):
             times = []
             for _ in range(5):
                 t, res = timed(lambda: simulate_batch(cases, backend="compiled", progress=False))
                 times.append(t)
             t_run = float(np.median(times))
-            run_steps = sum(r.rk4_steps for r in res)  # refined intervals and split steps included
-            extra = run_steps - sum(r.substeps * r.scenario.steps for r in res)
-            ns = t_run / run_steps * 1e9 * min(os.cpu_count() or 1, n_pts)
-            rows.append((f"Fig. 11 sweep ({n_pts} runs x 250 s{label}), batch engine, compiled, "
-                         f"median of 5", t_run,
-                         f"{run_steps / 1e6:.1f} M RK4 run-steps ({DEFAULT_SUBSTEPS} to "
-                         f"{max(r.substeps for r in res)} per 0.1 s; {extra / 1e6:.2f} M more in "
-                         f"intervals taken finer, up to {max(r.substeps_max for r in res)} per "
-                         f"0.1 s, and for {sum(r.split_steps for r in res) / 1e6:.2f} M splits at "
-                         f"a change of the limits): {ns:.0f} ns per run-step per core, "
-                         f"{os.cpu_count()} threads"))
+            steps = sum(r.rk4_steps for r in res)  # finer intervals and split steps included
+            ns = t_run / steps * 1e9 * min(os.cpu_count() or 1, len(cases))
+            rows.append((f"Fig. 11 sweep ({len(cases)} runs x 250 s{label}), batch engine, "
+                         f"compiled, median of 5", t_run,
+                         f"{steps / 1e6:.1f} M RK4 steps ({DEFAULT_SUBSTEPS} to "
+                         f"{max(r.substeps for r in res)} per 0.1 s, up to "
+                         f"{max(r.substeps_max for r in res)} in intervals taken finer; "
+                         f"{sum(r.split_steps for r in res) / 1e6:.2f} M splits at a change of "
+                         f"the limits): {ns:.0f} ns per step per core, {os.cpu_count()} threads"))
             if label:
                 quiet_res = res
             else:
-                batch_res, t_sweep, ns_run_step = res, t_run, ns
-        rows += rhs_rows()
-    sample = np.unique(np.linspace(0, n_pts - 1, 4 if args.quick else 12).round().astype(int))
+                batch_res, t_sweep = res, t_run
+        rows += rhs_rows() + elementary_rows()
+    sample = np.unique(np.linspace(0, len(scs) - 1, 4 if quick else 12).round().astype(int))
     t_sample, diag_res = timed(lambda: [unidyn.simulate(scs[i]) for i in sample])
     per_point = t_sample / len(sample)
-    t_sweep_bdsim = per_point * n_pts
     note = f"{per_point:.1f} s per point"
-    if batch_res is not None:
-        note += f"; the batch engine is {t_sweep_bdsim / t_sweep:.0f}x faster"
+    if t_sweep is not None:
+        note += f"; the batch engine is {per_point * len(scs) / t_sweep:.0f}x faster"
     rows.append((f"Fig. 11 sweep, bdsim diagram (estimated from {len(sample)} points)",
-                 t_sweep_bdsim, note))
-
+                 per_point * len(scs), note))
     with tempfile.TemporaryDirectory() as tmp:
         cmd = [sys.executable, "-m", "unidyn", "run", "--paper", "4", "--out", os.path.join(tmp, "r")]
         t0 = time.perf_counter()
         r = subprocess.run(cmd, capture_output=True, text=True)
-        t_cli = time.perf_counter() - t0
         note = "ok" if r.returncode == 0 else f"FAILED: {r.stderr.strip()[-200:]}"
-        rows.append(("`unidyn run --paper 4`, cold start (import, run, files, figures)", t_cli, note))
+        rows.append(("`unidyn run --paper 4`, cold start (import, run, files, figures)",
+                     time.perf_counter() - t0, note))
 
-    print(f"\nmachine: {os.cpu_count()} cores; numba {'available' if _kernels.AVAILABLE else 'absent'}; "
+    print(f"\nmachine: {os.cpu_count()} cores; numba {'available' if kernels.AVAILABLE else 'absent'}; "
           f"bdsim tolerances rtol={rtol:g}, atol={atol:g}\n")
     print("| what | wall time [s] | note |")
     print("|---|---:|---|")
@@ -516,10 +417,30 @@ def main(argv=None):
               + ", ".join(f"{c} {v:.1e}" for c, v in zip(
                   ("uncompensated", "compensated 0.9", "adaptive", "compensated exact"),
                   rel.max(axis=0))))
-    if _kernels.AVAILABLE:
-        step_ns = arithmetic_limit(ns_run_step)
-        sweep_floor(fig11_scenarios(noise=False), step_ns)
-    memory_table(args.long)
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--quick", action="store_true", help="sample 4 bdsim sweep points, not 12")
+    p.add_argument("--cold", action="store_true",
+                   help="only first and second results with an empty compiler cache")
+    p.add_argument("--section5", action="store_true", help="only the README's job")
+    p.add_argument("--against", metavar="REV",
+                   help="with --cold or --section5: also git revision REV, in turn")
+    p.add_argument("--repeat", type=int, default=2, help="runs of each version (--section5)")
+    p.add_argument("--memory", action="store_true", help="only the memory table")
+    p.add_argument("--long", action="store_true",
+                   help="add 10^7-sample runs (float32; float64 with log_series=()) to the memory table (4-6 min)")
+    args = p.parse_args(argv)
+    if args.cold:
+        cold_table(args.against)
+    elif args.section5:
+        section5_table(args.against, args.repeat)
+    elif args.memory:
+        memory_table(args.long)
+    else:
+        engines_table(args.quick)
+        memory_table(args.long)
 
 
 if __name__ == "__main__":
