@@ -1,31 +1,20 @@
-r"""The batch engine: many continuous-control scenarios integrated at once.
+r"""The batch engine: many continuous-control scenarios integrated at once
+(:func:`simulate_batch`; the guide ``docs/guides/batch-engine.md`` explains the method).
 
-**The step rule.** Each noise interval [k Ts, (k+1) Ts) of a run is integrated with
-``substeps`` classical Runge-Kutta (RK4) steps of the closed loop of Fig. 2
-(:func:`unidyn.model.equations.loop_rates_and_limits`); the noise is held over the
-interval, as in the bdsim diagram, and results are sampled at t = k Ts like
-:func:`unidyn.simulate`'s. Three refinements keep RK4 at its accuracy:
+Each noise interval [k Ts, (k+1) Ts) of a run is integrated with ``substeps`` classical
+Runge-Kutta (RK4) steps of the Fig. 2 loop, the noise held over it as in the bdsim
+diagram, and results are sampled at t = k Ts like :func:`unidyn.simulate`'s. The step is
+short enough for the loop's fastest rate (:func:`stable_substeps`); an interval where a
+compensated run's loop is faster at its start (:func:`unidyn.model.equations.loop_step_rate`)
+is taken with finer steps; a step across a change of the limits is split where the
+change is, located to Ts / :data:`SPLIT_PARTS`; a speed limit is hard. Switching
+adaptation on at ``adapt_from`` (a jump) carries an error proportional to the step.
 
-- the step is short enough for the loop's fastest rate (:func:`stable_substeps`), and
-  where a compensated run's loop is faster at an interval's start than that step
-  resolves (:func:`unidyn.model.equations.loop_step_rate`, an estimate far from theta),
-  that interval is taken with finer steps (|rate h| <= STEP_RATE_REFINED);
-- a step across a change of the limits (one starts or stops clipping: a kink of the
-  right-hand side) is split where the change is, located to Ts / :data:`SPLIT_PARTS`;
-- a speed limit is hard: a step that would end beyond it ends on it.
-
-Switching adaptation on at ``adapt_from`` (a jump) is integrated with an error
-proportional to the step. ``tests/evals/`` checks the engine against the bdsim
-diagram and a converged ``solve_ivp`` solution; ``benchmarks/engines.py`` times it.
-
-**Where each piece lives.** The equations: :mod:`unidyn.model.equations`. The step
-rule, once: :mod:`unidyn.engine.kernels`, one run at a time, the runs shared among a
-thread per core. It runs compiled by numba (where installed; :mod:`unidyn.engine.jit`
-keeps numba's cache) or, the same source, as plain Python
-(:func:`unidyn.engine.jit.plain_copy`): a process answers with the plain copy until it
-has done :data:`READY_STEPS` steps, unless the compiled one is in the cache already.
-This module sets the steps and reads the results; the runs' parameter table, noise and
-initial state come from :class:`unidyn.engine.rhs.ClosedLoop`.
+This module chooses the steps and reads the results; the step rule is
+:mod:`unidyn.engine.kernels`, compiled by numba where installed or run as plain Python
+(:data:`READY_STEPS`); the runs' parameters, noise and initial state come from
+:class:`unidyn.engine.rhs.ClosedLoop`. ``tests/evals/`` checks the engine against the
+bdsim diagram and a converged ``solve_ivp`` solution.
 """
 
 from __future__ import annotations
@@ -258,16 +247,15 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
     try:
         for idx in groups.values():
             loop = ClosedLoop([scs[i] for i in idx])
-            m = np.array([m_all[i] for i in idx], dtype=np.int64)
-            run = _Run(loop, m, asked=int(substeps), backend="compiled" if compiled else "plain")
+            runs = _runs(engine, loop, np.array([m_all[i] for i in idx], dtype=np.int64))
             try:
-                _integrate(run, engine, bar)
+                _integrate(engine, loop, runs, compiled, bar)
             except KeyboardInterrupt:
-                run.interrupted = True
-            for j, r in enumerate(run.results()):
-                results[idx[j]] = r
-            if run.interrupted:
                 interrupted = True
+            for i, r in zip(idx, _results(engine, loop, runs, int(substeps),
+                                          "compiled" if compiled else "plain")):
+                results[i] = r
+            if interrupted:
                 break
     finally:
         bar.close()
@@ -306,61 +294,45 @@ class _Progress:
             self.bar.close()
 
 
-class _Run:
-    """The logged arrays of one group of runs, filled by either backend."""
-
-    def __init__(self, loop: ClosedLoop, m, asked: int, backend: str):
-        self.loop, self.m, self.backend = loop, m, backend
-        self.asked = asked  # the steps per sample the caller chose; more is the engine's doing
-        n, B = loop.steps, loop.B
-        self.L = L = int(loop.scenarios[0].log_every)
-        rows = n // L + 2  # every L-th sample, plus the one a run stops at
-        from .kernels import log_layout  # numba loads with the kernels
-        sc0 = loop.scenarios[0]
-        # only the columns of the series asked for (Scenario.log_series)
-        self.cols, self.layout = log_layout(ALWAYS_LOGGED + sc0.log_series)
-        self.LOG = np.full((B, rows, len(self.cols)), np.nan, dtype=sc0.log_dtype)
-        self.status = np.zeros(B, dtype=np.int64)
-        self.last = np.zeros(B, dtype=np.int64)
-        self.bounds = np.array([sc.divergence_bounds() for sc in loop.scenarios])
-        # the fastest state-dependent rate each run's step resolves; checked where the
-        # compensator closes the robot's velocity loop (equations.loop_step_rate)
-        checked = np.array([sc.case in ("compensated", "adaptive") for sc in loop.scenarios])
-        self.rate_max = np.where(checked, STEP_RATE_CHECK * np.asarray(m) / loop.Ts, np.inf)
-        self.seen = np.zeros(B)  # the fastest rate met
-        self.m_max = np.array(m, dtype=np.int64)  # the most steps an interval took
-        self.work = np.zeros(B, dtype=np.int64)  # RK4 steps taken
-        self.splits = np.zeros(B, dtype=np.int64)  # steps split at a change of the limits
-        self.interrupted = False
-
-    def results(self) -> list:
-        return _results(self)
+def _runs(kernels, loop: ClosedLoop, m):
+    """The per-run arrays (:data:`unidyn.engine.kernels.Runs`) of the runs of ``loop``,
+    with m RK4 steps per interval, ready for the first sample."""
+    B, sc0 = loop.B, loop.scenarios[0]
+    columns, _ = kernels.log_layout(ALWAYS_LOGGED + sc0.log_series)  # the series asked for
+    rows = loop.steps // sc0.log_every + 2  # every log_every-th sample, and a run's last
+    # the fastest state-dependent rate each run's step resolves; checked where the
+    # compensator closes the robot's velocity loop (equations.loop_step_rate)
+    checked = np.array([sc.case in ("compensated", "adaptive") for sc in loop.scenarios])
+    return kernels.Runs(
+        state=loop.initial_state(), params=loop.P, steps=m, noise_pos=loop.pos_noise,
+        noise_vel=loop.vel_noise, bounds=np.array([sc.divergence_bounds() for sc in loop.scenarios]),
+        rate_max=np.where(checked, STEP_RATE_CHECK * m / loop.Ts, np.inf), log_columns=columns,
+        log=np.full((B, rows, len(columns)), np.nan, dtype=sc0.log_dtype),
+        status=np.zeros(B, dtype=np.int64), last=np.zeros(B, dtype=np.int64),
+        fastest=np.zeros(B), most_steps=m.copy(), rk4_steps=np.zeros(B, dtype=np.int64),
+        splits=np.zeros(B, dtype=np.int64))
 
 
-def _integrate(run: _Run, kernels, bar):
-    """Advance the runs of ``run`` through ``kernels`` (the compiled module or its plain
-    copy, :func:`unidyn.engine.jit.plain_copy`) in slices of sample intervals. Compiled,
-    a thread per core advances its share of the runs (compiled code releases the GIL);
+def _integrate(kernels, loop: ClosedLoop, runs, compiled: bool, bar):
+    """Advance ``runs`` through ``kernels`` (the compiled module or its plain copy,
+    :func:`unidyn.engine.jit.plain_copy`) in slices of sample intervals. Compiled, a
+    thread per core advances its share of the runs (compiled code releases the GIL);
     Ctrl-C then waits for the slice to end, so every run's log stays whole."""
-    loop = run.loop
     n = loop.steps
     kernels.PYTHON_REFERENCES[:] = loop.trajectories  # the plain copy's, for FunctionTrajectory
-    state = loop.initial_state()
-    threads = min(loop.B, os.cpu_count() or 1) if run.backend == "compiled" else 1
+    threads = min(loop.B, os.cpu_count() or 1) if compiled else 1
     # the costliest first, dealt in turn: each thread's share costs about the same
-    order = np.argsort(-run.m, kind="stable")
+    order = np.argsort(-runs.steps, kind="stable")
     shares = [np.ascontiguousarray(order[j::threads]) for j in range(threads)]
-    S = max(1, SLICE_STEPS * threads // int(run.m.sum()))
+    S = max(1, SLICE_STEPS * threads // int(runs.steps.sum()))
     k = 0
     with ThreadPoolExecutor(threads) as pool:
         while True:
             loop.next_noise_window(k)
             k1 = min(n, k + S, loop.noise_end)
-            runs = kernels.Runs(state, loop.P, run.m, loop.pos_noise, loop.vel_noise, run.bounds,
-                                run.rate_max, run.cols, run.LOG, run.status, run.last,
-                                run.seen, run.m_max, run.work, run.splits)
-            call = kernels.Call(float(loop.Ts), loop.noise_k0, n, run.L, STEP_RATE_REFINED,
-                                MAX_SUBSTEPS, SPLIT_PARTS)
+            runs = runs._replace(noise_pos=loop.pos_noise, noise_vel=loop.vel_noise)
+            call = kernels.Call(float(loop.Ts), loop.noise_k0, n, loop.scenarios[0].log_every,
+                                STEP_RATE_REFINED, MAX_SUBSTEPS, SPLIT_PARTS)
             # a run that diverges overflows, and is stopped by its check: as compiled code
             # does, plain Python goes on with inf and NaN, without numpy's warnings
             with np.errstate(all="ignore"):
@@ -375,7 +347,7 @@ def _integrate(run: _Run, kernels, bar):
                         wait(slices)
             bar.advance(k1 - k)
             k = k1
-            if k >= n or not (run.status == kernels.OK).any():
+            if k >= n or not (runs.status == kernels.OK).any():
                 break
 
 
@@ -419,50 +391,48 @@ def _unvouched(sc: Scenario, m_max: int, asked: int) -> str:
     return text
 
 
-def _results(run: _Run) -> list:
-    """One Result per run of ``run``. A run that stopped keeps the samples up to
-    its stop (a non-finite last sample is dropped; a run too stiff to go on keeps
-    its samples logged before that) and is marked incomplete."""
-    from . import kernels  # numba loads with the kernels
-    loop, L = run.loop, run.L
-    n = loop.steps
+def _results(kernels, loop: ClosedLoop, runs, asked: int, backend: str) -> list:
+    """One Result per run. A run that stopped keeps the samples up to its stop (a
+    non-finite last sample is dropped; a run too stiff to go on keeps its samples logged
+    before that) and is marked incomplete."""
+    L = loop.scenarios[0].log_every
+    _, layout = kernels.log_layout(ALWAYS_LOGGED + loop.scenarios[0].log_series)
     out = []
     for i, sc in enumerate(loop.scenarios):
-        status, last = int(run.status[i]), int(run.last[i])
+        status, last = int(runs.status[i]), int(runs.last[i])
         nrow = last // L + 1
         t = np.arange(nrow) * (L * loop.Ts)
-        if status not in (0, kernels.STEP) and last % L != 0:  # the sample it stopped at
+        if status not in (kernels.OK, kernels.STEP) and last % L != 0:  # the sample it stopped at
             nrow += 1
             t = np.r_[t, last * loop.Ts]
         # the result's arrays are views of the log (no copy)
-        log = run.LOG[i, :nrow]
-        if status == 1:  # drop the non-finite sample
+        log = runs.log[i, :nrow]
+        if status == kernels.NONFINITE:  # drop the non-finite sample
             log, t = log[:-1], t[:-1]
         # every sample computed: complete, even if Ctrl-C came after the last
-        complete = status == 0 and last == n
+        complete = status == kernels.OK and last == loop.steps
         label = sc.name or sc.case
         t_stop = last * loop.Ts
         if complete:
-            message = _unvouched(sc, int(run.m_max[i]), run.asked)
-        elif status == 0:
+            message = _unvouched(sc, int(runs.most_steps[i]), asked)
+        elif status == kernels.OK:
             message = f"interrupted at t = {t_stop:.6g} s (scenario {label})"
         else:
-            last_row = run.LOG[i, nrow - 1].astype(float)
-            (x, y, _), (u, w) = last_row[run.layout["pose"]], last_row[run.layout["velocity"]]
+            last_row = runs.log[i, nrow - 1].astype(float)
+            (x, y, _), (u, w) = last_row[layout["pose"]], last_row[layout["velocity"]]
             v = {2: np.hypot(x, y) if nrow else np.nan, 3: abs(u), 4: abs(w),
-                 6: run.seen[i]}.get(status, 0.0)
-            estimate = (f" with theta_hat = {_short(last_row[run.layout['theta_hat']])}"
-                        if "theta_hat" in run.layout else "")
+                 6: runs.fastest[i]}.get(status, 0.0)
+            estimate = (f" with theta_hat = {_short(last_row[layout['theta_hat']])}"
+                        if "theta_hat" in layout else "")
             what = ("the velocity loop as the compensator closes it" + estimate
                     + (f", or the update law with adaptation gain gamma = {_short(sc.gamma)}"
                        if sc.case == "adaptive" else ""))
-            cause = _CAUSE[status].format(v=v, b=run.bounds[i, status - 2] if 1 < status < 5 else 0.0,
+            cause = _CAUSE[status].format(v=v, b=runs.bounds[i, status - 2] if 1 < status < 5 else 0.0,
                                           what=what)
             message = f"{cause} at t = {t_stop:.6g} s (scenario {label})"
-        series = {k: log[:, run.layout[k]] if k in run.layout else None
-                  for k in kernels.LOG_SERIES}
+        series = {k: log[:, layout[k]] if k in layout else None for k in kernels.LOG_SERIES}
         out.append(Result(scenario=sc, t=t, **series, engine="batch", complete=complete,
-                          message=message, backend=run.backend, substeps=int(run.m[i]),
-                          substeps_max=int(run.m_max[i]), rk4_steps=int(run.work[i]),
-                          split_steps=int(run.splits[i])))
+                          message=message, backend=backend, substeps=int(runs.steps[i]),
+                          substeps_max=int(runs.most_steps[i]), rk4_steps=int(runs.rk4_steps[i]),
+                          split_steps=int(runs.splits[i])))
     return out

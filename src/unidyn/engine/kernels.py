@@ -90,7 +90,7 @@ PYTHON_REFERENCES = []
 def python_reference(t, index):
     """(x_d, y_d, x_d', y_d', x_d'', y_d'') of reference ``PYTHON_REFERENCES[index]``."""
     tr = PYTHON_REFERENCES[int(index)]
-    (x, y), (dx, dy), (ddx, ddy) = tr.position(t), tr.velocity(t), tr.acceleration(t)
+    (x, y), (dx, dy), (ddx, ddy) = tr.evaluate(t)
     return float(x), float(y), float(dx), float(dy), float(ddx), float(ddy)
 
 

@@ -1,21 +1,16 @@
 r"""The closed loop of Fig. 2 as one pure right-hand side, batched over scenarios.
 
-This is the same loop the bdsim diagram of :func:`unidyn.diagrams.build_fig2`
-wires block by block, here as one function of time and state,
-:func:`unidyn.model.equations.loop_derivative`, evaluated on all runs at once with numpy:
-what ``solve_ivp`` integrates for the converged references the diagram and the batch
-engine are tested against. It also gives the batch engine its runs' parameter table,
-noise and initial state (the engine's kernels, :mod:`unidyn.engine.kernels`, evaluate
-the same equations one run at a time). Continuous control only
-(``Scenario.control == "continuous"``). The runs' parameters are one named
-table (:meth:`ClosedLoop.parameter_table`).
+The loop that the bdsim diagram of :func:`unidyn.diagrams.build_fig2` wires block by
+block, here as one function of time and state,
+:func:`unidyn.model.equations.loop_derivative` on all runs at once with numpy: what
+``solve_ivp`` integrates for the converged references that the diagram and the batch
+engine are tested against. It also gives the batch engine its runs' parameter table
+(:meth:`ClosedLoop.parameter_table`), noise and initial state. Continuous control only.
 
-State of each run (13 values): ``x, y, psi, u, w`` (robot; u and w unused for a
-kinematic robot), ``theta_hat1..6`` (compensator estimate), ``z_u, z_w``
-(derivative-filter states, used with ``vd_dot="filter"``).
-
-Noise is white and held over each interval [k Ts, (k+1) Ts): the k-th draw of
-the same seeded generators the bdsim noise blocks use, so both see the same numbers.
+The state of a run (13 values): ``x, y, psi, u, w`` (the robot; u and w unused for a
+kinematic robot), ``theta_hat1..6`` (the estimate), ``z_u, z_w`` (the derivative
+filter's, with ``vd_dot="filter"``). The noise is held over each interval [k Ts, (k+1)
+Ts): the k-th draw of the seeded generators the diagram's noise blocks use.
 """
 
 from __future__ import annotations
@@ -59,7 +54,6 @@ class ClosedLoop:
         self.T, self.Ts = T, Ts
         self.steps = scs[0].steps
         B = self.B = len(scs)
-        self.case = [s.case for s in scs]
         self.P = self.parameter_table()
         self.vmax = self.P[:, [P.speed_u, P.speed_w]]
         # trajectories: evaluate each distinct one once
@@ -124,7 +118,7 @@ class ClosedLoop:
 
     def reference(self, t):
         """(x_d, y_d, x_d', y_d', x_d'', y_d''), each (B,), at time t."""
-        values = np.array([(*tr.position(t), *tr.velocity(t), *tr.acceleration(t))
+        values = np.array([np.concatenate(tr.evaluate(t))
                            for tr in self.trajectories])[self.traj_index]
         return tuple(values.T)
 

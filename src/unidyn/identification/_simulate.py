@@ -20,7 +20,7 @@ import numpy as np
 from ..engine.jit import AVAILABLE as FAST
 from ..engine.jit import jit
 from ..engine.kernels import rk4_advance, rk4_stages
-from ..model.equations import point_velocity_components, robot_acceleration
+from ..model.equations import robot_acceleration
 from ..model.unicycle import unicycle_deriv
 
 #: How the logged commands act between their time stamps.
@@ -146,18 +146,7 @@ def simulate_stepwise(theta, t, u_ref, w_ref, x0, limits, linear, delay):
         f = min(max((tau - t[j]) / (t[j + 1] - t[j]), 0.0), 1.0)
         return ref[j] + f * (ref[j + 1] - ref[j])
 
-    t1, t2, t3, t4, t5, t6 = (float(v) for v in theta)
-
-    def rhs(tt, x):
-        if limits.active:
-            return unicycle_deriv(x, command(tt), theta, 0.0, limits)
-        # Eqs. (1)-(2) with a = 0 on scalars (far less overhead than on arrays)
-        c = command(tt)
-        u, w, psi = x[3], x[4], x[2]
-        xd, yd = point_velocity_components(psi, u, w, 0.0)
-        return [xd, yd, w, *robot_acceleration(u, w, c[0], c[1], t1, t2, t3, t4, t5, t6)]
-
-    r = ode(rhs).set_integrator("dop853", rtol=1e-10, atol=1e-12, nsteps=100000)
+    r = ode(lambda tt, x: unicycle_deriv(x, command(tt), theta, 0.0, limits)).set_integrator("dop853", rtol=1e-10, atol=1e-12, nsteps=100000)
     brk = np.union1d(t, t[(t + delay > t[0]) & (t + delay < t[-1])] + delay)
     # a delayed time stamp that meets another one to rounding is the same instant
     brk = brk[np.concatenate([[True], np.diff(brk) > 1e-9 * float(np.median(np.diff(t)))])]
