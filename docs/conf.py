@@ -47,11 +47,11 @@ myst_heading_anchors = 3
 # its notebook prints and draws with the code of this checkout: an output cannot go
 # stale, and a notebook that fails fails the build. All seven take about a minute and a
 # half; where the batch engine's numba compilation is not cached yet (a fresh install, or
-# its sources changed), notebook 3 compiles it, which adds about two minutes once. The
-# test suite runs them too (tests/test_notebooks.py).
+# its sources changed), the first notebook that needs it compiles it, which adds some
+# seconds once. The test suite runs them too (tests/test_notebooks.py).
 nb_execution_mode = "force"
 nb_execution_in_temp = True
-nb_execution_timeout = 180   # s per cell: the longest compiling cell takes about a minute
+nb_execution_timeout = 180   # s per cell: the longest, compiling on a slow machine, stays far below
 nb_execution_raise_on_error = True
 
 # -- autodoc ------------------------------------------------------------------------
