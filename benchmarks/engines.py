@@ -31,6 +31,7 @@ bdsim diagram), timed N times (default 2), in turn with REV's.
 
 import argparse
 import contextlib
+import inspect
 import io
 import os
 import subprocess
@@ -109,10 +110,9 @@ def bare_bdsim_run(sc, rtol, atol):
     return sim.run(bd, T=sc.T, dt=sc.Ts, watch=[plant[0]], solver_args=dict(rtol=rtol, atol=atol))
 
 
-#: The Fig. 11 sweep: the four cases at 70 gains k = kx = ky, 250 s each (written with
-#: the public API only, so that the probes below run it on any version).
-FIG11 = """
 def fig11_scenarios(T=250.0, noise=True):
+    """The Fig. 11 sweep: the four cases at 70 gains k = kx = ky, 250 s each (the public
+    API only: the probes below run it on any version)."""
     import numpy as np
     import unidyn
     theta = unidyn.model.robots.get("p3dx_laser").theta
@@ -124,8 +124,6 @@ def fig11_scenarios(T=250.0, noise=True):
                 unidyn.Scenario(case="adaptive", theta_hat0=0.9 * theta, adapt_from=0.0, **base),
                 unidyn.Scenario(case="compensated", **base)]
     return out
-"""
-exec(FIG11)
 
 
 MEMORY_PROBE = """
@@ -246,7 +244,7 @@ def memory_table(long=False):
               f"| {(run - base) * 2**20 / (T / 0.1):.0f} | {series / n:.0f} |")
 
 
-COLD_PROBE = FIG11 + """
+COLD_PROBE = inspect.getsource(fig11_scenarios) + """
 import sys, time
 from unidyn import Scenario
 from unidyn.engine.batch import simulate_batch

@@ -6,7 +6,6 @@ classical method gives by construction."""
 import numpy as np
 import pytest
 
-import unidyn
 from unidyn.engine import kernels as _kernels
 from unidyn.engine.rhs import ClosedLoop
 from unidyn.model.scenario import Scenario

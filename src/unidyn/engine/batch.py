@@ -29,7 +29,7 @@ from .._errors import SimulationInterrupted
 from .._errors import AccuracyWarning
 from .._validate import ValidationError, integer
 from .rhs import ClosedLoop
-from ..model.equations import SWITCH_TOL, TRAJECTORY_KINDS, P
+from ..model.equations import SWITCH_TOL, TRAJECTORY_KINDS
 from ..results.result import Result
 from ..model.scenario import ALWAYS_LOGGED, HIGH_GAIN, Scenario
 
