@@ -331,7 +331,7 @@ def _integrate(kernels, loop: ClosedLoop, runs, compiled: bool, bar):
             loop.next_noise_window(k)
             k1 = min(n, k + S, loop.noise_end)
             runs = runs._replace(noise_pos=loop.pos_noise, noise_vel=loop.vel_noise)
-            call = kernels.Call(float(loop.Ts), loop.noise_k0, n, loop.scenarios[0].log_every,
+            call = kernels.Call(float(loop.Ts), loop.noise_k0, loop.scenarios[0].log_every,
                                 STEP_RATE_REFINED, MAX_SUBSTEPS, SPLIT_PARTS)
             # a run that diverges overflows, and is stopped by its check: as compiled code
             # does, plain Python goes on with inf and NaN, without numpy's warnings

@@ -261,7 +261,8 @@ def log_row(t, X, p, noise, columns, row, out):
 OK, NONFINITE, POSITION, SPEED_U, SPEED_W, STEP = 0, 1, 2, 3, 4, 6
 
 #: The per-run arrays of a call (row i: run i): ``state`` (B, 13), updated;
-#: ``params`` (B, NPARAM); ``steps`` (B,): RK4 steps per interval;
+#: ``params``: rows of the parameter table (:data:`unidyn.model.equations.LOOP_PARAMETERS`);
+#: ``steps`` (B,): RK4 steps per interval;
 #: ``noise_pos``, ``noise_vel`` (B, rows, 2): the held noise of intervals
 #: noise_first, noise_first + 1, ...; ``bounds`` (B, 3): divergence bounds on |(x, y)|,
 #: |u|, |w|; ``rate_max`` (B,): the fastest loop rate the step resolves (inf: not
@@ -273,10 +274,10 @@ OK, NONFINITE, POSITION, SPEED_U, SPEED_W, STEP = 0, 1, 2, 3, 4, 6
 Runs = namedtuple("Runs", "state params steps noise_pos noise_vel bounds rate_max "
                           "log_columns log status last fastest most_steps rk4_steps splits")
 #: The numbers of a call: sample interval ``Ts``; ``noise_first``, the interval of the
-#: noise arrays' row 0; ``samples``, the run's intervals; ``log_every``; an interval
+#: noise arrays' row 0; ``log_every``; an interval
 #: taken finer uses ceil(Ts rate / ``refined_rate``) steps, at most ``max_steps``; a
 #: change of the limits is located to Ts / ``split_parts`` (:func:`split_depth`).
-Call = namedtuple("Call", "Ts noise_first samples log_every refined_rate max_steps split_parts")
+Call = namedtuple("Call", "Ts noise_first log_every refined_rate max_steps split_parts")
 
 
 @jit(inline=True)
