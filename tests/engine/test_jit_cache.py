@@ -164,3 +164,30 @@ def test_a_compile_says_so_on_the_terminal_once_per_install(tmp_path):
     first = _stderr_on_a_terminal(tmp_path)
     assert "compiling the log simulator of identification, once per install" in first, first
     assert "compiling" not in _stderr_on_a_terminal(tmp_path)  # loaded from the cache
+
+
+USER_RHS = """
+import sys
+import numpy as np
+sys.path.insert(0, sys.argv[1])
+import user_rhs  # a right-hand side of the user's own, in a module only this process sees
+from unidyn.engine.kernels import rk4_stages
+K, y = np.empty((4, 1)), np.empty(1)
+rk4_stages(user_rhs.compiled, 0.0, np.ones(1), 0.1, 2.0, K, y)
+print(K[0, 0])
+"""
+
+
+@pytest.mark.slow
+def test_the_rk4_of_a_users_own_right_hand_side_leaves_the_shared_cache_readable(tmp_path):
+    """The engine's RK4 takes any compiled right-hand side. numba's cache index records a
+    signature's types by their module: had rk4_stages cached the user's function in it,
+    every process without that module would fail to read the index, and identification
+    (which compiles rk4_stages with Eq. 2) would stop with ModuleNotFoundError."""
+    user = tmp_path / "user"
+    user.mkdir()
+    # compiled apart from its Python function, which numba's cache then records by name
+    (user / "user_rhs.py").write_text("import numba\n\n\ndef decay(t, x, a, out):\n"
+                                      "    out[0] = -a * x[0]\n\n\ncompiled = numba.njit(decay)\n")
+    assert _run(SRC.parent, tmp_path, USER_RHS, str(user)) == -2.0
+    assert 0.0 < _run(SRC.parent, tmp_path, HELD) < 0.31

@@ -74,6 +74,12 @@ def without_numba(folder: Path) -> dict:
                                                         os.environ.get("PYTHONPATH")]))}
 
 
+def cpu_seconds(pid: int) -> float:
+    """The CPU time a running process has used, all its threads (Linux's /proc)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
 def files(folder: Path) -> dict:
     """The files of ``folder`` and their bytes, but for the lock file (a SIGKILL leaves
     it behind; the next writer takes it over, as a test below checks)."""
@@ -237,9 +243,18 @@ def test_ctrl_c_during_a_long_bdsim_run_stops_quickly_and_keeps_the_old_results(
 def test_ctrl_c_during_a_long_batch_run_writes_the_part_computed(tmp_path):
     """The compiled engine returns to Python between time slices, so Ctrl-C stops it
     within a second and the CLI writes the computed part, marked incomplete."""
+    # a short run first compiles the kernels, if this cache has not yet got them, so
+    # that the long run below is integrating (not compiling) when Ctrl-C comes
+    code, out, err = cli(tmp_path, "run", "--case", "compensated", "--T", "1", "--set",
+                         "noise=off", "--out", "warm")
+    assert code == 0, err
     p = start(tmp_path, "run", "--case", "compensated", "--T", "400000", "--set",
               "log_every=100", "--set", "noise=off", "--out", "L")
-    time.sleep(6.0)  # start-up, compilation (or the cached kernel), then integrating
+    # start-up and loading the cached kernels take about 2 s of CPU; past 5 s it is
+    # integrating, however busy the machine is
+    deadline = time.monotonic() + 120
+    while cpu_seconds(p.pid) < 5.0 and time.monotonic() < deadline:
+        time.sleep(0.2)
     assert p.poll() is None, finish(p)
     t0 = time.monotonic()
     p.send_signal(signal.SIGINT)

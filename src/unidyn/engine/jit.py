@@ -227,20 +227,21 @@ class Compiled:
         return self.cached
 
 
-def jit(f=None, *, inline: bool = False, entry: str = ""):
+def jit(f=None, *, inline: bool = False, entry: str = "", cache: bool = True):
     """``numba.njit(cache=True, nogil=True)`` of f; f itself without numba.
 
     ``inline=True``: f is inlined into its compiled callers (numba's ``forceinline``,
     as the equations are); ``entry``: f is called from Python (:class:`Compiled`); what
-    it is, for the notice of its compile (``"the batch engine"``). ``nogil``: threads
-    run compiled functions side by side.
+    it is, for the notice of its compile (``"the batch engine"``); ``cache=False``: not
+    cached on disk (its callers are, with its code in them). ``nogil``: threads run
+    compiled functions side by side.
     Division by zero gives inf or NaN as in numpy (``error_model="numpy"``), which the
     engines' checks for non-finite states then report."""
     def wrap(g):
         if not AVAILABLE or _loading_plain:
             return g
         options = dict(nogil=True, error_model="numpy", forceinline=inline)
-        if CACHE_FOLDER is None:
+        if CACHE_FOLDER is None or not cache:
             compiled = numba.njit(**options)(g)
         else:
             with _numba_cache_dir(CACHE_FOLDER):

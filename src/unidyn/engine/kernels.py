@@ -42,7 +42,10 @@ CODE = NSTATE
 
 
 # ---------------------------------------------------------------------- RK4
-@jit(inline=True)
+# not cached itself: numba's cache index records a signature's types by their module, and
+# a right-hand side defined in a script or a test would then break the index of every
+# other process that loads it (its callers are cached, with its code in them)
+@jit(inline=True, cache=False)
 def rk4_stages(f, t, x, h, args, K, y):
     """The four stages of the RK4 step of length h from (t, x) of dx/dt = f(t, x, args)
     into the rows K[0..3] (f writes its rates into its last argument, and may write
