@@ -159,11 +159,11 @@ def stable_substeps(sc: Scenario, substeps: int) -> int:
     return int(substeps) if m <= substeps else min(m, MAX_SUBSTEPS)
 
 
-#: RK4 steps the compiled engine takes per thread between returns to Python: the
-#: interpreter can then handle Ctrl-C and update the progress bar (a fraction of a
-#: second). Intervals taken with finer steps are not foreseen: a slice where many are
-#: takes longer (Ctrl-C waits for it).
-SLICE_STEPS = 200_000
+#: RK4 steps the engine takes per thread between updates of the progress bar, compiled
+#: and as plain Python (a fraction of a second each); compiled, the interpreter handles
+#: Ctrl-C between them. Intervals taken with finer steps are not foreseen: a slice where
+#: many are takes longer (Ctrl-C waits for it).
+SLICE_STEPS = {True: 200_000, False: 2_000}
 #: Show a progress bar (on a terminal) when a call takes at least this many RK4 steps.
 PROGRESS_STEPS = 5_000_000
 
@@ -324,7 +324,7 @@ def _integrate(kernels, loop: ClosedLoop, runs, compiled: bool, bar):
     # the costliest first, dealt in turn: each thread's share costs about the same
     order = np.argsort(-runs.steps, kind="stable")
     shares = [np.ascontiguousarray(order[j::threads]) for j in range(threads)]
-    S = max(1, SLICE_STEPS * threads // int(runs.steps.sum()))
+    S = max(1, SLICE_STEPS[compiled] * threads // int(runs.steps.sum()))
     k = 0
     with ThreadPoolExecutor(threads) as pool:
         while True:
