@@ -30,6 +30,8 @@ import shutil
 import sys
 from pathlib import Path
 
+from filelock import FileLock
+
 from ..model import equations
 
 try:  # numba is optional
@@ -203,10 +205,6 @@ class Compiled:
             out = self.dispatcher(*args)
             self.ready.add(key)
             return out
-        try:
-            from filelock import FileLock
-        except ImportError:  # numba installed without the fast extra: no lock between processes
-            FileLock = contextlib.nullcontext
         marker = CACHE_FOLDER / f"{self.name}-{hashlib.sha256(repr(key).encode()).hexdigest()[:8]}.ready"
         with FileLock(str(CACHE_FOLDER / "compile.lock")):
             if not marker.exists() and not _noticed and sys.stderr is not None and sys.stderr.isatty():
