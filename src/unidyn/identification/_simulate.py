@@ -146,7 +146,8 @@ def simulate_stepwise(theta, t, u_ref, w_ref, x0, limits, linear, delay):
         f = min(max((tau - t[j]) / (t[j + 1] - t[j]), 0.0), 1.0)
         return ref[j] + f * (ref[j + 1] - ref[j])
 
-    r = ode(lambda tt, x: unicycle_deriv(x, command(tt), theta, 0.0, limits)).set_integrator("dop853", rtol=1e-10, atol=1e-12, nsteps=100000)
+    r = ode(lambda tt, x: unicycle_deriv(x, command(tt), theta, 0.0, limits))
+    r.set_integrator("dop853", rtol=1e-10, atol=1e-12, nsteps=100000)
     brk = np.union1d(t, t[(t + delay > t[0]) & (t + delay < t[-1])] + delay)
     # a delayed time stamp that meets another one to rounding is the same instant
     brk = brk[np.concatenate([[True], np.diff(brk) > 1e-9 * float(np.median(np.diff(t)))])]
