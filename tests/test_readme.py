@@ -326,6 +326,8 @@ def test_setup_commands_are_the_ones_ci_runs():
         assert (kind, args) in readme, f"the README does not show {args}"
         assert (kind, args) in ci, f".ci/run does not run {args}"
     assert ("sphinx", DOCS_BUILD) in readme, "the README does not show the docs build"
+    # tests/test_docs.py builds the docs only where the docs extra is installed
+    assert ci.index(("pip", ["install", "-e", ".[docs]"])) < ci.index(("pytest", ["-m", "pytest", "-q"]))
     # the main job: install, then the paper's Section 5 script
     assert ("pip", ["install", "-e", "."]) in readme
     assert any(k == "run" and "examples/paper_section5.py" in a for k, a in readme)
