@@ -223,7 +223,11 @@ def test_ctrl_c_during_a_long_bdsim_run_stops_quickly_and_keeps_the_old_results(
                "--out", "Y")[0] == 0
     old = files(tmp_path / "Y")
     p = start(tmp_path, "run", "--paper", "4", "--engine", "bdsim", "--overwrite", "--out", "Y")
-    time.sleep(rng.uniform(3.0, 5.0))  # the 200 s run is well under way
+    # start-up (imports, building the diagram) takes about 2 s of CPU; past the wait
+    # the 200 s run is integrating, however busy the machine is
+    wait, deadline = rng.uniform(4.0, 6.0), time.monotonic() + 120
+    while cpu_seconds(p.pid) < wait and time.monotonic() < deadline:
+        time.sleep(0.2)
     assert p.poll() is None
     t0 = time.monotonic()
     p.send_signal(signal.SIGINT)
@@ -535,8 +539,14 @@ def test_ctrl_c_during_the_default_job_stops_its_workers_and_keeps_the_old_resul
     as it was."""
     script = Path(__file__).resolve().parents[2] / "examples" / "paper_section5.py"
     out = tmp_path / "S"
-    out.mkdir()
-    (out / "claims.md").write_text("earlier results\n")
+    sys.path.insert(0, str(script.parent))
+    try:
+        from paper_section5 import OWNED
+    finally:
+        sys.path.remove(str(script.parent))
+    from unidyn.results.folders import staged_output
+    with staged_output(out, kind="section5", names=OWNED, overwrite=False) as stage:
+        (stage.path / "claims.md").write_text("earlier results\n")  # written as the script does
     old = files(out)
     env = dict(os.environ, MPLBACKEND="Agg", PYTHONUNBUFFERED="1")
     p = subprocess.Popen([sys.executable, str(script), "--out", str(out), "--overwrite",
