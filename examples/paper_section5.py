@@ -35,6 +35,7 @@ import unidyn  # noqa: E402
 from unidyn.results import figstyle  # noqa: E402
 from unidyn.results.figstyle import REFERENCE, START, label  # noqa: E402
 from unidyn.results.folders import staged_output  # noqa: E402
+from unidyn.results.result import RUN_FILES  # noqa: E402
 from unidyn.paper import format_claims, section5_claims  # noqa: E402
 from unidyn.results.plots import (equal_limits, plot_error, plot_path, reference_once,  # noqa: E402
                           save_figures)  # noqa: E402
@@ -44,8 +45,11 @@ TITLES = {1: "1: kinematic robot (paper's Figs. 3-4)",
           3: "3: exact compensation (Figs. 7-8)",
           4: "4: adaptive compensation (Figs. 9-10)"}
 CASE_NAMES = {1: "kinematic", 2: "uncompensated", 3: "compensated", 4: "adaptive"}
+#: every file the script writes: the figures and claims, and each case's run in a folder
+#: of its own (the run's files and its manifest)
 OWNED = ("section5.png", "fig9_adaptive.png", "claims.md") + tuple(
-    f"case{n}_{c}" for n, c in CASE_NAMES.items())
+    f"case{n}_{c}/{f}" for n, c in CASE_NAMES.items()
+    for f in RUN_FILES + (".unidyn-run.json",))
 
 
 def _dip(r, within=3.0):
@@ -172,7 +176,7 @@ def main(argv=None):
     if args.processes < 1:
         p.error(f"--processes must be >= 1, got {args.processes}")
     try:
-        with staged_output(args.out, overwrite=args.overwrite, results=OWNED,
+        with staged_output(args.out, kind="section5", names=OWNED, overwrite=args.overwrite,
                            what="Section 5 results") as stage:
             out = stage.path
             results = {}

@@ -34,10 +34,6 @@ __all__ = ["main"]
 
 #: The longest scenario name a run accepts (it titles every figure).
 MAX_NAME = 200
-_RESULT_FILES = ("timeseries.csv", "summary.json")  # unidyn.results.result.RESULT_FILES
-# everything a run writes: removed on --overwrite from a folder written before manifests
-_RUN_ARTEFACTS = _RESULT_FILES + ("path.png", "error.png", "positions.png", "velocities.png",
-                                  "theta_hat.png", "animation.gif")
 
 
 class _UsageError(Exception):
@@ -130,7 +126,8 @@ def _build_scenario(args):
         if path.is_dir():
             path = path / "summary.json"
         from .results.folders import check_manifest
-        problem = check_manifest(path.parent, "run", [path.name])  # not two runs' files
+        from .results.result import RUN_FILES
+        problem = check_manifest(path.parent, "run", RUN_FILES, [path.name])  # one run's
         if problem:
             raise ValidationError(f"--from {args.from_}: {problem}")
         try:
@@ -224,13 +221,9 @@ def _import_animation():
 
 # ------------------------------------------------------------------------ commands
 
-def _listing(folder: Path, names) -> str:
-    held = [n for n in names if (folder / n).exists()]
-    return ", ".join(held)
-
-
 def _cmd_run(args) -> int:
     from .results.folders import staged_output
+    from .results.result import RUN_FILES
     sc, engine_from = _build_scenario(args)
     from .engines import choose
     engine = choose(sc, args.engine or engine_from or "auto")  # as unidyn.run chooses
@@ -240,8 +233,8 @@ def _cmd_run(args) -> int:
     # the new results are written into a private folder inside `out` and moved into
     # place only once complete; an error or an interrupt leaves `out` as it was
     # (staged_output also holds the folder's lock: one writer at a time)
-    staging = staged_output(out, kind="run", overwrite=args.overwrite, results=_RESULT_FILES,
-                            what="run results", owned=_RUN_ARTEFACTS)
+    staging = staged_output(out, kind="run", names=RUN_FILES, overwrite=args.overwrite,
+                            what="run results")
     try:
         stage, result, wall, replaced = _run_staged(staging, sc, engine, out, animation)
     except Interrupted:  # interrupted, the computed part written: it says where
@@ -270,7 +263,7 @@ def _write_bag(result, bag) -> None:
 
 def _run_staged(staging, sc, engine, out, animation):
     with staging as stage:
-        replaced = _listing(out, _RUN_ARTEFACTS) if stage.held else ""
+        replaced = ", ".join(stage.held)
         if replaced:
             print(f"unidyn: replacing {out}/ ({replaced}) once the new run is written; "
                   f"kept as they are if it fails or is interrupted", file=sys.stderr, flush=True)
@@ -393,7 +386,7 @@ def _cmd_sweep(args) -> int:
                 spec = dataclasses.replace(spec, substeps=args.substeps)
         except ValidationError as err:
             raise ValidationError(f"{args.sweep}: {err}") from None
-    from .results.folders import record_files
+    from .results.folders import output_folder
     out = _out(args.out)
     n = len(spec)
     if args.dask is None:
@@ -432,13 +425,14 @@ def _cmd_sweep(args) -> int:
                  f"engine {args.engine}")
         claims = fig11_claims(run.rows)
         table = format_fig11_claims(claims, title=f"**{title}**")
-        from .results.result import write_atomic
-        write_atomic(out / "claims.md", table + "\n")
         from .paper import plot_fig11
-        plot_fig11(run.rows, out / "fig11.png",
-                   title=f"IAE, T = {base.T:g} s, noise " + ("off" if base.noise is None
-                                                             else "on"))
-        record_files(out, "sweep", ["claims.md", "fig11.png"], hashes=False)
+        from .results.folders import FolderLock, Ledger
+        with FolderLock(out):  # recorded as the sweep's files, by their content
+            ledger = Ledger(output_folder(out), "sweep", sw.SWEEP_FILES)
+            ledger.write("claims.md", table + "\n")
+            ledger.write_with("fig11.png", lambda path: plot_fig11(
+                run.rows, path, title=f"IAE, T = {base.T:g} s, noise "
+                + ("off" if base.noise is None else "on")))
         print()
         print(table)
         print(f"\nwritten {out}/claims.md and {out}/fig11.png")
@@ -546,11 +540,11 @@ def _cmd_identify(args) -> int:
             kwargs[k] = getattr(args, k)
     logs = [bags.pop(0) if is_bag(p) else p for p in logs]
     out = _out(args.out)
-    owned = ("theta.json", "validation.json", "validation.png")
-    staging = staged_output(out, kind="identify", overwrite=args.overwrite,
-                            results=("theta.json",), what="identification results", owned=owned)
+    from .identification.results import IDENTIFY_FILES
+    staging = staged_output(out, kind="identify", names=IDENTIFY_FILES,
+                            overwrite=args.overwrite, what="identification results")
     with staging as stage:
-        replaced = _listing(out, owned) if stage.held else ""
+        replaced = ", ".join(stage.held)
         if replaced:
             print(f"unidyn: replacing {out}/ ({replaced}) once the new identification is "
                   f"written; kept as they are if it fails or is interrupted", file=sys.stderr,

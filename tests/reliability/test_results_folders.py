@@ -207,6 +207,35 @@ def test_a_full_disk_names_the_file_and_keeps_the_earlier_results(tmp_path):
 
 
 @pytest.mark.slow
+def test_a_full_disk_during_a_sweep_names_the_file_and_keeps_the_finished_rows(tmp_path):
+    spec = tmp_path / "s.toml"
+    spec.write_text('[base]\ncase = "kinematic"\nT = 0.2\nnoise = "off"\n'
+                    '[grid]\nkx = {start = 0.01, stop = 3, num = 300}\n')
+    assert cli(tmp_path, "sweep", spec, "--out", "whole", "--no-progress")[0] == 0
+    out = tmp_path / "small"
+    _mount_tmpfs(out, "1m")
+    try:
+        (out / "notes.txt").write_text("mine\n")
+        free = os.statvfs(out)
+        filler = out / "filler.bin"  # leaves 40 kB: the first rows fit, not all 300
+        filler.write_bytes(b"\0" * (free.f_bavail * free.f_frsize - 40_000))
+        code, _, err = cli(tmp_path, "sweep", spec, "--out", out, "--no-progress",
+                           "--chunk-size", "20")
+        assert code == 2, err
+        line = err.strip().splitlines()[-1]
+        assert line.startswith("unidyn: error: No space left on device writing "
+                               f"{out}/"), err
+        assert f"points are in {out}/metrics.csv, intact; run the same command again" in line
+        assert len(err.strip().splitlines()) == 1, err
+        assert (out / "notes.txt").read_text() == "mine\n"
+        filler.unlink()
+        assert cli(tmp_path, "sweep", spec, "--out", out, "--no-progress")[0] == 0
+        assert (out / "metrics.csv").read_bytes() == (tmp_path / "whole" / "metrics.csv").read_bytes()
+    finally:
+        _umount(out)
+
+
+@pytest.mark.slow
 def test_save_from_python_keeps_the_command_lines_rule(tmp_path):
     from unidyn import ValidationError
     from unidyn.engine.batch import simulate_batch
@@ -244,11 +273,12 @@ def test_run_from_a_folder_whose_replacement_was_cut_short_says_so(tmp_path):
 def test_sweep_messages_speak_in_flags(tmp_path):
     f = tmp_path / "s.toml"
     f.write_text('[base]\ncase = "kinematic"\nT = 0.5\nnoise = "off"\n[grid]\nkx = [1.0, 2.0]\n')
+    g = tmp_path / "g.toml"
+    g.write_text(f.read_text().replace("[1.0, 2.0]", "[3.0]"))  # a different sweep
     assert cli(tmp_path, "sweep", f, "--out", "S", "--no-progress")[0] == 0
     record = tmp_path / "S" / "sweep.json"
-    record.write_text(record.read_text()[:40])  # cut short by hand
-    for extra in ([], ["--no-resume"]):
-        code, _, err = cli(tmp_path, "sweep", f, "--out", "S", "--no-progress", *extra)
+    for extra in ([g], [f, "--no-resume"]):
+        code, _, err = cli(tmp_path, "sweep", *extra, "--out", "S", "--no-progress")
         assert code == 2 and len(err.strip().splitlines()) == 1, err
         assert "--overwrite" in err and "overwrite=True" not in err, err
         assert "resume=False" not in err, err

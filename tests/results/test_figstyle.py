@@ -271,10 +271,11 @@ def test_section5_script_refuses_to_replace_results(tmp_path, capsys):
     out = tmp_path / "s5"
     out.mkdir()
     (out / "section5.png").write_bytes(b"earlier results")
-    assert paper_section5.main(["--out", str(out), "--T", "1"]) == 2
-    err = capsys.readouterr().err
-    assert "--overwrite" in err and "section5.png" in err
-    assert (out / "section5.png").read_bytes() == b"earlier results"
+    for extra in ([], ["--overwrite"]):  # not unidyn's: never replaced
+        assert paper_section5.main(["--out", str(out), "--T", "1", *extra]) == 2
+        err = capsys.readouterr().err
+        assert "section5.png, named like unidyn's Section 5 results but not written" in err
+        assert (out / "section5.png").read_bytes() == b"earlier results"
 
 
 def test_no_style_leaks_in_from_another_library(adaptive_run):

@@ -4,6 +4,7 @@ files, manifests, the lock, and processes killed at random moments."""
 import json
 import os
 import random
+import re
 import signal
 import subprocess
 import sys
@@ -17,6 +18,20 @@ from unidyn.results import folders as outdir
 from unidyn.results.folders import staged_output
 
 RESULTS = ("summary.json", "timeseries.csv")
+#: every name the tests' results may have
+NAMES = RESULTS + ("extra.csv", "animation.gif", "a.csv", "b.csv")
+
+
+def staged(out, **kw):
+    kw.setdefault("kind", "results")
+    kw.setdefault("names", NAMES)
+    return staged_output(out, **kw)
+
+
+def _save(out, generation, names=RESULTS):
+    """Results written by unidyn (through a staged block): proven by the manifest."""
+    with staged(out, overwrite=True) as st:
+        _write(st.path, generation, names)
 
 
 def _write(folder, generation, names=RESULTS):
@@ -42,7 +57,7 @@ def _private(out):
 
 def test_fresh_folder_is_created_with_the_usual_mode_and_a_manifest(tmp_path):
     out = tmp_path / "a" / "b"
-    with staged_output(out, overwrite=False, results=RESULTS) as st:
+    with staged(out, overwrite=False) as st:
         assert st.path.parent == out and st.path.name.startswith(".unidyn-results-new-")
         _write(st.path, 1)
     assert _generations(out) == {1} and st.final == out.absolute()
@@ -52,18 +67,17 @@ def test_fresh_folder_is_created_with_the_usual_mode_and_a_manifest(tmp_path):
     assert _siblings(tmp_path / "a", out) == [] and _private(out) == []
     manifest = json.loads((out / ".unidyn-results.json").read_text())
     assert manifest["complete"] is True and sorted(manifest["files"]) == sorted(RESULTS)
-    assert outdir.check_manifest(out, "results", RESULTS) == ""
+    assert outdir.check_manifest(out, "results", NAMES, RESULTS) == ""
 
 
 def test_existing_results_need_overwrite_and_the_message_names_them(tmp_path):
     out = tmp_path / "out"
-    out.mkdir()
-    _write(out, 1)
+    _save(out, 1)
     with pytest.raises(ValidationError, match=r"summary\.json, timeseries\.csv.*--overwrite"):
-        with staged_output(out, overwrite=False, results=RESULTS, what="run results"):
+        with staged(out, overwrite=False, what="run results"):
             pytest.fail("the block must not run")
     with pytest.raises(ValidationError, match=r"pass overwrite=True .* another folder"):
-        with staged_output(out, overwrite=False, results=RESULTS, option="folder",
+        with staged(out, overwrite=False, option="folder",
                            flag="overwrite=True"):
             pytest.fail("the block must not run")
     assert _generations(out) == {1} and _siblings(tmp_path, out) == []
@@ -73,20 +87,19 @@ def test_a_file_or_an_empty_name_is_not_a_folder(tmp_path):
     out = tmp_path / "out"
     out.write_text("x")
     with pytest.raises(ValidationError, match="--out .* is a file"):
-        with staged_output(out, overwrite=True, results=RESULTS):
+        with staged(out, overwrite=True):
             pass
     with pytest.raises(ValidationError, match=r"--out is empty; .*--out \. for the current"):
-        with staged_output("", overwrite=True, results=RESULTS):
+        with staged("", overwrite=True):
             pass
 
 
 @pytest.mark.parametrize("exc", [RuntimeError("boom"), KeyboardInterrupt()])
 def test_an_error_or_ctrl_c_inside_leaves_the_old_results(tmp_path, exc):
     out = tmp_path / "out"
-    out.mkdir()
-    _write(out, 1)
+    _save(out, 1)
     with pytest.raises(type(exc)):
-        with staged_output(out, overwrite=True, results=RESULTS) as st:
+        with staged(out, overwrite=True) as st:
             _write(st.path, 2)
             raise exc
     assert _generations(out) == {1}
@@ -96,37 +109,101 @@ def test_an_error_or_ctrl_c_inside_leaves_the_old_results(tmp_path, exc):
 def test_overwrite_replaces_the_results_files_and_keeps_foreign_ones(tmp_path):
     out = tmp_path / "out"
     (out / "notes").mkdir(parents=True)
-    _write(out, 1)  # written before manifests: the owned names are the earlier result's
-    (out / "animation.gif").write_text("old gif")
     (out / "README.txt").write_text("mine")
     (out / "notes" / "n.txt").write_text("also mine")
-    with staged_output(out, overwrite=True, results=RESULTS,
-                       owned=RESULTS + ("animation.gif",)) as st:
-        assert st.held == RESULTS
+    _save(out, 1, names=RESULTS + ("animation.gif",))
+    with staged(out, overwrite=True) as st:
+        assert st.held == ("summary.json", "timeseries.csv", "animation.gif")
         _write(st.path, 2)
     assert _generations(out) == {2}
     assert not (out / "animation.gif").exists()  # last run's artefact does not survive
     assert (out / "README.txt").read_text() == "mine"
     assert (out / "notes" / "n.txt").read_text() == "also mine"
     assert _siblings(tmp_path, out) == []
-    # with a manifest, exactly the files it lists are the earlier result's
-    with staged_output(out, overwrite=True, results=RESULTS) as st:
-        _write(st.path, 3, names=RESULTS + ("extra.csv",))
-    with staged_output(out, overwrite=True, results=RESULTS) as st:
-        _write(st.path, 4)
-    assert _generations(out) == {4} and not (out / "extra.csv").exists()
     assert sorted(p.name for p in out.iterdir()) == sorted(
         [".unidyn-results.json", "README.txt", "notes", *RESULTS])
 
 
+def test_files_named_like_results_that_unidyn_did_not_write_are_never_touched(tmp_path):
+    """Ownership is proven by content: a user's file with a result's name, an edited
+    result, a link or a folder by that name is refused with or without overwrite."""
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "animation.gif").write_bytes(b"my own gif")
+    for overwrite in (False, True):
+        with pytest.raises(ValidationError, match=r"animation\.gif, named like unidyn's "
+                           r"results but not written by unidyn.*move them elsewhere"):
+            with staged(out, overwrite=overwrite):
+                pytest.fail("the block must not run")
+    assert (out / "animation.gif").read_bytes() == b"my own gif"
+    (out / "animation.gif").unlink()
+    _save(out, 1)
+    (out / "summary.json").write_text("edited by hand")  # no longer what unidyn wrote
+    with pytest.raises(ValidationError, match="summary.json, named like"):
+        with staged(out, overwrite=True):
+            pytest.fail("the block must not run")
+    assert (out / "summary.json").read_text() == "edited by hand"
+    _save(tmp_path / "b", 1)
+    victim = tmp_path / "victim.csv"
+    victim.write_text((tmp_path / "b" / "timeseries.csv").read_text())  # same bytes
+    (tmp_path / "b" / "timeseries.csv").unlink()
+    (tmp_path / "b" / "timeseries.csv").symlink_to(victim)
+    with pytest.raises(ValidationError, match="timeseries.csv, named like"):
+        with staged(tmp_path / "b", overwrite=True):
+            pytest.fail("the block must not run")
+    assert victim.read_text() == json.dumps({"generation": 1, "file": "timeseries.csv"})
+
+
+@pytest.mark.parametrize("entry", ["../victim.txt", "/abs/victim.txt", "..", "/",
+                                   "notes", "summary.json/..", ""])
+def test_a_manifest_listing_anything_but_its_names_is_refused_and_nothing_changes(
+        tmp_path, entry):
+    out = tmp_path / "out"
+    _save(out, 1)
+    victim = tmp_path / "victim.txt"
+    victim.write_text("precious")
+    manifest = out / ".unidyn-results.json"
+    m = json.loads(manifest.read_text())
+    m["files"][entry] = m["files"]["summary.json"]
+    manifest.write_text(json.dumps(m))
+    before = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
+    with pytest.raises(ValidationError, match=rf"\.unidyn-results\.json lists "
+                       rf"{re.escape(repr(entry))}, which is not a file unidyn results "
+                       rf"writes.*nothing was changed"):
+        with staged(out, overwrite=True):
+            pytest.fail("the block must not run")
+    assert {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()} == before
+    assert "nothing was changed" in outdir.check_manifest(out, "results", NAMES)
+
+
+@pytest.mark.parametrize("text", ['{"files": {"summary.json": "md5:abc"}}',
+                                  '{"files": {"summary.json": null}}', "not json",
+                                  '{"files": ["summary.json"]}', "\xff\xfe"])
+def test_a_manifest_that_unidyn_could_not_have_written_is_refused(tmp_path, text):
+    out = tmp_path / "out"
+    _save(out, 1)
+    (out / ".unidyn-results.json").write_text(text, errors="surrogateescape")
+    with pytest.raises(ValidationError, match=r"\.unidyn-results\.json .*nothing was changed"):
+        with staged(out, overwrite=True):
+            pytest.fail("the block must not run")
+    assert _generations(out) == {1}
+
+
+def test_overwrite_must_be_a_bool(tmp_path):
+    for value in ("no", 0, None, "False"):
+        with pytest.raises(ValidationError, match=r"overwrite must be True or False"):
+            with staged(tmp_path / "out", overwrite=value):
+                pytest.fail("the block must not run")
+    assert not (tmp_path / "out").exists()
+
+
 def test_a_folder_of_the_user_is_not_replaced_by_a_result_of_that_name(tmp_path):
     out = tmp_path / "out"
-    with staged_output(out, overwrite=False, results=RESULTS) as st:
-        _write(st.path, 1)
+    _save(out, 1)
     (out / "extra.csv").mkdir()
     (out / "extra.csv" / "mine.txt").write_text("mine")
-    with pytest.raises(ValidationError, match="did not write"):
-        with staged_output(out, overwrite=True, results=RESULTS) as st:
+    with pytest.raises(ValidationError, match="extra.csv, named like"):
+        with staged(out, overwrite=True) as st:
             _write(st.path, 2, names=RESULTS + ("extra.csv",))
     assert (out / "extra.csv" / "mine.txt").read_text() == "mine" and _generations(out) == {1}
     assert sorted(p.name for p in out.iterdir()) == [".unidyn-results.json", "extra.csv",
@@ -135,16 +212,15 @@ def test_a_folder_of_the_user_is_not_replaced_by_a_result_of_that_name(tmp_path)
 
 def test_partial_results_never_replace_complete_ones(tmp_path):
     out = tmp_path / "out"
-    out.mkdir()
-    _write(out, 1)
-    with staged_output(out, overwrite=True, results=RESULTS) as st:
+    _save(out, 1)
+    with staged(out, overwrite=True) as st:
         _write(st.path, 2)
         st.incomplete("diverged at t = 3 s")
     assert _generations(out) == {1}
     side = tmp_path / "out.incomplete"
     assert st.final == side and _generations(side) == {2}
     # a second failure replaces the previous partial results, not the complete ones
-    with staged_output(out, overwrite=True, results=RESULTS) as st:
+    with staged(out, overwrite=True) as st:
         _write(st.path, 3, names=RESULTS[:1])
         st.incomplete("again")
     assert _generations(out) == {1} and _generations(side) == {3}
@@ -153,7 +229,7 @@ def test_partial_results_never_replace_complete_ones(tmp_path):
 
 def test_partial_results_go_into_an_empty_target(tmp_path):
     out = tmp_path / "out"
-    with staged_output(out, overwrite=False, results=RESULTS) as st:
+    with staged(out, overwrite=False) as st:
         _write(st.path, 1)
         st.incomplete("stopped")
     assert st.final == out.absolute() and _generations(out) == {1}
@@ -161,13 +237,12 @@ def test_partial_results_go_into_an_empty_target(tmp_path):
 
 def test_what_a_killed_process_left_is_removed_by_the_next_writer(tmp_path):
     out = tmp_path / "out"
-    out.mkdir()
-    _write(out, 1)
+    _save(out, 1)
     left = out / ".unidyn-results-new-abc"  # kill -9 while writing
     left.mkdir()
     _write(left, 2)
     with pytest.raises(ValidationError, match="already holds"):
-        with staged_output(out, overwrite=False, results=RESULTS):
+        with staged(out, overwrite=False):
             pass
     assert _generations(out) == {1} and _private(out) == []
 
@@ -176,17 +251,17 @@ def test_a_replacement_cut_short_is_told_apart_from_results(tmp_path):
     """kill -9 in the milliseconds in which files are renamed into place: the
     manifest still says the replacement is under way, and readers say so."""
     out = tmp_path / "out"
-    with staged_output(out, overwrite=False, results=RESULTS) as st:
+    with staged(out, overwrite=False) as st:
         _write(st.path, 1)
     m = json.loads((out / ".unidyn-results.json").read_text())
     (out / ".unidyn-results.json").write_text(json.dumps({**m, "complete": False}))
-    assert "cut short" in outdir.check_manifest(out, "results")
+    assert "cut short" in outdir.check_manifest(out, "results", NAMES)
     (out / ".unidyn-results.json").write_text(json.dumps(m))
-    assert outdir.check_manifest(out, "results", RESULTS) == ""
+    assert outdir.check_manifest(out, "results", NAMES, RESULTS) == ""
     _write(out, 2, names=RESULTS[:1])  # one file of another run
     assert "summary.json is not the file its run wrote" in outdir.check_manifest(
-        out, "results", RESULTS)
-    assert outdir.check_manifest(tmp_path, "results", RESULTS) == ""  # no manifest: passes
+        out, "results", NAMES, RESULTS)
+    assert outdir.check_manifest(tmp_path, "results", NAMES, RESULTS) == ""  # no manifest
 
 
 def test_the_folder_holding_out_is_never_written(tmp_path):
@@ -195,7 +270,7 @@ def test_the_folder_holding_out_is_never_written(tmp_path):
     before = os.stat(parent).st_mtime_ns
     time.sleep(0.01)
     for gen in (1, 2):
-        with staged_output(parent / "out", overwrite=True, results=RESULTS) as st:
+        with staged(parent / "out", overwrite=True) as st:
             _write(st.path, gen)
     assert os.stat(parent).st_mtime_ns == before and _generations(parent / "out") == {2}
 
@@ -205,7 +280,7 @@ _WRITER = textwrap.dedent("""
     from unidyn.results.folders import staged_output
     out, gen = sys.argv[1], int(sys.argv[2])
     names = ("summary.json", "timeseries.csv", "a.csv", "b.csv")
-    with staged_output(out, overwrite=True, results=names[:2], owned=names) as st:
+    with staged_output(out, kind="results", names=names, overwrite=True) as st:
         for n in names:
             (st.path / n).write_text(json.dumps({"generation": gen, "file": n}) + " " * 200000)
             time.sleep(0.01)
@@ -237,7 +312,7 @@ def test_processes_killed_at_random_moments_leave_old_or_new_never_a_mix(tmp_pat
         stdout, _ = proc.communicate(timeout=30)
         finished = b"done" in stdout
         gens = {json.loads((out / n).read_text().rstrip())["generation"] for n in names}
-        problem = outdir.check_manifest(out, "results", names)
+        problem = outdir.check_manifest(out, "results", names, names)
         if len(gens) > 1:
             assert sig == signal.SIGKILL and "cut short" in problem, (gens, sig, problem)
             gens = {gen}
@@ -252,15 +327,15 @@ def test_processes_killed_at_random_moments_leave_old_or_new_never_a_mix(tmp_pat
     subprocess.run([sys.executable, str(script), str(out), "99"], check=True, env=env,
                    cwd=tmp_path, capture_output=True)
     assert _siblings(tmp_path, out) == ["writer.py"] and _private(out) == []
-    assert outdir.check_manifest(out, "results", names) == ""
+    assert outdir.check_manifest(out, "results", names, names) == ""
 
 
 def test_the_block_holds_the_folder_lock_and_a_second_writer_is_refused(tmp_path):
     out = tmp_path / "out"
-    with staged_output(out, overwrite=False, results=RESULTS) as st:
+    with staged(out, overwrite=False) as st:
         assert (out / outdir.LOCK_NAME).read_text().strip() == str(os.getpid())
         with pytest.raises(outdir.FolderInUse, match=f"PID {os.getpid()}"):
-            with staged_output(out, overwrite=True, results=RESULTS):
+            with staged(out, overwrite=True):
                 pytest.fail("the second writer must not run")
         _write(st.path, 1)
     assert _generations(out) == {1} and not (out / outdir.LOCK_NAME).exists()
@@ -269,7 +344,7 @@ def test_the_block_holds_the_folder_lock_and_a_second_writer_is_refused(tmp_path
 def test_a_refused_write_into_a_new_folder_leaves_no_folder(tmp_path):
     out = tmp_path / "new" / "out"
     with pytest.raises(RuntimeError):
-        with staged_output(out, overwrite=False, results=RESULTS):
+        with staged(out, overwrite=False):
             raise RuntimeError("failed before writing")
     assert not out.exists()
 
@@ -280,7 +355,7 @@ _RACER = textwrap.dedent("""
     from unidyn.results.folders import staged_output
     out, me = sys.argv[1], sys.argv[2]
     try:
-        with staged_output(out, overwrite=False, results=("summary.json",)) as st:
+        with staged_output(out, kind="results", names=("summary.json",), overwrite=False) as st:
             time.sleep(0.5)
             (st.path / "summary.json").write_text(me)
     except ValidationError as err:
@@ -348,17 +423,32 @@ def test_sigterm_during_the_renames_is_held_back_then_delivered():
         process._received.clear()  # the command's record of a signal, for the next tests
 
 
-def test_a_folder_the_command_wrote_is_replaced_whole(tmp_path):
-    """A script's results may be folders (one per case): the earlier one goes whole,
-    a folder of the user's beside it stays."""
+def test_a_results_own_folder_is_replaced_file_by_file(tmp_path):
+    """A script's results may have folders of their own (one per case): names such as
+    ``case1/a.csv``. The earlier files go one by one, proven by content; a file of the
+    user's put inside stays, and so does its folder; a folder of the user's beside
+    them stays."""
     out = tmp_path / "out"
+    names = ("case1/a.csv", "case1/b.csv", "top.csv")
     (out / "mine").mkdir(parents=True)
     (out / "mine" / "m.txt").write_text("mine")
-    for gen, names in ((1, ("a.csv", "b.csv")), (2, ("a.csv",))):
-        with staged_output(out, overwrite=True, results=("case1",)) as st:
+    for gen, files in ((1, ("a.csv", "b.csv")), (2, ("a.csv",))):
+        with staged(out, names=names, overwrite=True) as st:
             (st.path / "case1").mkdir()
-            for n in names:
+            for n in files:
                 (st.path / "case1" / n).write_text(str(gen))
     assert sorted(os.listdir(out / "case1")) == ["a.csv"]
     assert (out / "case1" / "a.csv").read_text() == "2"
     assert (out / "mine" / "m.txt").read_text() == "mine" and _private(out) == []
+    (out / "case1" / "notes.txt").write_text("the user's")
+    with staged(out, names=names, overwrite=True) as st:
+        (st.path / "top.csv").write_text("3")
+    assert sorted(os.listdir(out / "case1")) == ["notes.txt"]  # a.csv gone, notes kept
+    # a link standing for a result's folder is never followed
+    (out / "case1" / "notes.txt").unlink()
+    (out / "case1").rmdir()
+    (out / "case1").symlink_to(out / "mine")
+    with pytest.raises(ValidationError, match="case1/a.csv, case1/b.csv, named like"):
+        with staged(out, names=names, overwrite=True) as st:
+            pytest.fail("the block must not run")
+    assert os.listdir(out / "mine") == ["m.txt"]

@@ -211,23 +211,44 @@ def test_interrupted_sweep_resumes_with_identical_results(tmp_path, monkeypatch)
     assert again.ran == 0 and again.skipped == 8 and ran == []
 
 
-def test_resume_drops_a_line_cut_short(tmp_path):
+def _interrupted(s, out, chunks, monkeypatch, chunk_size):
+    """Run ``s`` into ``out`` and stop it with Ctrl-C after ``chunks`` chunks."""
+    real, calls = sw._run_chunk, []
+
+    def stopping(*args, **kwargs):
+        if len(calls) == chunks:
+            raise KeyboardInterrupt
+        calls.append(1)
+        return real(*args, **kwargs)
+    with monkeypatch.context() as m:
+        m.setattr(sw, "_run_chunk", stopping)
+        with pytest.raises(Interrupted, match="run the same command again to resume"):
+            run_sweep(s, out, progress=False, chunk_size=chunk_size)
+
+
+def test_an_interrupted_sweep_resumes_and_an_edited_one_is_refused(tmp_path, monkeypatch):
     s = small_sweep()
     run_sweep(s, tmp_path / "whole", progress=False)
     cut = tmp_path / "cut"
-    run_sweep(s, cut, progress=False)
-    lines = csv_rows(cut)
-    # as if interrupted while writing: rows 0..4 and half of row 5
-    (cut / "metrics.csv").write_text("\n".join(lines[:6]) + "\n" + lines[6][:12])
+    _interrupted(s, cut, 2, monkeypatch, chunk_size=3)
+    assert len(csv_rows(cut)) == 1 + 6
     run = run_sweep(s, cut, progress=False)
-    assert run.skipped == 5 and run.ran == 3
+    assert run.skipped == 6 and run.ran == 2
     assert csv_rows(cut) == csv_rows(tmp_path / "whole")
+    lines = csv_rows(cut)  # a line cut short by hand: not what unidyn wrote
+    (cut / "metrics.csv").write_text("\n".join(lines[:6]) + "\n" + lines[6][:12])
+    before = (cut / "metrics.csv").read_bytes()
+    for overwrite in (False, True):
+        with pytest.raises(ValidationError, match="metrics.csv, named like unidyn's sweep"):
+            run_sweep(s, cut, progress=False, overwrite=overwrite)
+    assert (cut / "metrics.csv").read_bytes() == before
 
 
-LOOKALIKE = ["null", "1.50", "007", "Infinity", "true", "[1]", 'say "hi"', "x,y"]
+LOOKALIKE = ["null", "1.50", "007", "Infinity", "true", "[1]", 'say "hi"', "x,y",
+             '=HYPERLINK("http://example.com")', "+1", "-x", "@SUM(A1)", "'quoted"]
 
 
-def test_labels_and_strings_that_look_like_numbers_stay_as_written(tmp_path):
+def test_labels_and_strings_that_look_like_numbers_stay_as_written(tmp_path, monkeypatch):
     """A variant's label is text: "007" is not 7.0, "null" not empty, and a resumed
     sweep's metrics.csv is byte for byte that of an uninterrupted one."""
     s = Sweep(base={"T": 0.3, "noise": "off", "case": "kinematic"}, grid={"kx": [1.0, 2.0]},
@@ -240,11 +261,23 @@ def test_labels_and_strings_that_look_like_numbers_stay_as_written(tmp_path):
     again = run_sweep(s, tmp_path / "whole", progress=False)
     assert (again.ran, (tmp_path / "whole" / "metrics.csv").read_bytes()) == (0, text)
     cut = tmp_path / "cut"
-    run_sweep(s, cut, progress=False)
-    lines = (cut / "metrics.csv").read_text().splitlines(keepends=True)
-    (cut / "metrics.csv").write_text("".join(lines[:7]) + lines[7][:5])  # cut mid-row
+    _interrupted(s, cut, 2, monkeypatch, chunk_size=3)
     assert run_sweep(s, cut, progress=False).ran == len(LOOKALIKE) * 2 - 6
     assert (cut / "metrics.csv").read_bytes() == text
+
+
+def test_text_cells_that_spreadsheets_would_run_as_formulas_are_written_as_text(tmp_path):
+    """OWASP's CSV-injection rule: a text cell starting with = + - @ (or the quote
+    itself) gets a leading quote, which spreadsheets show as text; unidyn reads the
+    label back as it was given."""
+    labels = ['=HYPERLINK("http://example.com","x")', "+cmd", "-2+3", "@A1", "'x", "plain"]
+    s = Sweep(base={"T": 0.3, "noise": "off", "case": "kinematic"}, grid={"kx": [1.0]},
+              variants=[{"label": lab} for lab in labels])
+    run_sweep(s, tmp_path / "o", progress=False)
+    with open(tmp_path / "o" / "metrics.csv", newline="") as fh:
+        cells = [row[1] for row in list(csv.reader(fh))[1:]]
+    assert cells == ["'" + lab for lab in labels[:5]] + ["plain"]
+    assert [r["variant"] for r in read_metrics(tmp_path / "o")] == labels
 
 
 @pytest.mark.parametrize("bad", ["a\rb", "a\u2028b", "a\tb", "a\nb", ""])

@@ -18,6 +18,9 @@ from ..model.parameters import RobotParameters
 __all__ = ["IdentificationResult", "ValidationReport"]
 
 _NAMES = ("theta1", "theta2", "theta3", "theta4", "theta5", "theta6")
+#: Every file an identification's folder may hold: the estimate, then the validation
+#: that ``unidyn identify`` adds (the names its manifest may list).
+IDENTIFY_FILES = ("theta.json", "validation.json", "validation.png")
 
 
 @dataclass(frozen=True)
@@ -154,12 +157,12 @@ class IdentificationResult:
     def save(self, folder, overwrite: bool = False) -> Path:
         """Write ``theta.json`` (see :meth:`as_dict`) into ``folder`` (created if
         needed) and return its path. A folder holding an earlier identification is
-        refused unless ``overwrite``; then its ``theta.json``, ``validation.json`` and
-        ``validation.png`` are replaced or removed, nothing else (see
+        refused unless ``overwrite`` (True or False); then its ``theta.json``,
+        ``validation.json`` and ``validation.png`` are replaced or removed, nothing else,
+        and only if their content proves unidyn wrote them (see
         :mod:`unidyn.results.folders`)."""
-        with staged_output(folder, kind="identify", overwrite=overwrite,
-                           results=("theta.json",), what="identification results",
-                           owned=("theta.json", "validation.json", "validation.png"),
+        with staged_output(folder, kind="identify", names=IDENTIFY_FILES,
+                           overwrite=overwrite, what="identification results",
                            option="folder", flag="overwrite=True") as stage:
             write_atomic(stage.path / "theta.json",
                          json.dumps(self.as_dict(), indent=2, allow_nan=False) + "\n")

@@ -4,8 +4,8 @@ A command (``unidyn run``, ``unidyn identify``, a sweep started over, a script) 
 its files into a private folder inside ``out`` and moves them into place only when it
 has finished::
 
-    with staged_output(out, kind="run", overwrite=args.overwrite,
-                       results=("summary.json",), what="run results") as stage:
+    with staged_output(out, kind="run", names=RUN_FILES, overwrite=args.overwrite,
+                       what="run results") as stage:
         result.save(stage.path)            # write every file into stage.path
         if not result.complete:
             stage.incomplete(result.message)
@@ -13,22 +13,30 @@ has finished::
 
 What a user can rely on:
 
-- **Only the command's own files change.** ``out`` itself is never renamed, copied
-  or deleted, nor is anything in it that the command did not write: a user's notes,
-  a sub-folder, a file system mounted inside, files another process is writing. A
-  symbolic link ``out`` is followed: the results land in its target.
+- **A file is unidyn's only when its content proves it.** Each folder of results
+  has a manifest, ``.unidyn-<kind>.json``, that unidyn writes *before* it creates or
+  changes a file: the file's name (one of the few names that kind of command writes)
+  and the SHA-256 of the content it is about to have. A file counts as unidyn's
+  (:class:`Ledger`) only if such a manifest lists it and the file, a regular file with
+  a single link, still has that content. Anything else with a result's name -- a
+  user's ``path.png``, an edited ``summary.json``, a link -- is never replaced or
+  removed, with or without ``overwrite``: the command refuses up front and names it.
+- **A manifest is untrusted input.** Every entry must be one of the kind's file names
+  with a SHA-256; anything else (a path, ``..``, a folder, a huge or unreadable file)
+  is refused in one line naming the manifest and the entry, and nothing is changed.
+  Nothing read from disk is ever removed as a tree.
 - **An interruption or an error changes nothing.** Ctrl-C, an exception, ``kill``
   or ``kill -9`` while the block runs leave ``out``'s files as they were; the
   private folder (``.unidyn-<kind>-new-*``) is removed, after ``kill -9`` by the next
   command that writes ``out``.
 - **Each file is replaced atomically, and the set is recorded.** The finished files
   are renamed into place one by one (``os.replace``); Ctrl-C and SIGTERM are held
-  back meanwhile. A manifest ``.unidyn-<kind>.json`` then lists every file with its
-  SHA-256; until it is written it says the replacement is under way, so a reader
-  (:func:`check_manifest`) never takes files of two runs for one result, even after
-  ``kill -9`` in those milliseconds.
-- **Results are replaced only when asked** (``overwrite``); the earlier result's
-  files that the new one does not have (listed in the old manifest) are removed.
+  back meanwhile. Until the last one is in place the manifest says the replacement is
+  under way, so a reader (:func:`check_manifest`) never takes files of two runs for
+  one result, even after ``kill -9`` in those milliseconds.
+- **Results are replaced only when asked** (``overwrite``, a bool); the earlier
+  result's files that the new one does not have are removed if they are proven
+  unidyn's.
 - **One writer at a time.** The block holds ``out``'s :class:`FolderLock`.
 - **A partial result never replaces a complete one.** After :meth:`Stage.incomplete`
   the files go to the sibling folder ``<out>.incomplete`` if ``out`` holds results.
@@ -43,22 +51,27 @@ import hashlib
 import json
 import math
 import os
+import re
 import shutil
+import stat
 import tempfile
 import uuid
 from dataclasses import dataclass
 from pathlib import Path
 
-from .._validate import ValidationError
+from .._validate import ValidationError, flag as _flag
 from ..process import finishes_on_sigterm
 
-__all__ = ["Stage", "staged_output", "FolderLock", "FolderInUse", "LOCK_NAME",
-           "check_manifest", "record_files", "output_folder", "write_atomic", "json_ready"]
+__all__ = ["Stage", "staged_output", "Ledger", "FolderLock", "FolderInUse", "LOCK_NAME",
+           "check_manifest", "output_folder", "write_atomic", "json_ready"]
 
 #: The lock file that marks a folder as being written by a unidyn process.
 LOCK_NAME = ".unidyn.lock"
 _PREFIX = ".unidyn"  # the lock, manifests and private folders: never a result file
 _STAGES: set = set()  # the private folders being written by this process
+_SHA256 = re.compile(r"sha256:[0-9a-f]{64}\Z")
+#: The largest manifest read: one lists a handful of names and hashes.
+MAX_MANIFEST_BYTES = 1 << 16
 
 
 class FolderInUse(ValidationError):
@@ -120,30 +133,6 @@ def output_folder(out, option: str = "--out") -> Path:
     return path
 
 
-def _manifest_path(folder: Path, kind: str) -> Path:
-    return folder / f"{_PREFIX}-{kind}.json"
-
-
-def _read_manifest(folder: Path, kind: str):
-    try:
-        m = json.loads(_manifest_path(folder, kind).read_text())
-        return m if isinstance(m, dict) and isinstance(m.get("files"), dict) else {"files": {}}
-    except FileNotFoundError:
-        return None
-    except (OSError, ValueError):
-        return {"files": {}}  # unreadable: as a replacement cut short
-
-
-def _sha256(path: Path):
-    if not path.is_file():
-        return None
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-    return "sha256:" + h.hexdigest()
-
-
 def json_ready(value):
     """Plain data with every non-finite float replaced by None, for strict JSON (a
     scenario's infinite limit, "no limit", is written ``null``, which
@@ -180,38 +169,280 @@ def write_atomic(path, text: str, more=()) -> None:
         raise
 
 
-def _write_manifest(folder: Path, kind: str, files: dict, complete: bool, run_id: str):
-    text = json.dumps({"kind": kind, "id": run_id, "complete": complete, "files": files},
-                      indent=2)
-    write_atomic(_manifest_path(folder, kind), text + "\n")
+
+def _manifest_path(folder: Path, kind: str) -> Path:
+    return folder / f"{_PREFIX}-{kind}.json"
 
 
-def check_manifest(folder, kind: str, names=()) -> str:
-    """What is wrong with ``folder``'s results of ``kind`` ("" if nothing): a
-    replacement cut short, or any of ``names`` not the file its manifest lists. A
-    folder without a manifest (written before manifests) passes."""
+def _digest(path: Path):
+    """The running SHA-256 of a file's bytes (a ``hashlib`` object, which can go on)."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h
+
+
+def _hex(digest) -> str:
+    return "sha256:" + digest.hexdigest()
+
+
+class Ledger:
+    """The files of one kind of result that unidyn wrote in ``folder``, proven by content.
+
+    Its record is the manifest ``.unidyn-<kind>.json``::
+
+        {"kind": "run", "id": "...", "complete": true,
+         "files": {"summary.json": ["sha256:..."], ...}}
+
+    A name maps to the SHA-256 of the content unidyn gave the file, or to two of them
+    while unidyn replaces it (before and after: the manifest is written before the
+    file changes). :meth:`owns` is true only for a listed name whose file is a regular
+    file with one link and one of the listed hashes.
+
+    :param folder: the folder (a real path: links already followed by the caller)
+    :param kind: ``"run"``, ``"identify"``, ``"sweep"``, ...: one manifest per kind
+    :param names: every file name this kind of command writes (``"summary.json"``; a
+        file in a result's own folder as ``"case1/summary.json"``); a manifest listing
+        anything else is refused
+    :raises ValidationError: the manifest is not one unidyn could have written
+    """
+
+    def __init__(self, folder, kind: str, names):
+        self.folder, self.kind, self.names = Path(folder), kind, tuple(names)
+        self.path = _manifest_path(self.folder, kind)
+        self.files: dict = {}
+        self.complete = True
+        self.id = uuid.uuid4().hex
+        self.exists = os.path.lexists(self.path)
+        self._proven: dict = {}  # name -> running digest of the content it was proven by
+        if self.exists:
+            self._load()
+
+    def _refuse(self, why: str) -> ValidationError:
+        return ValidationError(f"{self.path} {why}; nothing was changed (move the folder's "
+                               f"results and this file elsewhere, or choose another folder)")
+
+    def _load(self) -> None:
+        st = os.lstat(self.path)
+        if not stat.S_ISREG(st.st_mode):
+            raise self._refuse("is not a regular file, so not a manifest unidyn wrote")
+        if st.st_size > MAX_MANIFEST_BYTES:
+            raise self._refuse(f"has {st.st_size} bytes, more than a manifest unidyn writes")
+        try:
+            data = json.loads(self.path.read_bytes())
+        except (OSError, ValueError) as err:  # UnicodeDecodeError is a ValueError
+            raise self._refuse(f"is not a manifest unidyn wrote ({err})") from None
+        if not isinstance(data, dict) or not isinstance(data.get("files"), dict):
+            raise self._refuse("is not a manifest unidyn wrote (it has no table of files)")
+        for name, hashes in data["files"].items():
+            if name not in self.names:
+                raise self._refuse(f"lists {name!r}, which is not a file unidyn {self.kind} "
+                                   f"writes (those are {', '.join(self.names)})")
+            if isinstance(hashes, str):
+                hashes = [hashes]
+            if not (isinstance(hashes, list) and 1 <= len(hashes) <= 2
+                    and all(isinstance(h, str) and _SHA256.match(h) for h in hashes)):
+                raise self._refuse(f"lists {name!r} without the SHA-256 of its content")
+            self.files[name] = list(hashes)
+        self.complete = data.get("complete") is True
+        if isinstance(data.get("id"), str):
+            self.id = data["id"]
+
+    def _lstat(self, name: str):
+        """``os.lstat`` of ``folder/name``; None when it is not there, False when a
+        folder on its way is a link or not a folder (a link is never followed)."""
+        path = self.folder
+        *parents, last = name.split("/")
+        for part in parents:
+            path = path / part
+            try:
+                if not stat.S_ISDIR(os.lstat(path).st_mode):
+                    return False
+            except FileNotFoundError:
+                return None
+        try:
+            return os.lstat(path / last)
+        except FileNotFoundError:
+            return None
+
+    def owns(self, name: str) -> bool:
+        """Whether ``folder/name`` is a file unidyn wrote, as it wrote it."""
+        hashes = self.files.get(name)
+        st = self._lstat(name) if hashes else None
+        if not st or not stat.S_ISREG(st.st_mode) or st.st_nlink != 1:
+            return False
+        digest = _digest(self.folder / name)
+        if _hex(digest) not in hashes:
+            return False
+        self._proven[name] = digest
+        return True
+
+    def present(self) -> list:
+        """The kind's names that are in the folder (files, folders or links), or that a
+        link or a file stands in the way of."""
+        return [n for n in self.names if self._lstat(n) is not None]
+
+    def sort(self) -> tuple:
+        """``(held, foreign)``: the names in the folder that are unidyn's, and those
+        that are not (a user's files, edited results, links, folders)."""
+        held, foreign = [], []
+        for n in self.present():
+            (held if self.owns(n) else foreign).append(n)
+        return held, foreign
+
+    def _save(self) -> None:
+        text = json.dumps({"kind": self.kind, "id": self.id, "complete": self.complete,
+                           "files": self.files}, indent=2)
+        write_atomic(self.path, text + "\n")
+        self.exists = True
+
+    def _claim(self, name: str, digest) -> None:
+        """Record ``digest`` as what ``name`` is about to hold, beside what it holds now
+        (which must be unidyn's: a file of the user's is never replaced)."""
+        if name not in self.names:
+            raise ValueError(f"{name!r} is not a file of unidyn's {self.kind} results")
+        now = self._proven.get(name)
+        if now is None and os.path.lexists(self.folder / name) and not self.owns(name):
+            raise ValidationError(foreign_files(self.folder, [name], "results"))
+        now = self._proven.get(name)
+        self.files[name] = ([] if now is None else [_hex(now)]) + [_hex(digest)]
+
+    def _settle(self, name: str, digest) -> None:
+        self.files[name] = [_hex(digest)]
+        self._proven[name] = digest
+
+    def replace(self, sources: dict, remove=(), as_set: bool = False) -> None:
+        """Move finished files into place: ``sources`` maps a name to a file in this
+        folder or a private folder inside it; ``remove`` names files of unidyn's to
+        delete. With ``as_set``, the manifest says the results are incomplete until
+        every file is in place (a set of files that belong together)."""
+        digests = {n: _digest(src) for n, src in sources.items()}
+        for n, d in digests.items():
+            self._claim(n, d)
+        if as_set:
+            self.complete = False
+        self._save()
+        for n, src in sources.items():
+            (self.folder / n).parent.mkdir(exist_ok=True)  # a result's own folder
+            _move(Path(src), self.folder / n)
+        for n in remove:
+            self._unlink(n)
+        for n, d in digests.items():
+            self._settle(n, d)
+        if as_set:
+            self.complete = True
+        self._save()
+
+    def write_with(self, name: str, write) -> Path:
+        """Have ``write(path)`` write the file at a temporary path beside it (with
+        ``name``'s suffix, which a figure's format is read from), then move it into
+        place as ``name``."""
+        fd, tmp = tempfile.mkstemp(dir=self.folder, prefix=f"{_PREFIX}-tmp-",
+                                   suffix=Path(name).suffix)
+        os.close(fd)
+        try:
+            write(Path(tmp))
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the usual mode
+            self.replace({name: tmp})
+        except BaseException:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+            raise
+        return self.folder / name
+
+    def write(self, name: str, text: str) -> Path:
+        """Write ``text`` as ``name``, atomically (a temporary file, then a rename)."""
+        def put(path):
+            with open(path, "w", newline="") as fh:
+                fh.write(text)
+        return self.write_with(name, put)
+
+    def append(self, name: str, text: str) -> None:
+        """Add ``text`` at the end of ``name`` (unidyn's, proven by :meth:`owns`), in one
+        write, recording the content it will have before writing it."""
+        if name not in self._proven and not self.owns(name):
+            raise ValidationError(foreign_files(self.folder, [name], "results"))
+        data = text.encode()
+        after = self._proven[name].copy()
+        after.update(data)
+        self._claim(name, after)
+        self._save()
+        path = self.folder / name
+        fd = os.open(path, os.O_WRONLY | os.O_APPEND)
+        size = os.fstat(fd).st_size
+        try:
+            view = memoryview(data)
+            while view:
+                view = view[os.write(fd, view):]
+            os.fsync(fd)
+        except OSError as err:  # a full disk: back to what it held, which stays proven
+            with contextlib.suppress(OSError):
+                os.ftruncate(fd, size)
+            raise OSError(err.errno, err.strerror, str(path)) from None
+        finally:
+            os.close(fd)
+        self._settle(name, after)
+        self._save()
+
+    def _unlink(self, name: str) -> None:
+        """Delete ``name`` if it is unidyn's, and its folder if that is left empty."""
+        if self.owns(name):
+            os.unlink(self.folder / name)
+            if "/" in name:
+                with contextlib.suppress(OSError):  # not empty: something of the user's
+                    (self.folder / name).parent.rmdir()
+        self.files.pop(name, None)
+        self._proven.pop(name, None)
+
+    def discard(self, name: str) -> None:
+        """Delete ``name`` if it is unidyn's (anything else is left as it is)."""
+        self._unlink(name)
+        if self.files:
+            self._save()
+        elif self.exists:
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(self.path)
+            self.exists = False
+
+
+def foreign_files(folder, names, what: str, option: str = "--out") -> str:
+    """The refusal for files with a result's name that unidyn cannot prove it wrote."""
+    return (f"{folder} holds {', '.join(names)}, named like unidyn's {what} but not "
+            f"written by unidyn as they are now (a file of yours, a link, a folder, or a "
+            f"result edited since); unidyn never replaces or removes such files, with or "
+            f"without overwriting: move them elsewhere or choose another {option}")
+
+
+def check_manifest(folder, kind: str, names, files=()) -> str:
+    """What is wrong with ``folder``'s results of ``kind`` ("" if nothing): a manifest
+    unidyn did not write, a replacement cut short, or any of ``files`` not the file
+    unidyn wrote. A folder without a manifest passes (nothing to compare)."""
     folder = Path(folder)
-    m = _read_manifest(folder, kind)
-    if m is None:
+    try:
+        ledger = Ledger(folder, kind, names)
+    except ValidationError as err:
+        return str(err)
+    if not ledger.exists:
         return ""
-    if m.get("complete") is not True:
+    if not ledger.complete:
         return (f"{folder} holds {kind} results whose replacement was cut short (its files "
                 f"may come from two runs)")
-    for n in names:
-        want = m["files"].get(n)
-        if want is not None and _sha256(folder / n) != want:
+    for n in files:
+        if os.path.lexists(folder / n) and not ledger.owns(n):
             return (f"{folder / n} is not the file its run wrote (it differs from "
-                    f"{_manifest_path(folder, kind).name}: another run's file, or edited)")
+                    f"{ledger.path.name}: another run's file, or edited)")
     return ""
 
 
-def record_files(folder, kind: str, names, hashes: bool = True) -> None:
-    """Add files that a command wrote into ``folder`` itself (outside
-    :func:`staged_output`) to the manifest of its results."""
-    folder = Path(folder)
-    m = _read_manifest(folder, kind) or {"files": {}, "id": uuid.uuid4().hex}
-    m["files"].update({n: _sha256(folder / n) if hashes else None for n in names})
-    _write_manifest(folder, kind, m["files"], True, m.get("id", ""))
+def _remove_stage(path: Path) -> None:
+    """Remove a private folder of this module's: one it made, or one by that reserved
+    name (``.unidyn-<kind>-new-*``) left by a process that was killed. A link by that
+    name is left alone, and links inside are removed, never followed."""
+    if not path.is_symlink() and path.is_dir():
+        shutil.rmtree(path, ignore_errors=True)
 
 
 @dataclass
@@ -238,26 +469,25 @@ class Stage:
 
 
 @contextlib.contextmanager
-def staged_output(out, *, overwrite: bool, results, what: str = "results", owned=None,
-                  kind: str = "results", option: str = "--out", flag: str = "--overwrite",
-                  lock: bool = True, hashes: bool = True):
+def staged_output(out, *, kind: str, names, overwrite: bool, what: str = "results",
+                  option: str = "--out", flag: str = "--overwrite", lock: bool = True):
     """Write a command's results into ``out`` (see the module docstring).
 
     :param out: the output folder (created if needed, with its parents)
-    :param overwrite: replace results that ``out`` already holds
-    :param results: file names whose presence in ``out`` means it holds results
-    :param what: what the results are, for messages ("run results")
-    :param owned: names the command writes, removed on replacement from a folder
-        written before manifests (default: ``results``)
     :param kind: names the manifest (``.unidyn-<kind>.json``): one per kind of result
+    :param names: every file name this kind of result may have (plain names)
+    :param overwrite: replace results that ``out`` already holds (a bool)
+    :param what: what the results are, for messages ("run results")
     :param option: how the caller named ``out``, and ``flag`` how it asks to
         overwrite, for messages (``"--out"``, ``"--overwrite"`` on the command line)
     :param lock: hold ``out``'s :class:`FolderLock` (False: the caller holds it)
-    :param hashes: record each file's SHA-256 (False for files appended to later)
-    :raises ValidationError: ``out`` is a file, or holds results and ``overwrite`` is
-        false; :class:`FolderInUse` if another process holds ``out``'s lock
+    :raises ValidationError: ``out`` is a file; it holds results and ``overwrite`` is
+        false; it holds files with a result's name that unidyn did not write; its
+        manifest is not one unidyn wrote. :class:`FolderInUse` if another process holds
+        ``out``'s lock
     """
     final = output_folder(out, option)
+    overwrite = _flag("overwrite" if flag.startswith("overwrite") else flag, overwrite)
     if final in _STAGES:  # called by code writing into a stage (save() by a command)
         yield Stage(final)
         return
@@ -266,30 +496,28 @@ def staged_output(out, *, overwrite: bool, results, what: str = "results", owned
     try:
         with (FolderLock(final) if lock else contextlib.nullcontext()):
             for p in final.glob(f"{_PREFIX}-*-new-*"):  # left by a killed process
-                shutil.rmtree(p, ignore_errors=True)
-            old = _read_manifest(final, kind)
-            held = tuple(dict.fromkeys([n for n in results if (final / n).exists()]
-                                       + [n for n in (old or {"files": {}})["files"]
-                                          if (final / n).exists()]))
+                _remove_stage(p)
+            held, foreign = Ledger(final, kind, names).sort()
+            if foreign:
+                raise ValidationError(foreign_files(out, foreign, what, option))
             if held and not overwrite:
                 raise ValidationError(f"{out} already holds {what} ({', '.join(held)}); pass "
                                       f"{flag} to replace them (they are kept until the new "
                                       f"{what} are complete) or choose another {option}")
             stage = Stage(Path(tempfile.mkdtemp(prefix=f"{_PREFIX}-{kind}-new-", dir=final)),
-                          held=held)
+                          held=tuple(held))
             _STAGES.add(stage.path)
             try:
                 yield stage
                 with _interrupts_deferred():
-                    stage.final = _commit(stage, final, kind, tuple(owned or results),
-                                          what, hashes)
+                    stage.final = _commit(stage, final, kind, names, what, option)
             except OSError as err:
                 if err.errno in (errno.ENOSPC, errno.EDQUOT):
                     raise _disk_full(err, stage, out, final) from None
                 raise
             finally:
                 _STAGES.discard(stage.path)
-                shutil.rmtree(stage.path, ignore_errors=True)
+                _remove_stage(stage.path)
     except BaseException:
         if created:  # nothing was written: leave no empty folder behind
             with contextlib.suppress(OSError):
@@ -297,9 +525,9 @@ def staged_output(out, *, overwrite: bool, results, what: str = "results", owned
         raise
 
 
-def _commit(stage: Stage, out: Path, kind, owned, what, hashes) -> Path:
+def _commit(stage: Stage, out: Path, kind, names, what, option) -> Path:
     """Move the staged files into ``out`` (or ``<out>.incomplete``), remove the
-    earlier result's files that the new one lacks, write the manifest."""
+    earlier result's files that the new one lacks, record them in the manifest."""
     target = out
     if stage.partial and stage.held:
         if out.parent == out:
@@ -307,31 +535,28 @@ def _commit(stage: Stage, out: Path, kind, owned, what, hashes) -> Path:
                                   f"as it was")
         target = out.with_name(out.name + ".incomplete")
         target.mkdir(exist_ok=True)
-    old = _read_manifest(target, kind)
-    earlier = set(owned if old is None else old["files"])  # the earlier result's names
-    new = sorted(n for n in os.listdir(stage.path) if not n.startswith(_PREFIX))
-    for n in new:
-        p = target / n
-        if p.is_dir() and not p.is_symlink() and n not in earlier:
-            raise ValidationError(f"{p} is a folder that these {what} did not write; "
-                                  f"{target} is as it was")
-    run_id = uuid.uuid4().hex
-    files = {n: _sha256(stage.path / n) if hashes else None for n in new}
-    _write_manifest(target, kind, files, False, run_id)  # under way, until the last line
+    ledger = Ledger(target, kind, names)
+    held, foreign = ledger.sort()  # again: a file may have appeared while the run ran
+    if foreign:
+        raise ValidationError(foreign_files(target, foreign, what, option))
+    new = _files_in(stage.path)
     stage.moving = True
-    for n in new:
-        p = target / n
-        if p.is_dir() and not p.is_symlink():  # a folder of the earlier result: aside
-            os.rename(p, stage.path / f"{_PREFIX}-old-{n}")
-        _move(stage.path / n, p)
-    for n in sorted(earlier - set(new)):
-        p = target / n
-        if p.is_dir() and not p.is_symlink():
-            shutil.rmtree(p, ignore_errors=True)
-        elif p.is_file() or p.is_symlink():
-            p.unlink()
-    _write_manifest(target, kind, files, True, run_id)
+    ledger.replace({n: stage.path / n for n in new},
+                   remove=[n for n in held if n not in new], as_set=True)
     return target
+
+
+def _files_in(stage: Path) -> list:
+    """The files written into a private folder, as names relative to it (``a.csv``,
+    ``case1/summary.json``), leaving out this module's own (``.unidyn*``) at its top."""
+    out = []
+    for root, dirs, files in os.walk(stage):
+        rel = Path(root).relative_to(stage)
+        if rel == Path("."):
+            dirs[:] = [d for d in dirs if not d.startswith(_PREFIX)]
+            files = [f for f in files if not f.startswith(_PREFIX)]
+        out += [(rel / f).as_posix() for f in files]
+    return sorted(out)
 
 
 def _move(src: Path, dst: Path) -> None:
@@ -341,7 +566,7 @@ def _move(src: Path, dst: Path) -> None:
         if err.errno != errno.EXDEV:
             raise
         tmp = dst.with_name(f"{_PREFIX}-new-{dst.name}")
-        (shutil.copytree if src.is_dir() else shutil.copy2)(src, tmp)
+        shutil.copy2(src, tmp)
         os.replace(tmp, dst)
 
 
@@ -352,8 +577,9 @@ def _disk_full(err: OSError, stage: Stage, out, final: Path) -> OSError:
         where = Path(out) / where.relative_to(stage.path)
     what = f"writing {where}" if where else f"writing into {out}"
     if stage.moving:
-        kept = (f"the new files are in place but not recorded; run the command again "
-                f"to write a complete set")
+        kept = (f"the replacement was cut short, so {out} may hold files of both "
+                f"results (its manifest says so); run the command again to write a "
+                f"complete set")
     elif stage.held:
         kept = f"the earlier results in {out} are intact (nothing was replaced)"
     else:

@@ -12,10 +12,14 @@ from .. import __version__
 from . import plots
 from .folders import json_ready, staged_output, write_atomic
 
-__all__ = ["Result", "metrics", "distance", "write_atomic", "RESULT_FILES"]
+__all__ = ["Result", "metrics", "distance", "write_atomic", "RESULT_FILES", "RUN_FILES"]
 
 #: The files of a run's results (figures may join them: see :func:`unidyn.results.plots.save_figures`).
 RESULT_FILES = ("timeseries.csv", "summary.json")
+#: Every file a run's folder may hold: the data, then the figures and the animation
+#: that ``unidyn run`` adds (the names its manifest may list).
+RUN_FILES = RESULT_FILES + ("path.png", "error.png", "positions.png", "velocities.png",
+                            "theta_hat.png", "animation.gif")
 
 
 #: Samples a metric is accumulated over at a time (float64), so that a long series
@@ -192,13 +196,14 @@ class Result:
         """Write ``timeseries.csv`` and ``summary.json`` into ``folder`` (created if
         needed, a symbolic link followed) and return it.
 
-        A folder that holds an earlier run's results is refused unless ``overwrite``;
-        then the earlier run's files are replaced, and those this one does not write
-        (its figures, listed in the folder's manifest ``.unidyn-run.json``) removed.
-        Nothing else in the folder is touched. The files are written in full before
+        A folder that holds an earlier run's results is refused unless ``overwrite``
+        (True or False); then the earlier run's files are replaced, and those this one
+        does not write (its figures) removed. Only files that the folder's manifest
+        ``.unidyn-run.json`` proves unidyn wrote, by their content, are replaced or
+        removed: a file of yours with a result's name is refused, never touched. The files are written in full before
         any is replaced, so an error or an interrupt leaves the folder as it was (see
         :mod:`unidyn.results.folders`)."""
-        with staged_output(folder, kind="run", overwrite=overwrite, results=RESULT_FILES,
+        with staged_output(folder, kind="run", names=RUN_FILES, overwrite=overwrite,
                            what="run results", option="folder",
                            flag="overwrite=True") as stage:
             self._write(stage.path)

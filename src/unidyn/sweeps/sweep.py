@@ -38,6 +38,7 @@ sweep figures are drawn by :mod:`unidyn.results.plots`, chunks run on Dask throu
 from __future__ import annotations
 
 import dataclasses
+import errno
 import itertools
 import json
 import math
@@ -54,18 +55,18 @@ import numpy as np
 from .. import __version__
 from .cluster import connect_dask, run_on_dask
 from .._errors import Interrupted
-from .._validate import ValidationError, choice, integer
+from .._validate import ValidationError, choice, flag, integer
 from ..engine.batch import DEFAULT_SUBSTEPS, MAX_SUBSTEPS, simulate_batch
 from .sweep_files import (ID_NAME, MAX_POINTS, METRICS, RECORD_NAME, cell, check_keys,
                           expand_range, finished_rows, is_number, plain, text, read_rows,
                           read_sweep_id, read_sweep_record, read_toml, rows_text,
-                          scenario_from_layers, write_rows, write_sweep_id, write_sweep_record)
-from ..results.folders import (FolderLock, check_manifest, json_ready, output_folder,
-                               record_files, staged_output, write_atomic)
+                          scenario_from_layers, sweep_id_text, sweep_record_text)
+from ..results.folders import (FolderLock, Ledger, check_manifest, foreign_files, json_ready,
+                               output_folder, staged_output)
 from .plots import plot_metrics
 from ..diagrams.simulate import simulate
 
-__all__ = ["Sweep", "Point", "SweepRun", "run_sweep", "sweep_id", "ENGINES"]
+__all__ = ["Sweep", "Point", "SweepRun", "run_sweep", "sweep_id", "ENGINES", "SWEEP_FILES"]
 
 #: ``"batch"``: :func:`unidyn.engine.batch.simulate_batch`, one call per chunk (sampled-control
 #: points go through :func:`unidyn.simulate`); ``"bdsim"``: :func:`unidyn.simulate` per point.
@@ -345,10 +346,10 @@ def _progress_bar(enabled, total, initial):
                 dynamic_ncols=True)
 
 
-#: Files whose presence means a folder holds a sweep's results.
-_SWEEP_RESULTS = ("metrics.csv", RECORD_NAME)
-#: Every file a sweep writes (none of them is carried over when a sweep starts over).
-_SWEEP_OWNED = ("metrics.csv", RECORD_NAME, "metrics.png", "claims.md", "fig11.png", ID_NAME)
+#: Every file a sweep's folder may hold (the names its manifest may list): the rows, the
+#: record of the sweep, its figure, and the Fig. 11 claims and figure of ``unidyn sweep
+#: --paper-fig11``. None of them is carried over when a sweep starts over.
+SWEEP_FILES = ("metrics.csv", RECORD_NAME, ID_NAME, "metrics.png", "claims.md", "fig11.png")
 
 
 def sweep_id(sweep: Sweep) -> str:
@@ -384,7 +385,7 @@ def _what_is_held(out: Path, record: dict) -> tuple:
     spec_path, csv_path = out / RECORD_NAME, out / "metrics.csv"
     if not spec_path.exists() and not csv_path.exists():
         return "none", ""
-    problem = check_manifest(out, "sweep")
+    problem = check_manifest(out, "sweep", SWEEP_FILES)
     if problem:  # a replacement killed half way: rows and record may not match
         return "unknown", problem.replace(f"{out} holds", "it holds")
     if spec_path.exists():
@@ -476,6 +477,7 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
     if not isinstance(sweep, Sweep):
         raise ValidationError(f"sweep must be a unidyn.sweeps.sweep.Sweep, got {type(sweep).__name__}")
     engine = choice("engine", engine, ENGINES)
+    resume, overwrite = flag("resume", resume), flag("overwrite", overwrite)
     if chunk_size is None:
         chunk_size = DEFAULT_CHUNK[engine]
     chunk_size = integer("chunk_size", chunk_size, 1)
@@ -491,6 +493,10 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
         out.mkdir(parents=True, exist_ok=True)
         with FolderLock(out) as lock:
             try:
+                held, foreign = Ledger(out, "sweep", SWEEP_FILES).sort()
+                if foreign:
+                    raise ValidationError(foreign_files(out, foreign, "sweep results",
+                                                        "output folder"))
                 state, detail = _what_is_held(out, record)
                 rows_held = finished_rows(out / "metrics.csv") if state != "none" else []
                 if state == "same" and resume:
@@ -502,9 +508,8 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
                     return _run_in(sweep, out, record, engine, chunk_size, progress, client,
                                    t0, resume=False)
                 try:
-                    with staged_output(out, kind="sweep", overwrite=True, hashes=False,
-                                       results=_SWEEP_RESULTS, what="sweep results",
-                                       owned=_SWEEP_OWNED, lock=False) as stage:  # held above
+                    with staged_output(out, kind="sweep", names=SWEEP_FILES, overwrite=True,
+                                       what="sweep results", lock=False) as stage:  # held above
                         run = _run_in(sweep, stage.path, record, engine, chunk_size,
                                       progress, client, t0, resume=False)
                 except BaseException as err:
@@ -555,8 +560,10 @@ def _remove_if_empty(folder: Path) -> None:
 
 def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume) -> SweepRun:
     """Run the sweep in ``out`` (locked by the caller or private): resume from its rows,
-    or start it afresh."""
+    or start it afresh. Every file is written through the folder's :class:`Ledger`,
+    which records its content before it changes."""
     columns = sweep.columns
+    ledger = Ledger(out, "sweep", SWEEP_FILES)
     csv_path = out / "metrics.csv"
     done = {}
     if resume and csv_path.exists():
@@ -564,13 +571,15 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
         valid = {p.index for p in sweep.points()}
         done = {r["index"]: r for r in rows if r["index"] in valid}
         if not clean:  # drop a line cut short by an interruption
-            write_atomic(csv_path, rows_text(columns, sorted(done.values(),
-                                                             key=lambda r: r["index"])))
+            ledger.write("metrics.csv", rows_text(columns, sorted(done.values(),
+                                                                 key=lambda r: r["index"])))
     written = []  # files this call created, removed again if it fails before a row
     if not done:
-        write_atomic(csv_path, rows_text(columns, []))
-        written.append(csv_path)
-    written += [write_sweep_id(out, record), write_sweep_record(out, record, finished=False)]
+        ledger.write("metrics.csv", rows_text(columns, []))
+        written.append("metrics.csv")
+    ledger.write(ID_NAME, sweep_id_text(record))
+    ledger.write(RECORD_NAME, sweep_record_text(record, finished=False))
+    written += [ID_NAME, RECORD_NAME]
 
     pending = [p for p in sweep.points() if p.index not in done]
     chunks = [[tuple(p) for p in pending[i:i + chunk_size]]
@@ -578,46 +587,40 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
     new_rows = []
     bar = _progress_bar(progress, len(sweep), len(done))
     try:
-        with open(csv_path, "a", newline="") as fh:
+        def take(rows):
+            ledger.append("metrics.csv", rows_text(columns, rows, header=False))
+            new_rows.extend(rows)
+            bar.update(len(rows))
 
-            def take(rows):
-                write_rows(fh, columns, rows)
-                fh.flush()
-                os.fsync(fh.fileno())
-                new_rows.extend(rows)
-                bar.update(len(rows))
-
-            if client is None:
-                for chunk in chunks:
-                    take(_run_chunk(chunk, engine, sweep.substeps))
-            elif chunks:
-                run_on_dask(client, _run_chunk, chunks, take, engine=engine,
-                            substeps=sweep.substeps)
+        if client is None:
+            for chunk in chunks:
+                take(_run_chunk(chunk, engine, sweep.substeps))
+        elif chunks:
+            run_on_dask(client, _run_chunk, chunks, take, engine=engine,
+                        substeps=sweep.substeps)
     except BaseException as err:
         if not done and not new_rows:  # nothing finished: leave nothing behind
-            for p in written:
-                try:
-                    p.unlink()
-                except FileNotFoundError:
-                    pass
-            raise _kept(err, f"no point had finished; nothing was written to {out}")
+            for name in written:
+                ledger.discard(name)
+            kept = f"no point had finished; nothing was written to {out}"
         else:  # count what the file holds: Ctrl-C may land between a write and its count
-            raise _kept(err, f"{len(set(finished_rows(csv_path)))} of {len(sweep)} points "
-                             f"are in {out / 'metrics.csv'}; run the same command again "
-                             f"to resume")
+            kept = (f"{len(set(finished_rows(csv_path)))} of {len(sweep)} points are in "
+                    f"{csv_path}, intact; run the same command again to resume")
+        if isinstance(err, OSError) and err.errno in (errno.ENOSPC, errno.EDQUOT):
+            raise OSError(err.errno, f"{os.strerror(err.errno)} writing "
+                                     f"{err.filename or out}; {kept}") from None
+        raise _kept(err, kept)
     finally:
         bar.close()
 
     rows = sorted([*done.values(), *new_rows], key=lambda r: r["index"])
-    write_atomic(csv_path, rows_text(columns, rows))
+    ledger.write("metrics.csv", rows_text(columns, rows))
     failed = [r["index"] for r in rows if not r["complete"]]
     seconds = time.perf_counter() - t0
-    write_sweep_record(out, record, finished=True, failed=failed)
+    ledger.write(RECORD_NAME, sweep_record_text(record, finished=True, failed=failed))
     try:
-        plot_metrics(sweep, rows, out / "metrics.png")
+        ledger.write_with("metrics.png", lambda path: plot_metrics(sweep, rows, path))
     except ImportError:  # no matplotlib: the data is what matters
         pass
-    # the files of these results, for a later overwrite (no hashes: rows are appended)
-    record_files(out, "sweep", [n for n in _SWEEP_OWNED if (out / n).exists()], hashes=False)
     return SweepRun(out_dir=out, rows=rows, ran=len(new_rows), skipped=len(done),
                     seconds=seconds, failed=failed)

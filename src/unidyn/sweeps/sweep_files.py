@@ -8,9 +8,9 @@ r"""Reading and writing scenario and sweep files: one module for ``unidyn run``,
   ``{start, stop, num, log}``), :func:`check_keys` (a table of Scenario fields and the
   special keys :data:`SPECIAL_KEYS`), :func:`scenario_from_layers` (the Scenario of
   stacked tables: base, variant, grid point), :func:`plain` (plain data for a value).
-- A sweep's folder: its record ``sweep.json`` (:func:`write_sweep_record`,
+- A sweep's folder: its record ``sweep.json`` (:func:`sweep_record_text`,
   :func:`read_sweep_record`: the definition, its id, engine and library version) and
-  ``.sweep-id`` (:func:`write_sweep_id`, :func:`read_sweep_id`); its ``metrics.csv``
+  ``.sweep-id`` (:func:`sweep_id_text`, :func:`read_sweep_id`); its ``metrics.csv``
   (:func:`read_metrics`, and the cell format of :func:`cell`, :func:`rows_text` and
   :func:`write_rows` that makes every row read back as written).
 """
@@ -30,12 +30,12 @@ import numpy as np
 
 from .._errors import MissingDependency
 from .._validate import ValidationError, integer, positive, real
-from ..results.folders import json_ready, write_atomic
+from ..results.folders import json_ready
 from ..model.scenario import Scenario, plain_value
 
 __all__ = ["read_toml", "parse_toml_value", "read_scenario_table", "expand_range",
-           "check_keys", "scenario_from_layers", "plain", "read_metrics", "write_sweep_record",
-           "read_sweep_record", "write_sweep_id", "read_sweep_id", "MissingDependency",
+           "check_keys", "scenario_from_layers", "plain", "read_metrics", "sweep_record_text",
+           "read_sweep_record", "sweep_id_text", "read_sweep_id", "MissingDependency",
            "SPECIAL_KEYS", "METRICS", "MAX_POINTS", "RECORD_NAME", "ID_NAME"]
 
 #: Keys that are not Scenario fields but set one or more of them.
@@ -269,12 +269,10 @@ RECORD_NAME = "sweep.json"
 ID_NAME = ".sweep-id"
 
 
-def write_sweep_record(folder, record: dict, **state) -> Path:
-    """Write ``sweep.json`` in ``folder``: the record and the state of the run
-    (``finished``, ``failed``); returns its path."""
-    path = Path(folder) / RECORD_NAME
-    write_atomic(path, json.dumps(json_ready({**record, **state}), indent=2, allow_nan=False) + "\n")
-    return path
+def sweep_record_text(record: dict, **state) -> str:
+    """The text of ``sweep.json``: the record and the state of the run (``finished``,
+    ``failed``)."""
+    return json.dumps(json_ready({**record, **state}), indent=2, allow_nan=False) + "\n"
 
 
 def read_sweep_record(folder) -> dict:
@@ -285,11 +283,9 @@ def read_sweep_record(folder) -> dict:
     return record
 
 
-def write_sweep_id(folder, record: dict) -> Path:
-    """Write ``.sweep-id`` in ``folder``: the sweep's id and engine; returns its path."""
-    path = Path(folder) / ID_NAME
-    write_atomic(path, f"{record['id']} {record['engine']}\n")
-    return path
+def sweep_id_text(record: dict) -> str:
+    """The text of ``.sweep-id``: the sweep's id and engine."""
+    return f"{record['id']} {record['engine']}\n"
 
 
 def read_sweep_id(folder) -> list:
@@ -327,7 +323,27 @@ def read_rows(path: Path, columns: list):
     return rows, clean
 
 
+#: What a spreadsheet takes a cell starting with for a formula (OWASP's CSV-injection
+#: list), and the quote that makes such a cell text.
+_FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
+_QUOTE = "'"
+
+
+def _as_text(text: str) -> str:
+    """A text cell that spreadsheets show as text: one starting with a formula
+    character (or with the quote itself, so that reading back is exact) gets a
+    leading quote."""
+    return _QUOTE + text if text.startswith(_FORMULA_START + (_QUOTE,)) else text
+
+
+def _from_text(text: str) -> str:
+    """The text :func:`_as_text` wrote."""
+    return text[1:] if text.startswith(_QUOTE) else text
+
+
 def _parse_cell(text: str):
+    if text.startswith(_QUOTE):
+        return _from_text(text)
     if text == "":
         return None
     try:
@@ -351,7 +367,7 @@ def _parse_row(rec: dict) -> dict:
                 raise ValueError(v)
             out[k] = v == "true"
         elif k in TEXT_COLUMNS:
-            out[k] = v
+            out[k] = _from_text(v)
         else:
             out[k] = _parse_cell(v)
     return out
@@ -375,14 +391,20 @@ def read_metrics(path) -> list:
 
 
 def write_rows(fh, columns, rows):
+    """Write ``rows`` as CSV lines; text cells are written so that spreadsheets show
+    them as text (:func:`_as_text`), and read back as written."""
     w = csv.writer(fh, lineterminator="\n")
     for r in rows:
-        w.writerow([r[c] if c in TEXT_COLUMNS else cell(r[c]) for c in columns])
+        w.writerow([_as_text(r[c] if c in TEXT_COLUMNS else cell(r[c]))
+                    if isinstance(r[c], str) else cell(r[c]) for c in columns])
 
 
-def rows_text(columns, rows) -> str:
+def rows_text(columns, rows, header: bool = True) -> str:
+    """The lines of metrics.csv for ``rows``, after the header line of ``columns``
+    (``header=False``: the rows alone, to append)."""
     buf = io.StringIO()
-    csv.writer(buf, lineterminator="\n").writerow(columns)
+    if header:
+        csv.writer(buf, lineterminator="\n").writerow(columns)
     write_rows(buf, columns, rows)
     return buf.getvalue()
 
