@@ -236,6 +236,24 @@ def test_a_full_disk_during_a_sweep_names_the_file_and_keeps_the_finished_rows(t
 
 
 @pytest.mark.slow
+def test_files_of_the_users_named_like_results_are_refused_with_or_without_overwrite(tmp_path):
+    """A folder holding the user's path.png, animation.gif, theta_hat.png and notes:
+    ``unidyn run`` refuses up front, naming them, and changes nothing."""
+    out = tmp_path / "mine"
+    out.mkdir()
+    for name in ("path.png", "animation.gif", "theta_hat.png", "notes.txt"):
+        (out / name).write_bytes(os.urandom(100))
+    before = tree(out)
+    for extra in ([], ["--overwrite"]):
+        code, _, err = cli(tmp_path, "run", "--paper", "3", "--T", "1", "--out", out, *extra)
+        assert code == 2 and len(err.strip().splitlines()) == 1, err
+        assert ("holds path.png, theta_hat.png, animation.gif, named like unidyn's run "
+                "results but not written by unidyn") in err, err
+        assert "move them elsewhere or choose another --out" in err
+        assert tree(out) == before
+
+
+@pytest.mark.slow
 def test_save_from_python_keeps_the_command_lines_rule(tmp_path):
     from unidyn import ValidationError
     from unidyn.engine.batch import simulate_batch
