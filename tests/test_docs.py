@@ -164,6 +164,15 @@ def test_built_cli_reference_holds_every_subcommand(built):
 
 
 @pytest.mark.slow
+def test_no_built_page_shows_an_error_box(built):
+    """docutils reports some problems inside the page (a red "system message" box)
+    instead of as a warning that -W turns into a failure: no page may hold one."""
+    for page in built.rglob("*.html"):
+        text = _text(page)
+        assert "system-message" not in text, f"{page.relative_to(built)} shows an error box"
+
+
+@pytest.mark.slow
 def test_built_site_holds_every_notebook_and_guide(built):
     assert NOTEBOOKS
     index = _text(built / "notebooks" / "index.html")
