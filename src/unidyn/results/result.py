@@ -80,6 +80,10 @@ def metrics(t, error, velocity) -> dict:
         }
 
 
+#: The unit of each metric, for printing.
+_METRIC_UNITS = {"iae": "m·s", "ise": "m²·s", "itae": "m·s²", "itse": "m²·s²",
+                 "energy": "(m/s)²·s + (rad/s)²·s", "error_final": "m"}
+
 #: Rows of timeseries.csv formatted at a time.
 _CSV_BLOCK = 10_000
 
@@ -154,6 +158,31 @@ class Result:
         else:
             self.metrics = {k: None for k in computed}
             self.partial_metrics = computed
+
+    def __repr__(self) -> str:
+        """A dozen lines: the run, its engine, whether it completed, its metrics and
+        final estimate. The series are attributes (``t``, ``pose``, ...);
+        :meth:`summary` holds everything that ``summary.json`` does."""
+        sc = self.scenario
+        robot = getattr(sc.robot, "name", "") or "custom robot"
+        lines = [f"unidyn.Result: {sc.case} loop" + (f" {sc.name!r}" if sc.name else ""),
+                 f"  robot {robot}, reference {type(sc.trajectory).__name__}, T = {sc.T:g} s, "
+                 f"{len(self.t)} samples every {sc.Ts * sc.log_every:g} s",
+                 f"  engine {self.engine}" + (f" ({self.backend})" if self.backend else "")
+                 + (", complete" if self.complete else f", INCOMPLETE: {self.message}")]
+        m = self.metrics if self.complete else (self.partial_metrics or {})
+        if not self.complete:
+            lines.append("  metrics of the part computed (not a result):")
+        for k, v in m.items():
+            unit = _METRIC_UNITS.get(k, "")
+            lines.append(f"  {k:12s} {'-' if v is None else f'{v:.6g}'}" + (f" {unit}" if unit else ""))
+        if self.theta_hat is not None and len(self.t):
+            lines.append("  theta_hat(T) " + " ".join(f"{v:.4g}" for v in self.theta_hat[-1]))
+        lines.append("  series: t, pose, velocity, reference, error"
+                     + "".join(f", {k}" for k in ("v_d", "v_ref", "theta_hat")
+                               if getattr(self, k) is not None)
+                     + "; plots: plot_path(), plot_error(), ...; save(folder)")
+        return "\n".join(lines)
 
     # ------------------------------------------------------------------ #
     def window(self, t0: float, t1: float) -> dict:
