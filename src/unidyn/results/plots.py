@@ -178,13 +178,13 @@ def plot_positions(result, axes=None):
     """x and y of h against the reference x_d, y_d over time (Figs. 4a, 6a, 8a, 10a)."""
     axes = _two_panels(axes)
     for i, (ax, n) in enumerate(zip(axes, ("x", "y"))):
-        ax.plot(result.t, result.reference[:, i], **REFERENCE, label=f"${n}_d$ (reference)")
-        ax.plot(result.t, result.pose[:, i], color="C0", label=f"${n}$")
+        ax.plot(result.t, result.reference[:, i], **REFERENCE, label=f"${n}_d$")
+        ax.plot(result.t, result.pose[:, i], color="C0", lw=0.9, label=f"${n}$")
         ax.set_ylabel(_unit(f"${n}$", "m"))
         _time_axis(ax, result.t)
         figstyle.ylim_from_data(ax)
-        figstyle.legend(ax, outside="right")
     axes[-1].set_xlabel(_unit("t", "s"))
+    _legend_below(axes, ["$x_d$, $y_d$ (reference)", "$x$, $y$ (robot)"])
     return axes
 
 
@@ -195,14 +195,22 @@ def plot_velocities(result, axes=None):
     axes = _two_panels(axes)
     for i, (ax, n, unit) in enumerate(zip(axes, ("u", r"\omega"), ("m/s", "rad/s"))):
         if result.v_d is not None:  # not logged when the scenario's log_series leaves it out
-            ax.plot(result.t, result.v_d[:, i], **REFERENCE, label=f"${n}_d$ (kinematic controller)")
+            ax.plot(result.t, result.v_d[:, i], **REFERENCE, label=f"${n}_d$")
         ax.plot(result.t, result.velocity[:, i], color="C0", lw=0.9, label=f"${n}$")
         ax.set_ylabel(_unit(f"${n}$", unit))
         _time_axis(ax, result.t)
         figstyle.ylim_from_data(ax)
-        figstyle.legend(ax, outside="right")
     axes[-1].set_xlabel(_unit("t", "s"))
+    _legend_below(axes, (["$u_d$, $\\omega_d$ (kinematic controller)"]
+                         if result.v_d is not None else []) + ["$u$, $\\omega$ (robot)"])
     return axes
+
+
+def _legend_below(axes, labels):
+    """One legend for a figure's panels, under them, so that the data keep the
+    figure's whole width and the panels' axes line up."""
+    axes[0].figure.legend(axes[0].get_lines()[:len(labels)], labels,
+                          loc="outside lower center", ncol=len(labels), frameon=False)
 
 
 def _theta_units():
@@ -256,11 +264,15 @@ def plot_theta_hat(result, ax=None, relative=True, panels=False):
     axes = np.asarray(ax).reshape(-1)
     units = _theta_units()
     for i, a in enumerate(axes[:6]):
-        a.plot(t, th[:, i], color="C0", label="estimate")
-        a.axhline(theta[i], **REFERENCE, label="true value")
+        size = np.nanmax(np.abs(np.append(th[:, i], theta[i])))
+        power = 3 * int(np.floor(np.log10(size) / 3)) if 0 < size < 1e-2 else 0
+        scale = 10.0 ** power  # tiny values in 10^-3 units, not an offset label
+        a.plot(t, th[:, i] / scale, color="C0", label="estimate")
+        a.axhline(theta[i] / scale, **REFERENCE, label="true value")
         if t_on is not None and t[0] < t_on < t[-1]:
             a.axvline(t_on, color="0.5", lw=0.7, ls=":", label="adaptation on")
-        a.set_ylabel(_unit(rf"$\hat\theta_{i + 1}$", units[i]))
+        unit = " ".join(u for u in (f"$10^{{{power}}}$" if power else "", units[i] or "") if u)
+        a.set_ylabel(_unit(rf"$\hat\theta_{i + 1}$", unit or None))
         _time_axis(a, t)
         lines = [l for l in a.get_lines() if l.get_label() != "adaptation on"]
         figstyle.ylim_from_data(a, lines=lines, pad=0.12)
@@ -268,7 +280,10 @@ def plot_theta_hat(result, ax=None, relative=True, panels=False):
         a.set_xlabel(_unit("t", "s"))
     handles, labels = axes[0].get_legend_handles_labels()
     axes[0].figure.legend(handles, labels, loc="outside lower center", ncol=len(labels),
-                          frameon=False)
+                          frameon=False, title="The update law (Eq. 18 or 20) keeps the estimates bounded; they need not "
+                          "reach the true values,\nwhich takes a reference that excites every "
+                          "parameter (persistent excitation).",
+                          title_fontproperties={"size": 6.5})
     return axes
 
 
