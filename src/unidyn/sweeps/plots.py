@@ -22,8 +22,9 @@ def _numeric_axis(sweep):
 
 def _legend_entry(sweep, axes, key) -> str:
     """A line of a sweep's figure in its legend: what tells it from the others first
-    (its variant's label, the other axes' values), then what its variant sets:
-    ``"b: compensated, theta_hat_scale = 0.9"``, ``"b, a = 0.15: compensated, ..."``."""
+    (its variant's label, the other axes' values), then the numbers its variant sets
+    (its case is what its label names): ``"b: theta_hat_scale = 0.9"``,
+    ``"b, a = 0.15: theta_hat_scale = 0.9"``."""
     parts, sets = [], []
     for a, k in zip(axes, key):
         if a != "variant":
@@ -32,8 +33,7 @@ def _legend_entry(sweep, axes, key) -> str:
         parts.append(k)
         for v in sweep.variants:
             if text(v["label"]) == k:
-                sets = [text(x) if f == "case" else f"{f} = {text(x)}"
-                        for f, x in v.items() if f != "label"]
+                sets = [f"{f} = {text(x)}" for f, x in v.items() if f not in ("label", "case")]
     return ", ".join(parts) + (": " + ", ".join(sets) if sets else "")
 
 
