@@ -91,9 +91,9 @@ def section5_figure(results, path):
             ins.set_ylim(0, 1.1 * float(r.error[m].max()))
             ins.tick_params(labelsize=6)
             ins.set_xlabel(label("t", "s"), fontsize=6, labelpad=1)
-            ins.set_title(f"first 3 s: at t = {dip[0]:.1f} s the reference (from the origin)\n"
-                          "passes the robot, at rest 0.2 m ahead (cases 2-4)",
-                          fontsize=6, loc="left", pad=2)
+            ins.set_title(f"this case's first 3 s: at t = {dip[0]:.1f} s the reference "
+                          "(from the origin)\npasses the robot, which starts at rest 0.2 m "
+                          "ahead of it", fontsize=6, loc="left", pad=2)
         t_on = r.scenario.adapt_from
         if n == 4 and t_on < r.t[-1]:
             ea.axvline(t_on, color="0.4", lw=0.8, ls=":")
