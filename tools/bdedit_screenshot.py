@@ -1,14 +1,13 @@
-"""Render the paper's Fig. 2 loop (simulation 4, adaptive compensation) as bdedit draws it.
+"""Screenshots of ``unidyn edit`` on each of the paper's Fig. 2 files, as a user sees it.
 
-    QT_QPA_PLATFORM=offscreen python tools/bdedit_screenshot.py [BD_FILE] [PNG_FILE]
+    xvfb-run -s "-screen 0 1920x1080x24" python tools/bdedit_screenshot.py [BD_FILE ...]
 
-Opens ``examples/bd/fig2_case4_adaptive.bd`` in bdedit's main window (Qt's
-offscreen platform needs no display) and saves the scene, as bdedit's own
-"export PNG" renders it, to ``docs/figures/bdedit_fig2.png``.
-
-bdedit 1.4 reads each block's saved width but keeps drawing it 100 px wide, where
-the port labels of blocks with labels on both sides overlap; the script applies
-the saved widths (written by ``unidyn.teaching.bdfile``) before rendering.
+Opens each ``.bd`` file (default: every file in ``examples/bd/``) in bdedit's main
+window as ``unidyn edit`` does (:func:`unidyn.editor.open_window`, then
+:func:`unidyn.editor.show_whole_diagram` at 1600 x 900 px), and saves the window as it
+is drawn on the screen to ``docs/figures/bdedit_<name>.png``. Under Xvfb (above) Qt
+draws with its X11 platform, as on a desktop; without a display it falls back to Qt's
+offscreen platform, which draws the same window without the desktop's fonts.
 """
 
 import os
@@ -16,47 +15,38 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def _apply_saved_widths(scene):
-    """Draw every block at the width the file gives it (bdedit keeps its default)."""
-    for block in scene.blocks:
-        gr = block.grBlock
-        if getattr(gr, "width", block.width) != block.width:
-            gr.prepareGeometryChange()
-            gr.width = block.width
-            for socket in block.inputs + block.outputs:
-                socket.grSocket.setPos(*map(float, block.getSocketPosition(socket.index,
-                                                                           socket.position)))
-            block.updateConnectedEdges()
+SIZE = (1600, 900)
 
 
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else argv
-    bd_file = Path(argv[0]) if argv else ROOT / "examples" / "bd" / "fig2_case4_adaptive.bd"
-    png = Path(argv[1]) if len(argv) > 1 else ROOT / "docs" / "figures" / "bdedit_fig2.png"
-    os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
-    import unidyn  # noqa: F401  (puts unidyn's blocks on bdsim's BDSIMPATH for bdedit's palette)
+    out_dir = ROOT / "docs" / "figures"
+    if argv[:1] == ["--out"]:
+        out_dir, argv = Path(argv[1]), argv[2:]
+    files = [Path(a) for a in argv] or sorted((ROOT / "examples" / "bd").glob("*.bd"))
+    if not os.environ.get("DISPLAY") and not os.environ.get("QT_QPA_PLATFORM"):
+        os.environ["QT_QPA_PLATFORM"] = "offscreen"
+    import unidyn  # noqa: F401  (puts unidyn's blocks on bdsim's BDSIMPATH for the palette)
     from PySide6.QtWidgets import QApplication
 
-    from bdedit.interface_manager import InterfaceWindow
+    from unidyn.editor import open_window, show_whole_diagram
 
     app = QApplication.instance() or QApplication(["bdedit"])
-    window = InterfaceWindow(app.primaryScreen().availableGeometry())
-    interface = window.centralWidget()
-    # what bdedit's own start-up does (bdedit.bdedit.main) before loading a file
-    interface.scene.block_name_fontsize = 12
-    interface.scene.grScene.updateBackgroundMode("white", False)
-    window.loadFromFilePath(str(bd_file))
-    scene = interface.scene
-    if not scene.blocks:
-        raise SystemExit(f"bdedit loaded no blocks from {bd_file}")
-    _apply_saved_widths(scene)
-    app.processEvents()
-    png.parent.mkdir(parents=True, exist_ok=True)
-    interface.save_image(str(png), picture_name="")
-    window.close()
-    print(png)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    for bd_file in files:
+        window = open_window(bd_file)
+        if not window.centralWidget().scene.blocks:
+            raise SystemExit(f"bdedit loaded no blocks from {bd_file}")
+        window.show()
+        show_whole_diagram(window, SIZE)
+        for _ in range(10):
+            app.processEvents()
+        png = out_dir / f"bdedit_{bd_file.stem}.png"
+        if not window.grab().save(str(png)):
+            raise SystemExit(f"could not write {png}")
+        window.centralWidget().scene.has_been_modified = False  # closes without asking
+        window.close()
+        print(png)
     return 0
 
 

@@ -8,7 +8,9 @@ What this adds to typing ``bdedit FILE.bd``:
 - the simulation-time box shows the file's simulation time. ``bdedit FILE`` loads
   the file through ``InterfaceWindow.loadFromFilePath``, which leaves the box at its
   default of 10 s (bdedit 1.4), while bdedit's File > Open menu sets it from the
-  file; here the box is set as that menu does.
+  file; here the box is set as that menu does;
+- the window opens on most of the screen with the whole diagram in view, its blocks
+  drawn at the widths the file gives them (:func:`show_whole_diagram`).
 
 unidyn's blocks are in the palette as they are for ``bdedit`` itself: every install
 ships the start-up hook that names ``unidyn`` in ``BDSIMPATH`` (see
@@ -85,7 +87,47 @@ def open_window(path: str | os.PathLike):
     # what bdedit's File > Open does after loading, and its command line does not
     window.runButtonParameters["SimTime"] = scene.sim_time
     window.simTimeBox.setText(str(scene.sim_time))
+    _draw_saved_widths(scene)
+    # bdedit reserves the width of a block's parameter panel (column 10 of the window's
+    # grid) for every block it loads, and keeps it while no panel is shown: the canvas
+    # is then squeezed to a strip. No panel is open after loading.
+    window.centralWidget().layout.setColumnMinimumWidth(10, 0)
     return window
+
+
+def _draw_saved_widths(scene) -> None:
+    """Draw every block at the width its file gives it: bdedit 1.4 reads the width but
+    its graphics item keeps the default of 100 px it was created with, where port
+    labels on both sides overlap (tests/teaching/test_bdedit.py fails if that changes)."""
+    for block in scene.blocks:
+        gr = block.grBlock
+        if getattr(gr, "width", block.width) != block.width:
+            gr.prepareGeometryChange()
+            gr.width = block.width
+            for socket in block.inputs + block.outputs:
+                socket.grSocket.setPos(*map(float, block.getSocketPosition(socket.index,
+                                                                           socket.position)))
+            block.updateConnectedEdges()
+
+
+def show_whole_diagram(window, size=None) -> None:
+    """Size ``window`` (``size`` = (width, height) in px; by default 85 % of the
+    screen) and zoom its canvas so the whole diagram is in view, with a margin (Qt's
+    ``QGraphicsView.fitInView``)."""
+    from PySide6.QtCore import Qt
+    from PySide6.QtWidgets import QApplication
+
+    app = QApplication.instance()
+    if size is None:
+        screen = app.primaryScreen().availableGeometry()
+        size = (int(0.85 * screen.width()), int(0.85 * screen.height()))
+    window.resize(*size)
+    app.processEvents()  # the canvas takes its size before it is zoomed to it
+    interface = window.centralWidget()
+    items = interface.scene.grScene.itemsBoundingRect()
+    margin = 0.05 * max(items.width(), items.height())
+    interface.canvasView.fitInView(items.adjusted(-margin, -margin, margin, margin),
+                                   Qt.AspectRatioMode.KeepAspectRatio)
 
 
 def edit(path: str | os.PathLike) -> int:
@@ -102,6 +144,7 @@ def edit(path: str | os.PathLike) -> int:
     app.setApplicationName("bdedit")
     window = open_window(path)
     window.show()
+    show_whole_diagram(window)
     # Python runs its signal handlers only between bytecodes, never while Qt's event
     # loop runs: with the default actions, Ctrl-C and SIGTERM end the editor as they
     # end any program

@@ -2,8 +2,8 @@
 opens every shipped .bd file and stays open, and draws each block where the file
 places it; started on Qt's offscreen platform (no display) in a subprocess, its
 window holds every block and wire of each Fig. 2 file; a block dragged from its
-palette with bdedit's defaults builds; the README's screenshot script renders the
-loop."""
+palette with bdedit's defaults builds; ``unidyn edit`` opens with the whole diagram in
+view; the screenshot script renders the loop."""
 
 from __future__ import annotations
 
@@ -180,19 +180,61 @@ def _png_size(path: Path):
 
 @pytest.mark.slow
 def test_screenshot_script_renders_the_loop(qt, tmp_path):
-    png = tmp_path / "fig2.png"
     proc = subprocess.run([sys.executable, str(ROOT / "tools" / "bdedit_screenshot.py"),
-                           str(BD_DIR / PAPER_FILES[4]), str(png)],
+                           "--out", str(tmp_path), str(BD_DIR / PAPER_FILES[4])],
                           capture_output=True, text=True, timeout=240, env=ENV, cwd=ROOT)
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert "Traceback" not in proc.stderr, proc.stderr[-3000:]
-    w, h = _png_size(png)
-    assert w > 2000 and h > 1000       # the whole loop, at bdedit's 3x export resolution
+    png = tmp_path / f"bdedit_{Path(PAPER_FILES[4]).stem}.png"
+    assert _png_size(png) == (1600, 900)  # the window, at the size the script gives it
     # not blank: decode with matplotlib and count ink
     import matplotlib.image as mpimg
     img = mpimg.imread(png)
     dark = (img[..., :3].mean(axis=2) < 0.3).mean()
     assert 0.01 < dark < 0.5, dark
+
+
+SHOWN = r"""
+import json, sys
+import unidyn
+from PySide6.QtWidgets import QApplication
+from unidyn.editor import open_window, show_whole_diagram
+app = QApplication(["bdedit"])
+out = {}
+for path in sys.argv[1:]:
+    window = open_window(path)
+    window.show()
+    show_whole_diagram(window, (1200, 700))
+    app.processEvents()
+    view = window.centralWidget().canvasView
+    seen = view.mapToScene(view.viewport().rect()).boundingRect()
+    blocks = [b.grBlock.sceneBoundingRect() for b in window.centralWidget().scene.blocks]
+    out[path] = {"window": window.width(), "canvas": view.width(),
+                 "inside": all(seen.contains(r) for r in blocks),
+                 "widths": [[b.width, b.grBlock.boundingRect().width()]
+                            for b in window.centralWidget().scene.blocks]}
+    window.centralWidget().scene.has_been_modified = False
+    window.close()
+print("RESULT " + json.dumps(out))
+"""
+
+
+@pytest.mark.slow
+def test_unidyn_edit_opens_with_the_whole_diagram_in_view(qt):
+    """Not a strip of canvas beside an empty panel (bdedit keeps room for a parameter
+    panel that is not shown), every block inside the visible part of the canvas, and
+    each block drawn as wide as its file says (bdedit draws 100 px)."""
+    paths = [str(p) for p in SHIPPED]
+    proc = _python(SHOWN, *paths)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    got = json.loads(next(s for s in proc.stdout.splitlines()
+                          if s.startswith("RESULT "))[len("RESULT "):])
+    for path in paths:
+        g = got[path]
+        assert g["canvas"] > 0.6 * g["window"], (path, g)
+        assert g["inside"], path
+        assert all(w == drawn for w, drawn in g["widths"]), (path, g["widths"])
+        assert any(w > 100 for w, _ in g["widths"]), path
 
 
 BDEDIT = Path(sys.executable).with_name("bdedit")

@@ -59,13 +59,13 @@ _STEP_WIRE = 3
 #: R, the measurements fed back below (drawn flipped: signals flow right to left).
 #: y grows downwards in bdedit.
 FIG2_LAYOUT: dict[str, tuple[float, float]] = {
-    "trajectory": (-900.0, 0.0),
-    "controller": (-610.0, 0.0),
-    "compensator": (-260.0, 0.0),
-    "demux": (80.0, 0.0),
-    "robot": (290.0, 0.0),
-    "position_noise": (140.0, 260.0),
-    "velocity_noise": (140.0, 420.0),
+    "trajectory": (-1060.0, 0.0),
+    "controller": (-730.0, 0.0),
+    "compensator": (-400.0, 0.0),
+    "demux": (-50.0, 0.0),
+    "robot": (150.0, 0.0),
+    "position_noise": (0.0, 260.0),
+    "velocity_noise": (0.0, 420.0),
 }
 _FLIPPED = {"position_noise", "velocity_noise"}
 
@@ -365,11 +365,17 @@ def _auto_layout(blocks, wires) -> dict:
     return out
 
 
+#: What bdedit draws a port label and a block's icon with, px (its default font).
+_CHAR_PX, _ICON_PX, _PAD_PX = 10, 50, 10
+
+
 def _width(b) -> int:
-    """Wide enough that the longest input and output port labels do not overlap."""
+    """Wide enough that the port labels, on either side of the icon in the middle,
+    touch neither the icon nor each other."""
     ins = max((len(str(n)) for n in (b._inport_names or [])), default=0)
     outs = max((len(str(n)) for n in (b._outport_names or [])), default=0)
-    return max(100, int(math.ceil((11 * (ins + outs) + 50) / 10.0)) * 10)
+    side = _CHAR_PX * max(ins, outs) + _PAD_PX
+    return max(100, int(math.ceil((2 * side + _ICON_PX + 2 * _PAD_PX) / 10.0)) * 10)
 
 
 def _sink_position(b, wires, pos, flipped) -> tuple[float, float] | None:
