@@ -21,22 +21,57 @@ from typing import Any, Callable
 from unidyn.model.noise import noise_seeds
 from unidyn.model.scenario import Scenario
 
-__all__ = ["Fig2", "build_fig2", "new_simulator"]
+__all__ = ["Fig2", "TOOLBOX_CRASH", "ToolboxWarning", "build_fig2", "new_simulator"]
 
 
-def new_simulator(**options):
+#: Why a ``bdsim.BDSim()`` that loads the toolboxes' blocks fails beside
+#: roboticstoolbox-python 1.5.0, and the two ways out.
+TOOLBOX_CRASH = ("bdsim 1.4's block loader cannot read roboticstoolbox-python 1.5's block "
+                 "docstrings (KeyError: 'type'): pip install 'roboticstoolbox-python<1.5' for "
+                 "the toolbox's blocks, or use unidyn's blocks with bdsim.BDSim(..., toolboxes=False)")
+
+
+class ToolboxWarning(UserWarning):
+    """The toolboxes' bdsim blocks could not be loaded; the message says why and what to do."""
+
+
+def new_simulator(toolboxes: bool | None = None, **options):
     """A headless, quiet ``bdsim.BDSim`` that ignores ``sys.argv`` (for scripts, tests, notebooks).
 
+    bdsim 1.4 loads its block library once per process, for the first simulator
+    made, and every later one shares it; ``toolboxes`` says whether it holds the
+    Robotics Toolbox's blocks (``UNICYCLE``, ``VEHICLEPLOT``, ...) beside bdsim's and
+    unidyn's:
+
+    - ``None`` (default): the toolbox's blocks where they load, else without them
+      and a :class:`ToolboxWarning` (roboticstoolbox-python 1.5.0, see
+      :data:`TOOLBOX_CRASH`). unidyn's own diagrams need no toolbox block, so
+      ``unidyn.simulate`` and ``unidyn run --engine bdsim`` work either way.
+    - ``True``: with the toolbox's blocks, or a ``RuntimeError`` saying why not.
+    - ``False``: bdsim's and unidyn's blocks only.
+
     bdsim's own notice about toolboxes that are not installed (machinevisiontoolbox)
-    is suppressed; keyword arguments override the defaults."""
+    is suppressed; keyword arguments are bdsim's options and override the defaults."""
     import contextlib
     import io
+    import warnings
 
     import bdsim
     opts = dict(graphics=False, progress=False, banner=False, sysargs=False, quiet=True)
     opts.update(options)
     with contextlib.redirect_stdout(io.StringIO()):
-        return bdsim.BDSim(**opts)
+        if toolboxes is False:
+            return bdsim.BDSim(toolboxes=False, **opts)
+        try:
+            return bdsim.BDSim(toolboxes=True, **opts)
+        except KeyError as err:  # bdsim left its block library unloaded: a retry loads it
+            if err.args != ("type",):
+                raise
+            if toolboxes:
+                raise RuntimeError(TOOLBOX_CRASH) from err
+        warnings.warn(f"{TOOLBOX_CRASH}; this process's bdsim simulators now have bdsim's "
+                      f"and unidyn's blocks only", ToolboxWarning, stacklevel=2)
+        return bdsim.BDSim(toolboxes=False, **opts)
 
 
 @dataclass
