@@ -69,3 +69,21 @@ def test_through_bdsims_factory_the_error_is_bdsims_and_says_ours(capsys):
     assert "speed_max must be > 0" in capsys.readouterr().out
     with pytest.raises(ValidationError, match="speed_max must be > 0"):
         B.DynamicUnicycle(speed_max=-1.0, bd=bd)
+
+
+@pytest.mark.parametrize("cls", [B.DynamicUnicycle, B.KinematicUnicycle, B.DynamicUnicycleWithVelocity])
+@pytest.mark.parametrize("old, meant", [("vlim", "speed_max"), ("slim", "steer_max")])
+def test_the_toolboxs_old_keywords_name_the_keyword_meant(cls, old, meant):
+    # roboticstoolbox's BICYCLE still takes vlim and slim (deprecated) for speed_max and steer_max
+    with pytest.raises(ValidationError) as info:
+        cls(**{old: 1.0})
+    msg = str(info.value)
+    assert f"unknown keyword {old!r} (roboticstoolbox's old name for {meant})" in msg, msg
+
+
+def test_the_bicycles_wheelbase_says_a_unicycle_has_none():
+    with pytest.raises(ValidationError, match=r"'L' \(the wheelbase of roboticstoolbox's BICYCLE"):
+        B.DynamicUnicycle(L=2.0)
+    # a block without the keyword the toolbox means gets no hint towards it
+    with pytest.raises(ValidationError, match=r"unknown keyword 'slim'; it accepts"):
+        B.Line(slim=1.0)

@@ -53,13 +53,13 @@ def quiet_compile(bd):
 
 
 def drivepoint(sim, vehicle_type, *, wiring="labels", accel_max=np.inf, plot=False,
-               robot_args=None):
+               robot_args=None, x0=X0):
     """RVC's drive-to-a-point diagram around the vehicle block ``bd.<vehicle_type>``.
 
     :return: (block diagram, vehicle block, VEHICLEPLOT block or None), compiled
     """
     bd = sim.blockdiagram()
-    vehicle = getattr(bd, vehicle_type)(x0=list(X0), speed_max=SPEED_MAX, accel_max=accel_max,
+    vehicle = getattr(bd, vehicle_type)(x0=list(x0), speed_max=SPEED_MAX, accel_max=accel_max,
                                         steer_max=STEER_MAX, name="vehicle",
                                         **(robot_args or {}))
     goal = bd.CONSTANT(list(GOAL), name="goal")
@@ -305,3 +305,65 @@ def test_animate_mp4_needs_ffmpeg(tmp_path, monkeypatch):
     with pytest.raises(ValidationError, match="ffmpeg"):
         animate(_motion(), tmp_path / "y.mp4")
     assert not Path(tmp_path / "y.mp4").exists()
+
+
+# --------------------------------------------------------------------------- RVC3's idioms
+
+@pytest.mark.parametrize("vehicle_type", ["UNICYCLE", "DYNAMICUNICYCLE"])
+def test_start_pose_set_after_building_as_rvc3_fig4_8(vehicle_type):
+    """RVC3's fig4_8 builds drivepoint once, then per start pose sets
+    ``bd['vehicle']._x0 = (x, y, theta)`` and runs: each run starts at that pose (the
+    dynamic robot at rest) and gives what a diagram built with ``x0=`` gives."""
+    sim = new_simulator()
+    bd, vehicle, _ = drivepoint(sim, vehicle_type)
+    for th in (0.0, 2.0):
+        x0 = np.r_[5 + 3 * math.cos(th), 5 + 3 * math.sin(th), th + math.pi / 2]
+        bd["vehicle"]._x0 = x0
+        out = sim.run(bd, 4.0, dt=0.05, solver_args=SOLVER)
+        start = np.r_[x0, 0.0, 0.0] if vehicle_type == "DYNAMICUNICYCLE" else x0
+        np.testing.assert_array_equal(out.x[0], start)
+        sim2 = new_simulator()
+        bd2, _, _ = drivepoint(sim2, vehicle_type, x0=x0)
+        out2 = sim2.run(bd2, 4.0, dt=0.05, solver_args=SOLVER)
+        np.testing.assert_allclose(out.x, out2.x, rtol=0, atol=1e-12)
+        assert np.hypot(*(out.x[-1, :2] - GOAL)) < 0.5 * np.hypot(*(x0[:2] - GOAL))
+
+
+def test_a_start_pose_beyond_the_limits_or_of_a_wrong_size_is_refused():
+    veh = unidyn.blocks.DynamicUnicycle(speed_max=0.5)
+    with pytest.raises(ValidationError, match="x0"):
+        veh._x0 = (1.0, 2.0)
+    with pytest.raises(ValidationError, match="u = 0.8"):
+        veh._x0 = (0, 0, 0, 0.8, 0)
+    np.testing.assert_array_equal(veh.x0, np.zeros(5))   # unchanged
+    veh.x0 = (1.0, 2.0, 0.5)                              # the public name of _x0
+    np.testing.assert_array_equal(veh._x0, [1.0, 2.0, 0.5, 0.0, 0.0])
+
+
+def test_out_x_recipe_for_scripts_written_for_three_states():
+    """The drop-in guide's recipe: the dynamic robot's states are x, y, psi, u, w, so
+    code written for UNICYCLE's three (RVC3's fig4_6 slices ``out.x[:, 1:]`` into y,
+    theta) takes ``out.x[:, :3]`` for the pose; the columns are the pose output."""
+    sim = new_simulator()
+    bd, vehicle, _ = drivepoint(sim, "DYNAMICUNICYCLE")
+    t, pose, out = run(sim, bd, vehicle, T=3.0)
+    assert list(out.xnames) == ["vehicle:x", "vehicle:y", "vehicle:psi", "vehicle:u", "vehicle:w"]
+    np.testing.assert_allclose(out.x[:, :3], pose, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(out.x[:, 1:3], pose[:, 1:], rtol=0, atol=1e-12)  # fig4_6's y, theta
+
+
+def test_states_of_several_vehicles_are_named_per_block():
+    sim = new_simulator()
+    bd = sim.blockdiagram()
+    for name, u in (("leader", 0.3), (None, 0.1)):
+        veh = bd.DYNAMICUNICYCLE(name=name) if name else bd.KINEMATICUNICYCLE()
+        bd.connect(bd.CONSTANT(u), veh.v)
+        bd.connect(bd.CONSTANT(0.0), veh[1])
+        bd.connect(veh, bd.NULL())
+    quiet_compile(bd)
+    out = sim.run(bd, 1.0, dt=0.5, solver_args=SOLVER)
+    assert list(out.xnames) == ["leader:x", "leader:y", "leader:psi", "leader:u", "leader:w",
+                                "kinematicunicycle.0:x", "kinematicunicycle.0:y",
+                                "kinematicunicycle.0:psi"]
+    # the kinematic robot moves at its command from the start: x = 0.1 t
+    assert out.x[-1, 5] == pytest.approx(0.1, abs=1e-9)

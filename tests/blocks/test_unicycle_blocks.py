@@ -119,11 +119,11 @@ def test_x0_three_and_five_vectors(sim):
 
 def test_state_names(sim):
     bd = sim.blockdiagram()
-    veh = bd.DYNAMICUNICYCLE("p3dx", velocity_output=True)
+    veh = bd.DYNAMICUNICYCLE("p3dx", velocity_output=True, name="robot")
     bd.connect(bd.CONSTANT(0.1), veh.v)
     bd.connect(bd.CONSTANT(0.1), veh[1])
     out = run(sim, bd, 0.2, [])
-    assert list(out.xnames) == ["x", "y", "psi", "u", "w"]
+    assert list(out.xnames) == ["robot:x", "robot:y", "robot:psi", "robot:u", "robot:w"]
     assert out.x.shape[1] == 5
 
 

@@ -114,7 +114,8 @@ def test_bdrun_runs_case4_headless(tmp_path):
     T = 20.0
     o = _bdrun(BD_DIR / PAPER_FILES[4], T, tmp_path / "out.pkl", timeout=180)
     t_ref, x_ref = _simulated_states(4, T)
-    assert list(o.xnames) == ["x", "y", "psi", "u", "w"] + [f"theta_hat{i}" for i in range(1, 7)]
+    assert list(o.xnames) == ([f"robot:{s}" for s in ("x", "y", "psi", "u", "w")]
+                              + [f"theta_hat{i}" for i in range(1, 7)])
     np.testing.assert_allclose(np.asarray(o.t), t_ref, rtol=0, atol=1e-12)
     assert np.abs(np.asarray(o.x) - x_ref).max() <= 1e-9
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import difflib
+import inspect
 import math
 
 import numpy as np
@@ -29,12 +31,38 @@ def check_finite(arr, block, what: str, t: float) -> np.ndarray:
     return arr
 
 
+#: Keywords of roboticstoolbox's vehicle blocks (UNICYCLE, BICYCLE) that unidyn's
+#: blocks spell differently: the keyword, the unidyn keyword it maps to, and why.
+TOOLBOX_KEYWORDS = {
+    "vlim": ("speed_max", "roboticstoolbox's old name for speed_max"),
+    "slim": ("steer_max", "roboticstoolbox's old name for steer_max"),
+    "L": ("robot", "the wheelbase of roboticstoolbox's BICYCLE: a unicycle has none, "
+                   "robot= gives its dynamics"),
+}
+
+
+def keyword_hint(keyword: str, known) -> str:
+    """`` (...)`` naming the keyword meant by an unknown ``keyword``: the toolbox's
+    spelling of it (:data:`TOOLBOX_KEYWORDS`) or the closest of ``known``; else ``""``."""
+    meant = TOOLBOX_KEYWORDS.get(keyword)
+    if meant is not None and meant[0] in known:
+        return f" ({meant[1]})"
+    close = difflib.get_close_matches(keyword, sorted(known), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def qualified_state_names(block, names) -> None:
+    """Name ``block``'s states ``<block name>:<state>`` (bdsim's own form for
+    unnamed states, ``vehicle:x_0``), so that the states of several blocks of one
+    kind stay apart in ``out.xnames``; called when the diagram is compiled, once
+    bdsim has named every block."""
+    block.state_names([f"{block.name}:{n}" for n in names])
+
+
 def check_blockargs(block, blockargs: dict) -> None:
     """Raise a ValidationError naming the block type and the keyword when
     ``blockargs`` holds a keyword that neither the block nor bdsim's common block
     options accept (bdsim's own message names no block: "in block None")."""
-    import difflib
-    import inspect
     cls = type(block)
     common, own = set(), set()
     for k in cls.__mro__:
@@ -47,8 +75,7 @@ def check_blockargs(block, blockargs: dict) -> None:
     unknown = sorted(set(blockargs) - common)
     if unknown:
         known = sorted(own | common)
-        close = difflib.get_close_matches(unknown[0], known, n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        hint = keyword_hint(unknown[0], known)
         raise ValidationError(
             f"{cls.__name__}: unknown keyword {unknown[0]!r}{hint}; it accepts "
             f"{', '.join(sorted(own))} and bdsim's block options "
@@ -79,9 +106,6 @@ def check_fixed_blockargs(block, blockargs: dict) -> None:
     (``name``, ``inputs``, ``inames``, ``onames``, ...). The port-changing options of
     the parent class, and bdsim's ``nin``/``nout``, are refused: they would change
     the ports that the class declares."""
-    import difflib
-    import inspect
-
     cls = type(block)
     common = set()
     for k in cls.__mro__:
@@ -95,8 +119,7 @@ def check_fixed_blockargs(block, blockargs: dict) -> None:
            if n != "self" and p.kind not in (p.VAR_KEYWORD, p.VAR_POSITIONAL)}
     unknown = sorted(set(blockargs) - common)
     if unknown:
-        close = difflib.get_close_matches(unknown[0], sorted(own | common), n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        hint = keyword_hint(unknown[0], sorted(own | common))
         raise ValidationError(
             f"{cls.__name__}: unknown keyword {unknown[0]!r}{hint}; it accepts "
             f"{', '.join(sorted(own))} and bdsim's block options "

@@ -13,7 +13,7 @@ from unidyn.model.unicycle import Limits
 from unidyn.model.parameters import RobotParameters
 
 from ._common import (as_vector, check_blockargs, check_finite, check_fixed_blockargs,
-                      limits_from_args, optional_limit)
+                      limits_from_args, optional_limit, qualified_state_names)
 
 
 class DynamicUnicycle(ContinuousBlock):
@@ -76,7 +76,9 @@ class DynamicUnicycle(ContinuousBlock):
     it has a single output, so the default keeps such diagrams running unchanged.
     The Fig. 2 loop feeds the velocities back and turns it on.
 
-    State order ``x, y, psi, u, w``. With ``a = 0`` (the default) h is the
+    State order ``x, y, psi, u, w``, named ``<block name>:x`` ... in bdsim's
+    ``out.xnames`` (``out.x[:, :3]`` is the pose and ``out.x[:, 3:]`` the velocities
+    when the robot is the diagram's only stateful block). With ``a = 0`` (the default) h is the
     wheel-axle centre, as for ``UNICYCLE``. Commands are clipped to the speed
     limits, the accelerations to the acceleration limits, and a velocity at its
     limit is not pushed beyond it; all limits are pure functions of state and
@@ -133,17 +135,7 @@ class DynamicUnicycle(ContinuousBlock):
         self.a = real("a", a, low=0.0)
         self.limits = limits_from_args(limits, speed_max, steer_max, accel_max, angular_accel_max)
         self.width = None if w is None else positive("w", w)
-        if x0 is None:
-            x0 = np.zeros(5)
-        x0 = vector("x0", x0, (3, 5))
-        if x0.shape[0] == 3:
-            x0 = np.r_[x0, 0.0, 0.0]
-        for j, name, lim, unit in ((3, "u", self.limits.speed_max, "m/s"),
-                                     (4, "w", self.limits.steer_max, "rad/s")):
-            if abs(x0[j]) > lim:
-                raise ValidationError(
-                    f"DynamicUnicycle: the initial speed x0[{j}] ({name} = {x0[j]:g} {unit}) is beyond "
-                    f"the limit {lim:g} {unit}; start the robot within its limits")
+        self.x0 = np.zeros(5) if x0 is None else x0
         disturbance = flag("disturbance", disturbance)
         self.disturbance = bool(disturbance)
         if self.disturbance:
@@ -155,8 +147,41 @@ class DynamicUnicycle(ContinuousBlock):
             blockargs.setdefault("onames", ["q", "velocity"])
             blockargs.setdefault("nout", 2)
         check_blockargs(self, blockargs)
-        super().__init__(nstates=5, x0=x0, snames=["x", "y", "psi", "u", "w"], **blockargs)
+        self._own_state_names = blockargs.get("snames") is not None
+        super().__init__(nstates=5, x0=self.x0, **blockargs)
         self.type = "dynamicunicycle"
+
+    #: the states, named ``<block name>:<state>`` in ``out.xnames``
+    STATES = ("x", "y", "psi", "u", "w")
+
+    @property
+    def x0(self) -> np.ndarray:
+        """The initial state (x, y, psi, u, w), m, rad, m/s, rad/s, used by the next run.
+
+        Set it to a pose (x, y, psi), the robot at rest, or to a whole state, within
+        the speed limits. ``_x0`` is the same property: toolbox scripts (RVC3's
+        ``bd['vehicle']._x0 = (x, y, theta)``) and bdsim use that name."""
+        return self._state0
+
+    @x0.setter
+    def x0(self, value) -> None:
+        x0 = vector("x0", value, (3, 5))
+        if x0.shape[0] == 3:
+            x0 = np.r_[x0, 0.0, 0.0]
+        for j, name, lim, unit in ((3, "u", self.limits.speed_max, "m/s"),
+                                   (4, "w", self.limits.steer_max, "rad/s")):
+            if abs(x0[j]) > lim:
+                raise ValidationError(
+                    f"DynamicUnicycle: the initial speed x0[{j}] ({name} = {x0[j]:g} {unit}) is beyond "
+                    f"the limit {lim:g} {unit}; start the robot within its limits")
+        self._state0 = x0
+
+    _x0 = x0
+
+    def check(self):
+        if not self._own_state_names:
+            qualified_state_names(self, self.STATES)
+        super().check()
 
     def deriv(self, t, inports, x):
         v_ref = np.array([as_vector(inports[0], 1, self, "v", t)[0],
@@ -236,11 +261,32 @@ class KinematicUnicycle(ContinuousBlock):
         """
         self.a = real("a", a, low=0.0)
         self.limits = limits_from_args(limits, speed_max, steer_max, np.inf, np.inf)
-        x0 = np.zeros(3) if x0 is None else vector("x0", x0, (3, 5))[:3]
+        self.x0 = np.zeros(3) if x0 is None else x0
         check_blockargs(self, blockargs)
-        super().__init__(nstates=3, x0=x0, snames=["x", "y", "psi"],
-                         **blockargs)
+        self._own_state_names = blockargs.get("snames") is not None
+        super().__init__(nstates=3, x0=self.x0, **blockargs)
         self.type = "kinematicunicycle"
+
+    #: the states, named ``<block name>:<state>`` in ``out.xnames``
+    STATES = ("x", "y", "psi")
+
+    @property
+    def x0(self) -> np.ndarray:
+        """The initial pose (x, y, psi), m and rad, used by the next run; set it to
+        a pose, or to a state (x, y, psi, u, w) of which the pose is kept. ``_x0``
+        is the same property (the name toolbox scripts and bdsim use)."""
+        return self._state0
+
+    @x0.setter
+    def x0(self, value) -> None:
+        self._state0 = vector("x0", value, (3, 5))[:3]
+
+    _x0 = x0
+
+    def check(self):
+        if not self._own_state_names:
+            qualified_state_names(self, self.STATES)
+        super().check()
 
     def _v(self, t, inports):
         v = np.array([as_vector(inports[0], 1, self, "v", t)[0],
