@@ -340,3 +340,67 @@ def test_tracking_loop_noise_gain():
     np.testing.assert_allclose(e.magnitude.ravel(), k / np.abs(1j * w + k), rtol=1e-5)
     c = ct.frequency_response(L[L.output_index["u_ref"], L.input_index["n_x"]], w)
     np.testing.assert_allclose(c.magnitude.ravel(), k * w / np.abs(1j * w + k), rtol=1e-5)
+
+
+# -------------------------------------------------------------- python-control's params
+def test_the_offset_a_defaults_as_in_the_blocks():
+    """One default for a: each I/O system's is its bdsim block's."""
+    import inspect
+    from unidyn import blocks
+
+    def default(f):
+        return inspect.signature(f).parameters["a"].default
+
+    assert default(iosys.to_iosys) == default(blocks.DynamicUnicycle) == default(iosys.linearize_robot)
+    assert default(iosys.kinematic_iosys) == default(blocks.KinematicUnicycle)
+    assert default(iosys.kinematic_controller) == default(blocks.KinematicController)
+
+
+def _turning(sys_, params=None):
+    t = np.linspace(0.0, 3.0, 31)
+    u = np.vstack([0.3 * np.ones_like(t), 0.4 * np.ones_like(t)])
+    return ct.input_output_response(sys_, t, u, [0, 0, 0, 0.3, 0.4], params=params,
+                                    solve_ivp_kwargs=dict(rtol=1e-10, atol=1e-12)).outputs
+
+
+def test_params_passed_through_python_control_are_honoured():
+    """params={'a': 0.5} moves h as a robot built with a = 0.5 (h = axle centre +
+    a (cos psi, sin psi), Eq. 1); 'robot' changes its dynamics as building it does."""
+    base, moved = _turning(iosys.to_iosys()), _turning(iosys.to_iosys(), {"a": 0.5})
+    np.testing.assert_allclose(moved, _turning(iosys.to_iosys(a=0.5)), rtol=0, atol=1e-12)
+    psi = base[2]
+    np.testing.assert_allclose(moved[0] - base[0], 0.5 * (np.cos(psi) - 1), atol=1e-8)
+    np.testing.assert_allclose(moved[1] - base[1], 0.5 * np.sin(psi), atol=1e-8)
+    np.testing.assert_allclose(_turning(iosys.to_iosys(), {"robot": "khepera3"}),
+                               _turning(iosys.to_iosys("khepera3")), rtol=0, atol=1e-12)
+    assert set(iosys.to_iosys().params) == {"robot", "a", "limits"}
+
+
+def test_the_loops_params_reach_its_systems():
+    """Given to the Fig. 2 loop, kx reaches the controller: the run is that of the
+    scenario with kx changed."""
+    sc = unidyn.Scenario.paper(3).replace(T=5.0, noise=None)
+    t = np.arange(51) * 0.1
+    loop = iosys.fig2_loop(sc)
+    x0 = iosys.fig2_initial_state(loop)
+    r = ct.input_output_response(loop, t, np.zeros((4, len(t))), x0, params={"kx": 0.5},
+                                 solve_ivp_kwargs=dict(rtol=1e-10, atol=1e-12))
+    ref = iosys.simulate_fig2(sc.replace(kx=0.5), t=t, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(r.outputs, ref.outputs, rtol=0, atol=1e-7)
+    assert not np.allclose(ref.outputs, iosys.simulate_fig2(sc, t=t).outputs, atol=1e-3)
+
+
+@pytest.mark.parametrize("make, params, match", [
+    (lambda: iosys.to_iosys(), {"a": -0.1}, "a must be"),
+    (lambda: iosys.to_iosys(), {"robot": "p3dx_lazer"}, "known robots"),
+    (lambda: iosys.kinematic_controller(), {"kx": 0.0}, "kx must be"),
+    (lambda: iosys.kinematic_controller(), {"rate": False}, "'rate' shapes the system's signals"),
+    (lambda: iosys.compensator(adaptive=True), {"theta_hat0": "p3dx"}, "initial state"),
+    (lambda: iosys.compensator(adaptive=True), {"gamma": [1, 1, 1, 1, 1, -1]}, "gamma must be"),
+])
+def test_params_python_control_cannot_honour_are_refused(make, params, match):
+    sys_ = make()
+    x = np.zeros(sys_.nstates)
+    u = np.full(sys_.ninputs, 0.1)
+    with pytest.raises(ValidationError, match=match):
+        sys_.output(0.0, x, u, params=params)

@@ -24,6 +24,14 @@ continuous control with the exact v_d'); the measurement noise enters as the
 loop's inputs ``n_x, n_y, n_u, n_w``. :func:`velocity_loop`, :func:`velocity_tf`,
 :func:`linearize_robot` and :func:`tracking_loop` are its linearisations.
 
+The arguments a system is built from are also its python-control parameters
+(``sys.params``): ``params={"a": 0.5}`` given to :func:`control.input_output_response`,
+:func:`control.linearize`, ... replaces the value, checked as the constructor checks
+it; an argument that cannot change there (``rate``, ``adaptive``, the adaptive
+estimate's initial value) is refused. python-control hands one set of parameters to
+every system of an interconnection, so a name means one value there: the robot's
+and the controller's ``a`` are the same offset, as in Eq. (10).
+
 Needs the optional dependency python-control (``pip install unidyn[control]``);
 ``import unidyn`` does not import it.
 """
@@ -39,7 +47,7 @@ import numpy as np
 
 from ..model import laws
 from ..model import robots, trajectories, unicycle
-from .._validate import ValidationError, nonnegative, positive
+from .._validate import ValidationError, nonnegative, positive, vector
 from ..model.laws import LEAKAGE_FORMS, PAPER_GAMMA, PAPER_SIGMA
 from ..model.unicycle import NO_LIMITS, Limits
 from ..model.scenario import Scenario
@@ -72,8 +80,45 @@ def _limits(limits) -> Limits:
     return limits
 
 
+class _Parameters:
+    """A system's python-control parameters (``sys.params``): the arguments it was
+    built with, which ``params=`` of python-control's simulation, linearisation and
+    evaluation functions replace, each checked as the constructor checks it. An
+    argument that shapes the system's signals (``rate``, ``adaptive``, ``name``) is
+    refused there. Other names are left to the other systems of an interconnection,
+    to which python-control passes the same parameters."""
+
+    def __init__(self, system: str, checks: dict, fixed=("name",), **built):
+        self.system, self.checks = system, checks
+        self.fixed = {k: "shapes the system's signals" for k in fixed} if not isinstance(fixed, dict) else fixed
+        self.built = {k: checks[k](v) for k, v in built.items()}
+        self._last = (None, None)
+
+    def __call__(self, params) -> dict:
+        """The parameter values for ``params`` (checked once per python-control call)."""
+        params = {} if params is None else params
+        if params is self._last[0]:
+            return self._last[1]
+        for k, why in self.fixed.items():
+            if k in params:
+                raise ValidationError(f"{self.system}: {k!r} {why}, so params cannot change "
+                                      f"it; build the system with {k}=")
+        values = {k: (self.checks[k](params[k]) if k in params and params[k] is not v else v)
+                  for k, v in self.built.items()}
+        self._last = (params, values)
+        return values
+
+
+def _robot(name):
+    return lambda value: robots.resolve(value, name)
+
+
+def _a_robot(value):
+    return nonnegative("a", value)
+
+
 # ------------------------------------------------------------------------- robot
-def to_iosys(robot="p3dx_laser", a: float = 0.2, limits=None, name: str = "robot"):
+def to_iosys(robot="p3dx_laser", a: float = 0.0, limits=None, name: str = "robot"):
     r"""The dynamic unicycle, Eqs. (1) and (2), as a :class:`control.NonlinearIOSystem`.
 
     .. math::
@@ -89,64 +134,76 @@ def to_iosys(robot="p3dx_laser", a: float = 0.2, limits=None, name: str = "robot
     The update function is :func:`unidyn.model.unicycle.unicycle_deriv`; the outputs are the
     states.
 
+    ``robot``, ``a`` and ``limits`` are also the system's python-control parameters:
+    ``params={"a": 0.5}`` given to :func:`control.input_output_response` (or
+    :func:`control.linearize`, ...) replaces the value it was built with, checked as here.
+
     :param robot: a preset name, :class:`~unidyn.RobotParameters`, six numbers
         theta1..theta6 or a JSON file (as everywhere in unidyn)
-    :param a: offset of the point of interest h ahead of the wheel axle, m, >= 0
+    :param a: offset of the point of interest h ahead of the wheel axle, m, >= 0,
+        defaults to 0 (the axle centre, as the ``DYNAMICUNICYCLE`` block)
     :param limits: :class:`~unidyn.Limits` (or its dict); ``None``: none (pure Eqs. 1-2)
     :param name: the system's name
     :return: inputs ``u_ref`` (m/s), ``w_ref`` (rad/s); states and outputs
         ``x, y`` (m), ``psi`` (rad), ``u`` (m/s), ``w`` (rad/s)
     """
-    p = robots.resolve(robot, "robot")
-    theta = p.theta
-    a = nonnegative("a", a)
-    lim = _limits(limits)
+    par = _Parameters(name, dict(robot=_robot("robot"), a=_a_robot, limits=_limits),
+                      robot=robot, a=a, limits=limits)
 
     def update(t, x, u, params):
-        return unicycle.unicycle_deriv(x, u, theta, a, lim)
+        p = par(params)
+        return unicycle.unicycle_deriv(x, u, p["robot"].theta, p["a"], p["limits"])
 
     def output(t, x, u, params):
+        par(params)
         return np.asarray(x, dtype=float)
 
     sys = ct.nlsys(update, output, inputs=("u_ref", "w_ref"), outputs=ROBOT_SIGNALS,
-                   states=ROBOT_SIGNALS, name=name)
-    sys.robot = p
+                   states=ROBOT_SIGNALS, name=name, params=par.built)
+    sys.robot = par.built["robot"]
     return sys
 
 
-def kinematic_iosys(a: float = 0.2, limits=None, name: str = "robot"):
+def kinematic_iosys(a: float = 0.0, limits=None, name: str = "robot"):
     r"""A purely kinematic robot (the paper's case 1): Eq. (1) with v = v_ref
     (:func:`unidyn.model.unicycle.kinematic_unicycle_deriv`).
 
     States ``x, y, psi``; inputs ``u_ref, w_ref``; outputs ``x, y, psi, u, w``, with
     ``u, w`` the commands after the speed limits (the robot's velocities), so it
-    can replace :func:`to_iosys` in a diagram."""
-    a = nonnegative("a", a)
-    lim = _limits(limits)
+    can replace :func:`to_iosys` in a diagram. ``a`` (m, >= 0, defaults to 0 as in
+    :func:`to_iosys`) and ``limits`` are its python-control parameters."""
+    par = _Parameters(name, dict(a=_a_robot, limits=_limits), a=a, limits=limits)
 
     def update(t, q, v, params):
-        return unicycle.kinematic_unicycle_deriv(q, v, a, lim)
+        p = par(params)
+        return unicycle.kinematic_unicycle_deriv(q, v, p["a"], p["limits"])
 
     def output(t, q, v, params):
+        lim = par(params)["limits"]
         v = np.asarray(v, dtype=float)
         if lim.active:
             v = np.clip(v, -lim.speed, lim.speed)
         return np.concatenate([np.asarray(q, dtype=float), v])
 
     return ct.nlsys(update, output, inputs=("u_ref", "w_ref"), outputs=ROBOT_SIGNALS,
-                    states=ROBOT_SIGNALS[:3], name=name)
+                    states=ROBOT_SIGNALS[:3], name=name, params=par.built)
 
 
 def velocity_iosys(robot="p3dx_laser", name: str = "velocity"):
     r"""The robot's velocity loop alone, Eq. (2) (:func:`unidyn.model.unicycle.dynamics`):
-    states and outputs ``u, w``, inputs ``u_ref, w_ref``."""
-    theta = robots.resolve(robot, "robot").theta
+    states and outputs ``u, w``, inputs ``u_ref, w_ref``; ``robot`` is its python-control
+    parameter."""
+    par = _Parameters(name, dict(robot=_robot("robot")), robot=robot)
 
     def update(t, v, v_ref, params):
-        return unicycle.dynamics(v, v_ref, theta)
+        return unicycle.dynamics(v, v_ref, par(params)["robot"].theta)
 
-    return ct.nlsys(update, lambda t, v, v_ref, params: np.asarray(v, dtype=float),
-                    inputs=("u_ref", "w_ref"), outputs=("u", "w"), states=("u", "w"), name=name)
+    def output(t, v, v_ref, params):
+        par(params)
+        return np.asarray(v, dtype=float)
+
+    return ct.nlsys(update, output, inputs=("u_ref", "w_ref"), outputs=("u", "w"),
+                    states=("u", "w"), name=name, params=par.built)
 
 
 # -------------------------------------------------------------------- controllers
@@ -171,15 +228,21 @@ def kinematic_controller(a: float = 0.2, kx: float = 0.1, ky: float = 0.1, lx: f
     :param rate: also output ``u_d_dot, w_d_dot`` (needs the inputs ``x_d_ddot,
         y_d_ddot`` and the measured ``u, w``)
     :return: inputs ``x_d, y_d, x_d_dot, y_d_dot[, x_d_ddot, y_d_ddot], x, y, psi[, u, w]``;
-        outputs ``u_d, w_d[, u_d_dot, w_d_dot]``
+        outputs ``u_d, w_d[, u_d_dot, w_d_dot]``; python-control parameters ``a, kx, ky,
+        lx, ly``
     """
-    a = positive("a", a)
-    k = np.array([positive("kx", kx), positive("ky", ky)])
-    lim = np.array([positive("lx", lx), positive("ly", ly)])
+    par = _Parameters(name, {n: (lambda v, n=n: positive(n, v)) for n in ("a", "kx", "ky", "lx", "ly")},
+                      fixed=("rate", "name"), a=a, kx=kx, ky=ky, lx=lx, ly=ly)
+
+    def gains(params):
+        p = par(params)
+        return p["a"], np.array([p["kx"], p["ky"]]), np.array([p["lx"], p["ly"]])
+
     if rate:
         inputs = REFERENCE_SIGNALS + ("x", "y", "psi", "u", "w")
 
         def output(t, x, s, params):
+            a, k, lim = gains(params)
             v_d = laws.kinematic_control(s[0:2], s[2:4], s[6:8], s[8], a, k, lim)
             v_d_dot = laws.kinematic_control_rate(s[0:2], s[2:4], s[4:6], s[6:8], s[8],
                                                   s[9:11], a, k, lim)
@@ -190,10 +253,11 @@ def kinematic_controller(a: float = 0.2, kx: float = 0.1, ky: float = 0.1, lx: f
         inputs = REFERENCE_SIGNALS[:4] + ("x", "y", "psi")
 
         def output(t, x, s, params):
+            a, k, lim = gains(params)
             return laws.kinematic_control(s[0:2], s[2:4], s[4:6], s[6], a, k, lim)
 
         outputs = ("u_d", "w_d")
-    return ct.nlsys(None, output, inputs=inputs, outputs=outputs, name=name)
+    return ct.nlsys(None, output, inputs=inputs, outputs=outputs, name=name, params=par.built)
 
 
 def compensator(theta_hat0="p3dx_laser", ku: float = 4.0, kw: float = 4.0, lu: float = 1.0,
@@ -219,44 +283,72 @@ def compensator(theta_hat0="p3dx_laser", ku: float = 4.0, kw: float = 4.0, lu: f
     :param leakage: ``"paper"`` (Eq. 20), ``"fx44850"`` or ``"none"`` (Eq. 18)
     :param adapt_from: time the update is switched on, s, >= 0
     :return: inputs ``u_d, w_d, u_d_dot, w_d_dot, u, w``; outputs ``u_ref, w_ref``
-        (adaptive: also ``theta_hat1..6``, which are then the states)
+        (adaptive: also ``theta_hat1..6``, which are then the states); python-control
+        parameters ``ku, kw, lu, lw`` and ``theta_hat0`` (fixed estimate) or ``gamma,
+        sigma, leakage, adapt_from`` (adaptive: the initial estimate is the initial state)
     """
-    th0 = robots.resolve(theta_hat0, "theta_hat0").theta
-    k = np.array([positive("ku", ku), positive("kw", kw)])
-    lim = np.array([positive("lu", lu), positive("lw", lw)])
+    checks = {n: (lambda v, n=n: positive(n, v)) for n in ("ku", "kw", "lu", "lw")}
+    gains = dict(ku=ku, kw=kw, lu=lu, lw=lw)
     inputs = ("u_d", "w_d", "u_d_dot", "w_d_dot", "u", "w")
 
-    def regressor(s):
-        return laws.compensation_regressor(s[0:2], s[2:4], s[4:6], k, lim)
+    def regressor(s, p):
+        return laws.compensation_regressor(s[0:2], s[2:4], s[4:6], np.array([p["ku"], p["kw"]]),
+                                           np.array([p["lu"], p["lw"]]))
 
     if not adaptive:
+        par = _Parameters(name, {**checks, "theta_hat0": _robot("theta_hat0")},
+                          fixed=("adaptive", "name"), theta_hat0=theta_hat0, **gains)
+
         def output(t, x, s, params):
-            return laws.compensation(regressor(s), th0)
+            p = par(params)
+            return laws.compensation(regressor(s, p), p["theta_hat0"].theta)
 
         sys = ct.nlsys(None, output, inputs=inputs, outputs=("u_ref", "w_ref"),
-                       name=name)
-        sys.theta_hat0 = th0
+                       name=name, params=par.built)
+        sys.theta_hat0 = par.built["theta_hat0"].theta
         return sys
-    if leakage not in LEAKAGE_FORMS:
-        raise ValidationError(f"leakage must be one of {', '.join(LEAKAGE_FORMS)}, got {leakage!r}")
-    g = np.asarray(gamma, dtype=float).reshape(6)
-    sg = np.asarray(sigma, dtype=float).reshape(6)
-    if np.any(g <= 0) or np.any(sg < 0):
-        raise ValidationError(f"gamma must be > 0 and sigma >= 0, got {g.tolist()}, {sg.tolist()}")
-    t_on = nonnegative("adapt_from", adapt_from)
+    th0 = robots.resolve(theta_hat0, "theta_hat0").theta
+    par = _Parameters(
+        name, {**checks, "gamma": _gamma, "sigma": _sigma, "leakage": _leakage,
+               "adapt_from": lambda v: nonnegative("adapt_from", v)},
+        fixed={"adaptive": "shapes the system's signals", "name": "shapes the system's signals",
+               "theta_hat0": "is the initial state of the estimate (pass it as the initial state)"},
+        gamma=gamma, sigma=sigma, leakage=leakage, adapt_from=adapt_from, **gains)
 
     def update(t, th, s, params):
-        if not laws.adaptation_on(t, t_on):
+        p = par(params)
+        if not laws.adaptation_on(t, p["adapt_from"]):
             return np.zeros(6)
-        return laws.adaptation_rate(regressor(s), s[0:2] - s[4:6], th, g, sg, leakage)
+        return laws.adaptation_rate(regressor(s, p), s[0:2] - s[4:6], th, p["gamma"], p["sigma"],
+                                    p["leakage"])
 
     def output(t, th, s, params):
-        return np.concatenate([laws.compensation(regressor(s), th), th])
+        return np.concatenate([laws.compensation(regressor(s, par(params)), th), th])
 
     sys = ct.nlsys(update, output, inputs=inputs, outputs=("u_ref", "w_ref") + _THETA_HAT,
-                   states=_THETA_HAT, name=name)
+                   states=_THETA_HAT, name=name, params=par.built)
     sys.theta_hat0 = th0
     return sys
+
+
+def _gamma(value):
+    g = vector("gamma", value, (6,))
+    if np.any(~(g > 0)):
+        raise ValidationError(f"gamma must be six numbers > 0, got {g.tolist()}")
+    return g
+
+
+def _sigma(value):
+    sg = vector("sigma", value, (6,))
+    if np.any(~(sg >= 0)):
+        raise ValidationError(f"sigma must be six numbers >= 0, got {sg.tolist()}")
+    return sg
+
+
+def _leakage(value):
+    if value not in LEAKAGE_FORMS:
+        raise ValidationError(f"leakage must be one of {', '.join(LEAKAGE_FORMS)}, got {value!r}")
+    return value
 
 
 def reference_iosys(trajectory=None, name: str = "reference"):
@@ -450,7 +542,7 @@ def velocity_tf(robot="p3dx_laser", u0: float = 0.0, w0: float = 0.0):
     return tuple(out)
 
 
-def linearize_robot(robot="p3dx_laser", a: float = 0.2, u0: float = 0.0, w0: float = 0.0,
+def linearize_robot(robot="p3dx_laser", a: float = 0.0, u0: float = 0.0, w0: float = 0.0,
                     psi0: float = 0.0):
     r"""The whole robot, Eqs. (1)-(2), linearised at heading psi0 while moving steadily
     at (u0, w0) (:func:`control.linearize` of :func:`to_iosys`).
@@ -460,6 +552,7 @@ def linearize_robot(robot="p3dx_laser", a: float = 0.2, u0: float = 0.0, w0: flo
     rows are the derivatives of Eq. (1),
     :math:`\partial\dot x/\partial\psi = -u_0\sin\psi_0 - a\omega_0\cos\psi_0`, ...
 
+    :param a: offset of h, m, >= 0, defaults to 0 (as :func:`to_iosys`)
     :return: :class:`control.StateSpace`, states/outputs ``x, y, psi, u, w``, inputs
         ``u_ref, w_ref`` (deviations from the point and its steady commands)
     """
