@@ -440,3 +440,26 @@ def test_kinematic_and_dynamic_blocks_swap(sim):
     out = run(sim, bd, 6.0, [kin[0], dyn[0]], rtol=1e-8)
     np.testing.assert_allclose(out.y[:, :3], out.y[:, 3:], atol=2e-3)
     assert np.ptp(out.y[:, 2]) > 0.5
+
+
+def test_speed_limits_hold_exactly_at_bdsims_default_tolerances(sim):
+    """Driven into both speed limits (u_ref = 5 m/s, w_ref = -3 rad/s) with bdsim's own
+    solver settings: the state steps past a limit by up to the solver's tolerance, the
+    velocity output never does, and it reaches each limit; a run at tight tolerances
+    agrees with it to that tolerance."""
+    def drive(solver_args):
+        bd = sim.blockdiagram()
+        veh = bd.DYNAMICUNICYCLE("p3dx", speed_max=1.0, steer_max=0.5, velocity_output=True)
+        bd.connect(bd.CONSTANT(5.0), veh.v)
+        bd.connect(bd.CONSTANT(-3.0), veh[1])
+        bd.connect(veh.q, bd.NULL())
+        bd.connect(veh.velocity, bd.NULL())
+        bd.compile(verbose=False)
+        out = sim.run(bd, T=8.0, dt=DT, watch=[veh.velocity], **solver_args)
+        return np.asarray(out[".ywatch"][0], dtype=float).reshape(len(out.t), 2), out.x
+
+    v, x = drive({})
+    assert np.abs(v[:, 0]).max() == 1.0 and np.abs(v[:, 1]).max() == 0.5
+    assert np.all(np.abs(x[:, 3:5]) >= np.abs(v))   # clipping only ever moves towards the limit
+    v_tight, _ = drive(dict(solver_args=dict(rtol=RTOL, atol=ATOL, max_step=DT)))
+    np.testing.assert_allclose(v, v_tight, rtol=0, atol=3e-3)

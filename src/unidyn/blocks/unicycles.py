@@ -78,11 +78,13 @@ class DynamicUnicycle(ContinuousBlock):
 
     State order ``x, y, psi, u, w``, named ``<block name>:x`` ... in bdsim's
     ``out.xnames`` (``out.x[:, :3]`` is the pose and ``out.x[:, 3:]`` the velocities
-    when the robot is the diagram's only stateful block). With ``a = 0`` (the default) h is the
-    wheel-axle centre, as for ``UNICYCLE``. Commands are clipped to the speed
-    limits, the accelerations to the acceleration limits, and a velocity at its
-    limit is not pushed beyond it; all limits are pure functions of state and
-    input, exact under bdsim's adaptive solvers.
+    when the robot is the diagram's only stateful block). With ``a = 0`` (the
+    default) h is the wheel-axle centre, as for ``UNICYCLE``. Commands are clipped
+    to the speed limits, the accelerations to the acceleration limits, and a
+    velocity at its limit is not pushed beyond it. The velocity output, and the
+    velocities that move the pose, hold the speed limits exactly; the velocity
+    states bdsim logs (``out.x``) may pass them by the solver's tolerance (see
+    :meth:`within_limits`).
 
     :seealso: :class:`KinematicUnicycle`, :func:`unidyn.model.unicycle.unicycle_deriv`
     """
@@ -183,17 +185,32 @@ class DynamicUnicycle(ContinuousBlock):
             qualified_state_names(self, self.STATES)
         super().check()
 
+    def within_limits(self, x) -> np.ndarray:
+        """The state ``x`` with its velocities clipped to the speed limits.
+
+        The solution of Eqs. (1)-(2) never leaves the limits, but an adaptive
+        solver's step that reaches one lands beyond it by up to its tolerance (0.1 %
+        at bdsim's defaults), and the state stays there while the limit holds.
+        Clipping moves the solver's state towards the exact solution, never away;
+        the outputs and the right-hand side see the clipped state."""
+        x = np.array(x, dtype=float)
+        if self.limits.active:
+            x[3:5] = np.clip(x[3:5], -self.limits.speed, self.limits.speed)
+        return x
+
     def deriv(self, t, inports, x):
         v_ref = np.array([as_vector(inports[0], 1, self, "v", t)[0],
                           as_vector(inports[1], 1, self, "ω", t)[0]])
         delta = as_vector(inports[2], 4, self, "delta", t) if self.disturbance else None
-        xd = unicycle.unicycle_deriv(x, v_ref, self.theta, self.a, self.limits, delta)
+        xd = unicycle.unicycle_deriv(self.within_limits(x), v_ref, self.theta, self.a,
+                                     self.limits, delta)
         return check_finite(xd, self, "state derivative", t)
 
     def output(self, t, inports, x):
+        x = self.within_limits(x)
         if self.velocity_output:
-            return [np.array(x[0:3]), np.array(x[3:5])]
-        return [np.array(x[0:3])]
+            return [x[0:3], x[3:5]]
+        return [x[0:3]]
 
 
 class KinematicUnicycle(ContinuousBlock):
