@@ -138,6 +138,8 @@ def test_preset_values_and_sources(name):
     else:
         assert "44850" in p.source
     assert robots.resolve(name) == p
+    if name == "p3dx_laut":  # FX44850 labels it twice; the source says so
+        assert "Pioneer 3-DX" in p.source and "Khepera III" in p.source
     # Section 2: these four are positive for every physical robot
     assert p.theta1 > 0 and p.theta2 > 0 and p.theta4 > 0 and p.theta6 > 0
 
