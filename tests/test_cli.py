@@ -75,6 +75,7 @@ def test_summary_metrics_match_the_timeseries(paper1):
     assert m["iae"] == pytest.approx(trap(e), rel=1e-8)
     assert m["ise"] == pytest.approx(trap(e ** 2), rel=1e-8)
     assert m["itae"] == pytest.approx(trap(t * e), rel=1e-8)
+    assert m["itse"] == pytest.approx(trap(t * e ** 2), rel=1e-8)
     assert m["energy"] == pytest.approx(trap(col["u"] ** 2 + col["w"] ** 2), rel=1e-8)
     assert m["error_final"] == pytest.approx(e[-1], rel=1e-8)
     # the kinematic case starts 0.2 m off the reference and closes in on it

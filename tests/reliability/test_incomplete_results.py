@@ -26,7 +26,7 @@ def test_an_incomplete_batch_run_has_null_metrics_and_the_partial_ones_apart(tmp
     bad = Scenario.paper(3, T=6.0, trajectory=_nan_after(2.0), name="bad")
     rb, = simulate_batch([bad], backend="plain")
     assert rb.complete is False and rb.message
-    assert set(rb.metrics) == {"iae", "ise", "itae", "energy", "error_final"}
+    assert set(rb.metrics) == {"iae", "ise", "itae", "itse", "energy", "error_final"}
     assert all(v is None for v in rb.metrics.values())
     # the partial metrics are those of a clean run over the part computed
     clean, = simulate_batch([bad.replace(trajectory=F8, T=float(rb.t[-1]))], backend="plain")

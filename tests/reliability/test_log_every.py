@@ -47,7 +47,7 @@ def test_a_float32_log_is_the_float64_log_rounded(backend):
         assert np.array_equal(a.astype(np.float32), b), f
     assert narrow.error.dtype == np.float32
     # |h_d - h| from 7-digit values: about 1e-7 m per sample, over 20 s
-    for k in ("iae", "ise", "itae", "energy"):
+    for k in ("iae", "ise", "itae", "itse", "energy"):
         assert narrow.metrics[k] == pytest.approx(wide.metrics[k], rel=1e-5, abs=2e-6), k
 
 

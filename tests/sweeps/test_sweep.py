@@ -61,7 +61,7 @@ def test_grid_expansion_order_and_special_axes():
     assert q.robot.name == "p3dx" and q.theta_hat0 is None
     np.testing.assert_allclose(q.theta_hat_initial, robots.get("p3dx").theta / 1.5)
     assert s.columns == ["index", "variant", "kxy", "seed", "case", "iae", "ise", "itae",
-                         "energy", "error_final", "complete"]
+                         "itse", "energy", "error_final", "complete"]
     # the same spec gives the same points, and round-trips through plain data
     assert Sweep.from_dict(json.loads(json.dumps(s.to_dict()))) == s
 
@@ -465,7 +465,7 @@ def test_incomplete_points_have_empty_metrics(tmp_path):
     path = tmp_path / "metrics.csv"
     path.write_text(rows_text(columns, rows))
     lines = path.read_text().splitlines()
-    assert lines[1] == "0,1,compensated,,,,,,false"  # no partial metrics, ever
+    assert lines[1] == "0,1,compensated,,,,,,,false"  # no partial metrics, ever
     back = read_metrics(path)
     assert back[0]["complete"] is False and all(back[0][m] is None for m in files.METRICS)
     ref = simulate_batch([good])[0].metrics  # the compiled engine alone; numpy beside `bad`
@@ -657,7 +657,7 @@ def test_cli_sweep_file_resume_and_no_resume(tmp_path, capsys):
     assert len(rows) == 3 and all(math.isfinite(r["iae"]) for r in rows)
     with open(out / "metrics.csv", newline="") as fh:
         assert next(csv.reader(fh)) == ["index", "kxy", "case", "iae", "ise", "itae",
-                                        "energy", "error_final", "complete"]
+                                        "itse", "energy", "error_final", "complete"]
 
 
 @pytest.mark.filterwarnings("ignore::RuntimeWarning")
@@ -671,7 +671,7 @@ def test_cli_sweep_marks_an_incomplete_point_and_counts_it(tmp_path, capsys):
     assert code == 1 and "1 point(s) did not complete: 1" in err
     assert "incomplete 1 of 2 point(s) did not complete" in out
     lines = csv_rows(tmp_path / "o")
-    assert lines[2].endswith(",compensated,,,,,,false")  # empty metrics, never partial ones
+    assert lines[2].endswith(",compensated,,,,,,,false")  # empty metrics, never partial ones
     rows = read_metrics(tmp_path / "o")
     assert rows[0]["complete"] is True and rows[0]["iae"] > 0
     assert rows[1]["complete"] is False and rows[1]["iae"] is None

@@ -64,6 +64,7 @@ def metrics(t, error, velocity) -> dict:
     - ``iae``: :math:`\int |\tilde h|\,dt`, the paper's IAE (Fig. 11), m·s
     - ``ise``: :math:`\int |\tilde h|^2 dt`, m²·s
     - ``itae``: :math:`\int t\,|\tilde h|\,dt`, m·s²
+    - ``itse``: :math:`\int t\,|\tilde h|^2 dt`, m²·s² (FX44850's index)
     - ``energy``: :math:`\int (u^2 + \omega^2)\,dt` (mixed units, as a control-effort index)
     - ``error_final``: :math:`|\tilde h(T)|`, m
     """
@@ -75,6 +76,7 @@ def metrics(t, error, velocity) -> dict:
             "iae": _trapz(e64, t),
             "ise": _trapz(lambda i0, i1: e64(i0, i1) ** 2, t),
             "itae": _trapz(lambda i0, i1: t[i0:i1] * e64(i0, i1), t),
+            "itse": _trapz(lambda i0, i1: t[i0:i1] * e64(i0, i1) ** 2, t),
             "energy": _trapz(lambda i0, i1: np.sum(v[i0:i1].astype(float) ** 2, axis=-1), t),
             "error_final": _floats(e[-1:])[0] if len(e) else float("nan"),
         }

@@ -78,6 +78,7 @@ def plot_metrics(sweep, rows, path, metric: str = "iae"):
 
 #: Axis labels of the metrics (units as in :func:`unidyn.results.result.metrics`).
 _METRIC_LABELS = {"iae": "IAE (m·s)", "ise": "ISE (m²·s)", "itae": "ITAE (m·s²)",
+                  "itse": "ITSE (m²·s²)",
                   "energy": "control effort ∫(u² + ω²) dt", "error_final": "final error (m)"}
 #: Axis labels of the special sweep keys and common numeric fields.
 _AXIS_LABELS = {"kxy": "$k_x = k_y$ (1/s)", "kx": "$k_x$ (1/s)", "ky": "$k_y$ (1/s)",

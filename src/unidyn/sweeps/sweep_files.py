@@ -41,7 +41,7 @@ __all__ = ["read_toml", "parse_toml_value", "read_scenario_table", "expand_range
 #: Keys that are not Scenario fields but set one or more of them.
 SPECIAL_KEYS = ("kxy", "theta_hat_scale", "seed")
 #: The per-point metrics written to metrics.csv (see :func:`unidyn.results.result.metrics`).
-METRICS = ("iae", "ise", "itae", "energy", "error_final")
+METRICS = ("iae", "ise", "itae", "itse", "energy", "error_final")
 #: A sweep with more points than this is refused (almost surely a typo in a range).
 MAX_POINTS = 1_000_000
 
