@@ -208,7 +208,7 @@ def _limit_or_none(x):
 
 def _dynamic_unicycle(b):
     from ..blocks import DynamicUnicycleWithVelocity  # bdsim: loaded when needed
-    x0 = [float(v) for v in b._x0]
+    x0 = [float(v) for v in b.x0]
     if x0[3] == 0.0 and x0[4] == 0.0:
         x0 = x0[:3]
     lim = b.limits
@@ -227,7 +227,7 @@ def _dynamic_unicycle(b):
 
 def _kinematic_unicycle(b):
     lim = b.limits
-    return "KINEMATICUNICYCLE", {"a": float(b.a), "x0": [float(v) for v in b._x0],
+    return "KINEMATICUNICYCLE", {"a": float(b.a), "x0": [float(v) for v in b.x0],
                                  "speed_max": lim.speed_max, "steer_max": lim.steer_max,
                                  "limits": None}
 
