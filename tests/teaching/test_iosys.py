@@ -252,6 +252,13 @@ def test_velocity_loop_about_rest_has_the_analytic_poles(name):
     assert np.degrees(phase[0]) == pytest.approx(-45.0, abs=1e-4)
 
 
+def test_the_velocity_transfer_functions_print_as_transfer_functions():
+    text = str(iosys.velocity_tf("p3dx_laser"))
+    assert "TransferFunction>: G_u" in text and "TransferFunction>: G_w" in text
+    assert "['u_ref']" in text and "['w']" in text and "(<" not in text  # not a raw tuple
+    assert repr(iosys.velocity_tf("p3dx_laser")) == text
+
+
 @pytest.mark.parametrize("name", PRESETS)
 def test_step_response_of_the_linear_loop(name):
     t1, t2, _, t4, _, t6 = _th(name)

@@ -38,6 +38,8 @@ Needs the optional dependency python-control (``pip install unidyn[control]``);
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 try:
     import control as ct
 except ImportError:  # pragma: no cover - exercised by a test that hides the package
@@ -54,7 +56,7 @@ from ..model.scenario import Scenario
 
 __all__ = ["to_iosys", "kinematic_iosys", "velocity_iosys", "kinematic_controller",
            "compensator", "reference_iosys", "fig2_loop", "fig2_initial_state",
-           "simulate_fig2", "velocity_loop", "velocity_tf", "linearize_robot",
+           "simulate_fig2", "velocity_loop", "velocity_tf", "VelocityTF", "linearize_robot",
            "tracking_loop", "ROBOT_SIGNALS", "REFERENCE_SIGNALS", "NOISE_SIGNALS",
            "LINEAR_CASES"]
 
@@ -523,23 +525,34 @@ def velocity_loop(robot="p3dx_laser", u0: float = 0.0, w0: float = 0.0):
     return ct.linearize(velocity_iosys(p), v0, ueq, copy_names=True, name="velocity_loop")
 
 
-def velocity_tf(robot="p3dx_laser", u0: float = 0.0, w0: float = 0.0):
+class VelocityTF(NamedTuple):
+    """The two channels of the velocity loop, ``(G_u, G_w)``: a tuple that prints as
+    the two transfer functions it holds."""
+
+    G_u: object
+    G_w: object
+
+    def __repr__(self) -> str:
+        return "\n".join(str(g).rstrip() for g in self)
+
+
+def velocity_tf(robot="p3dx_laser", u0: float = 0.0, w0: float = 0.0) -> VelocityTF:
     r"""The two channels of :func:`velocity_loop` as transfer functions; about rest
     (the default) and about straight motion the channels decouple:
 
     .. math:: \frac{u}{u_{ref}} = \frac{1}{\theta_1 s + \theta_4},\qquad
               \frac{\omega}{\omega_{ref}} = \frac{1}{\theta_2 s + \theta_6 + \theta_5 u_0}
 
-    :return: ``(G_u, G_w)``, SISO :class:`control.TransferFunction` from ``u_ref`` to
-        ``u`` and from ``w_ref`` to ``w`` (the diagonal of the loop; in a turn the
-        off-diagonal coupling is left out, see :func:`velocity_loop`)
+    :return: :class:`VelocityTF` ``(G_u, G_w)``, SISO :class:`control.TransferFunction`
+        from ``u_ref`` to ``u`` and from ``w_ref`` to ``w`` (the diagonal of the loop; in
+        a turn the off-diagonal coupling is left out, see :func:`velocity_loop`)
     """
     ss = velocity_loop(robot, u0, w0)
     out = []
     for i, (o, n) in enumerate((("u", "u_ref"), ("w", "w_ref"))):
         tf = ct.minreal(ct.tf(ss[i, i]), verbose=False)
         out.append(ct.tf(tf.num[0][0], tf.den[0][0], inputs=n, outputs=o, name=f"G_{o}"))
-    return tuple(out)
+    return VelocityTF(*out)
 
 
 def linearize_robot(robot="p3dx_laser", a: float = 0.0, u0: float = 0.0, w0: float = 0.0,
