@@ -63,17 +63,19 @@ about 0.5..1.5; they describe the noise, not model error.
 
 from __future__ import annotations
 
+import contextlib
 import math
+import sys
 import warnings as _warnings_mod
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from .._validate import ValidationError, choice, integer, nonnegative, positive
 from ..model.unicycle import regressor
 from ..model.parameters import RobotParameters
 from ._simulate import COMMAND_CONVENTIONS, simulate_held, step_length
+from .least_squares import levenberg_marquardt, normal_equations
 from .logs import COLUMNS, TIME_UNITS, IdentificationWarning, _short, join_logs
 from .results import _NAMES, IdentificationResult
 from .validation import validation_report
@@ -178,6 +180,18 @@ def _eq11_columns(v, v_dot):
     comes from here."""
     Y = regressor(v, v_dot)
     return np.stack([Y[..., r, list(cols)] for r, cols in enumerate(_ROW_PARAMS)], axis=-2)
+
+
+def _coupling(u, w, chunk=1 << 16):
+    """The coupling columns of Eq. (11) per sample, (w^2, u w), from
+    :func:`_eq11_columns` a block of samples at a time (its (n, 2, 3) arrays for a
+    whole long log would be many times the log's size)."""
+    w2, uw = np.empty(u.size), np.empty(u.size)
+    for s in range(0, u.size, chunk):
+        v = np.stack([u[s:s + chunk], w[s:s + chunk]], axis=1)
+        Y0 = _eq11_columns(v, np.zeros_like(v))
+        w2[s:s + chunk], uw[s:s + chunk] = -Y0[:, 0, 1], Y0[:, 1, 1]
+    return w2, uw
 
 
 def _eq11_parts(v):
@@ -392,7 +406,8 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
              name: str = "identified", rel_stderr_max: float = 0.25, validate: bool = True,
              gap: float | None = None, check_commands: bool = True,
              time_unit: str | None = None,
-             stamp_jitter: float | None = None) -> IdentificationResult:
+             stamp_jitter: float | None = None,
+             progress: bool | None = None) -> IdentificationResult:
     r"""Estimate theta1..theta6 of Eq. (2) from one or more logs of one robot.
 
     The default ``method="output-error"`` simulates Eq. (2) over every piece of
@@ -451,8 +466,12 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
         fit: it is repeated with as much jitter again added to the stamps, and
         the shift and scatter of the estimates are added to the standard
         errors) and a warning says by how much
+    :param progress: a progress bar on stderr while the fits run: None (default)
+        for logs of more than 100,000 rows when stderr is a terminal; True or False
+        to force it on or off
     :raises ValidationError: for a bad log (see :func:`load_log`; every row it
-        drops or skips is reported in ``warnings``), constant
+        drops or skips is reported in ``warnings``), a log whose fit needs more
+        memory than the system has available (about 300 bytes a row), constant
         commands or no motion (nothing to identify), a window that does not fit the
         log, or a non-positive theta1, theta2, theta4 or theta6 (no physical robot
         has one; the message lists the likely causes)
@@ -461,8 +480,19 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
     commands, method, smoothing, order, window, rel_stderr_max, gap, stamp_jitter = \
         _checked_options(commands, method, smoothing, order, window, rel_stderr_max, name,
                          gap, stamp_jitter, validate, check_commands)
+    if progress is not None and not isinstance(progress, (bool, np.bool_)):
+        raise ValidationError(f"progress must be None, True or False, got {_short(progress)}")
     lg = _read_logs((log,) + more_logs, columns, gap, time_unit, stamp_jitter, commands,
                     delay, window, noise_std)
+    _check_memory(lg, method)
+    with _progress_bar(lg, progress) as lg.tick:
+        res = _identify(lg, method, smoothing, window, order, rel_stderr_max, name,
+                        check_commands, validate)
+    return _emit(res)
+
+
+def _identify(lg, method, smoothing, window, order, rel_stderr_max, name, check_commands,
+              validate):
     if method == "equation-error":
         res = _identify_equation_error(lg, smoothing, window, order, rel_stderr_max, name)
     else:
@@ -475,7 +505,66 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
         res = _oe_result(lg, oe, stderr, warns, start_kind, name)
     if validate:
         res = _with_validation(res, lg.D, lg.segs)
-    return _emit(res)
+    return res
+
+
+# memory the output-error fit holds per row of the log beyond the log's own columns,
+# bytes (its single-precision Jacobian, simulated and measured velocities, residuals,
+# the validation's copies), and per parameter fitted beyond the first eight
+_BYTES_PER_ROW = 300
+_BYTES_PER_ROW_PARAM = 16
+# logs of more rows than this show a progress bar on a terminal
+_PROGRESS_ROWS = 100_000
+
+
+def _available_memory() -> float | None:
+    """Bytes of memory the system can give this process now (Linux), else None."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return float(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return None
+
+
+def memory_needed(rows: int, pieces: int = 1) -> float:
+    """Bytes the output-error fit of a log of ``rows`` rows in ``pieces`` pieces
+    needs beyond the log itself (about 300 a row)."""
+    extra = max(2 * pieces - 2, 0)
+    return rows * (_BYTES_PER_ROW + _BYTES_PER_ROW_PARAM * extra)
+
+
+def _check_memory(lg, method):
+    """Refuse, before the fit, a log whose fit would not fit in the memory available."""
+    if method != "output-error":
+        return
+    need = memory_needed(lg.D["t"].size, len(lg.segs))
+    have = _available_memory()
+    if have is not None and need > have:
+        raise ValidationError(
+            f"the log's {lg.D['t'].size} rows need about {need / 1e9:.2g} GB of memory to "
+            f"identify from and {have / 1e9:.2g} GB are available: identify from a part "
+            f"(split_log), or on a machine with more memory")
+
+
+@contextlib.contextmanager
+def _progress_bar(lg, progress):
+    """A tqdm progress bar on stderr counting the simulations of the fits (for logs
+    over ``_PROGRESS_ROWS`` rows, on a terminal; ``progress`` True or False forces it
+    on or off), as the callable to tick; None without a bar."""
+    show = lg.D["t"].size > _PROGRESS_ROWS if progress is None else bool(progress)
+    if not show:
+        yield None
+        return
+    from tqdm import tqdm
+    bar = tqdm(desc=f"identify ({lg.D['t'].size} rows)", unit=" simulations",
+               file=sys.stderr, disable=None if progress is None else False, leave=False)
+    try:
+        yield bar.update
+    finally:
+        bar.close()
 
 
 def _checked_options(commands, method, smoothing, order, window, rel_stderr_max, name,
@@ -514,6 +603,7 @@ class _Logs:
     sw: float
     stamp_jitter: float | None
     warnings: list          # about the logs: missing rows, gaps, dropped rows
+    tick: object = None     # called as the fits advance (a progress bar), or None
 
     @property
     def linear(self) -> bool:
@@ -595,11 +685,12 @@ def _weighted_oe_fit(lg, theta0, delay):
     floor_u = 1e-9 * max(float(np.sqrt(np.mean(u * u))), 1e-9)
     floor_w = 1e-9 * max(float(np.sqrt(np.mean(w * w))), 1e-9)
     sig = np.array([max(lg.su, floor_u), max(lg.sw, floor_w)])
-    oe = _oe_fit(lg.D, lg.segs, theta0, sig, lg.linear, delay, lg.delay_auto, lg.dt_med)
+    oe = _oe_fit(lg.D, lg.segs, theta0, sig, lg.linear, delay, lg.delay_auto, lg.dt_med,
+                 progress=lg.tick)
     if np.any(np.abs(oe["rms"] / sig - 1.0) > 0.25):
         sig = np.maximum(oe["rms"], [floor_u, floor_w])
         oe = _oe_fit(lg.D, lg.segs, oe["theta"], sig, lg.linear, oe["delay"], lg.delay_auto,
-                     lg.dt_med, v0=oe["v0"])
+                     lg.dt_med, v0=oe["v0"], progress=lg.tick)
     return oe
 
 
@@ -631,7 +722,7 @@ def _command_check(lg, oe) -> list:
     """A warning when the other command convention fits the log clearly better."""
     other = "held" if lg.linear else "linear"
     alt = _oe_fit(lg.D, lg.segs, oe["theta"], oe["sig"], not lg.linear, oe["delay"], False,
-                  lg.dt_med, v0=oe["v0"], covariance=False)
+                  lg.dt_med, v0=oe["v0"], covariance=False, progress=lg.tick)
     gain = oe["cost"] - alt["cost"]
     # an absolute floor (noise), and a relative one: a log that Eq. (2) does not
     # fit (a saturating robot) can fit a little better either way
@@ -801,9 +892,7 @@ def _arx(D, segs, delay, auto, dt_med):
     whole delay in samples 0..3 with the smallest residual is used; otherwise
     ``delay`` is rounded to whole samples. Returns (theta, delay in samples)."""
     t, u_ref, w_ref, u, w = (D[k] for k in COLUMNS)
-    # the coupling columns of Eq. (11), w^2 and u w, of each sample
-    Y0 = _eq11_columns(np.stack([u, w], axis=1), np.zeros((u.size, 2)))
-    w2, uw = -Y0[:, 0, 1], Y0[:, 1, 1]
+    w2, uw = _coupling(u, w)      # the coupling columns of Eq. (11) of each sample
     cands = range(4) if auto else [int(round(delay / dt_med))]
     best = None
     for m in cands:
@@ -881,6 +970,7 @@ class _OutputErrorProblem:
         for i, j in ((0, 3), (1, 5)):
             p0[i] = max(p0[i], 1.001 * self.tau_min * p0[j])
         self.p0 = p0
+        self.progress = None     # called after each simulation of the fit
 
     def unpack(self, p):
         """(theta held at the fastest time constant explored, delay, v0)."""
@@ -903,12 +993,13 @@ class _OutputErrorProblem:
         """The velocity errors, each channel divided by its noise level."""
         return ((self.sim(p) - self.Y) / self.sig).T.ravel()
 
-    def jac(self, p):
-        """Forward differences of :meth:`fun`; a piece's initial velocities act
-        on its own rows only, so they are varied one piece at a time."""
+    def jac(self, p, f=None):
+        """Forward differences of :meth:`fun`, in single precision (see
+        :mod:`~unidyn.identification.least_squares`); a piece's initial velocities
+        act on its own rows only, so they are varied one piece at a time."""
         base = self.sim(p).copy()
         n, nd, sig = self.idx.size, self.nd, self.sig
-        J = np.zeros((2 * n, p.size))
+        J = np.zeros((2 * n, p.size), dtype=np.float32)
         for i in range(p.size):
             if i < 6:
                 h = 1e-7 * max(abs(p[i]), 1e-3)
@@ -930,24 +1021,25 @@ class _OutputErrorProblem:
         return J
 
     def solve(self, p0, max_nfev):
-        """scipy's trust-region reflective least squares within the bounds,
-        each parameter scaled by its column of the Jacobian."""
-        sol = least_squares(self.fun, p0, jac=self.jac, bounds=(self.lb, self.ub),
-                            method="trf", x_scale="jac", ftol=1e-10, xtol=1e-10,
-                            gtol=1e-10, max_nfev=max_nfev)
-        th, dl, _ = self.unpack(sol.x)
-        p = np.array(sol.x)
+        """Levenberg-Marquardt within the bounds, each parameter scaled by its
+        column of the Jacobian (:func:`~unidyn.identification.least_squares.
+        levenberg_marquardt`: the Jacobian held once, in single precision)."""
+        x = levenberg_marquardt(self.fun, self.jac, p0, self.lb, self.ub,
+                                max_nfev=max_nfev, progress=self.progress)
+        th, dl, _ = self.unpack(x)
+        p = np.array(x)
         p[:6] = th       # a time constant below the explored limit is reported at it
         return p
 
 
 def _oe_fit(D, segs, theta0, sig, linear, delay, est_delay, dt_med, v0=None,
-            covariance=True, max_nfev=200):
+            covariance=True, max_nfev=200, progress=None):
     """The output-error fit (see :func:`identify`). Returns a dict with theta,
     delay, v0, cost (sum of squared normalised errors), rms per channel, rows,
     residuals, and with ``covariance``: cov, conds, r2, whiteness, warnings,
     dead, delay_stderr."""
     prob = _OutputErrorProblem(D, segs, theta0, sig, linear, delay, est_delay, dt_med, v0)
+    prob.progress = progress
     p = prob.solve(prob.p0, max_nfev)
     # a faster robot than the start needs more RK4 steps: refine once
     if step_length(p[:6], dt_med) < 0.8 * prob.hmax:
@@ -980,7 +1072,7 @@ def _oe_covariance(prob, p, S, R, rms, th):
     J[n:] *= scale[1]
     Z = R / rms                                   # normalised residuals
     rho, lb_q, white = _whiteness(Z, prob.pos)
-    M = J.T @ J
+    M = normal_equations(J)
     Minv, dead = _scaled_inverse(M)
     cov = Minv * (float(np.sum(Z * Z)) / max(2 * n - npar, 1))
     warns = []
@@ -1284,8 +1376,8 @@ def _check_physical(theta, stderr):
 def _warnings(theta, stderr, conds, u, w, dt, rel_max) -> list:
     out = []
     rms = lambda a: float(np.sqrt(np.mean(np.square(a))))  # noqa: E731
-    Y0 = _eq11_columns(np.stack([u, w], axis=1), np.zeros((np.size(u), 2)))
-    turning = (f"rms(w^2) = {rms(Y0[:, 0, 1]):.3g} rad²/s², rms(u*w) = {rms(Y0[:, 1, 1]):.3g} "
+    w2, uw = _coupling(u, w)
+    turning = (f"rms(w^2) = {rms(w2):.3g} rad²/s², rms(u*w) = {rms(uw):.3g} "
                f"m·rad/s², "
                f"rms(u) = {rms(u):.3g} m/s, rms(w) = {rms(w):.3g} rad/s")
     for i, term in ((2, "-w^2 (centripetal)"), (4, "u*w (Coriolis)")):

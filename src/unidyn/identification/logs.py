@@ -7,7 +7,9 @@ A log holds the commands (u_ref, w_ref) a robot received and the velocities
 
 from __future__ import annotations
 
+import contextlib
 import csv
+import io
 import os
 import re
 import warnings
@@ -134,6 +136,101 @@ def _number(cell: str):
     return None
 
 
+def _header(path, lines) -> tuple[int, str, str]:
+    """(line number, text, separator) of the header row among ``lines``: the first
+    line that is neither blank nor a comment, after an optional ``sep=`` line."""
+    delim = None
+    for lineno, line in enumerate(lines, start=1):
+        s = line.strip()
+        if s and not s.startswith("#"):
+            m = re.fullmatch(r"""["']?sep=(.)["']?,*;*""", s.lstrip("\ufeff"))
+            if m and delim is None:
+                delim = "\t" if m.group(1) == "\t" else m.group(1)
+                continue
+            return lineno, line, delim or _sniff_delimiter(line)
+    raise ValidationError(f"log: {path} has no header row; expected a first row naming "
+                          f"the columns ({', '.join(COLUMNS)})")
+
+
+def _header_columns(header_line, delim, wanted) -> tuple[list, list]:
+    """(every header name, [(name, field index)] of the columns wanted and present)."""
+    header = [h.strip().strip('"').strip("'").strip().lstrip("\ufeff")
+              for h in next(csv.reader([header_line], delimiter=delim))]
+    want = list(header) if wanted is None else [w for w in dict.fromkeys(wanted) if w in header]
+    index = {h: i for i, h in reversed(list(enumerate(header)))}   # first occurrence
+    return header, [(h, index[h]) for h in want]
+
+
+# bytes of a CSV file examined at a time when counting its fields
+_BLOCK = 1 << 24
+
+
+def _read_plain(path: Path, raw: bytes, wanted):
+    """The columns of a plain CSV log read by numpy's reader, or None when the file
+    is anything but plain: UTF-8 or Latin-1 text, no quotes, no comment lines or
+    non-numbers among the data rows, and every data row with exactly the header's
+    number of fields (so that no decimal comma can split a number unnoticed).
+    Such files, by far the commonest, are read in C at a few bytes of memory per
+    byte of data; any other goes through :func:`_read_csv`'s reader, which explains
+    what it skips or refuses."""
+    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
+        return None
+    head_end = raw.rfind(b"\n", 0, 1 << 16) + 1
+    try:
+        head_lines = _decode(path, raw[:head_end]).split("\n")
+        lineno, header_line, delim = _header(path, head_lines[:-1])
+    except ValidationError:
+        return None
+    if len(delim) != 1 or not delim.isascii():
+        return None
+    start = sum(len(x) + 1 for x in raw[:head_end].split(b"\n", lineno)[:lineno])
+    if any(raw.find(c, start) >= 0 for c in (b'"', b"'", b"#", b"\x00")):
+        return None
+    header, cols = _header_columns(header_line, delim, wanted)
+    d = np.frombuffer(raw, np.uint8)
+    code = ord(delim)
+    ends, counts, carry = [], [], 0
+    for s in range(start, d.size, _BLOCK):
+        blk = d[s:s + _BLOCK]
+        nl = np.flatnonzero(blk == 10)
+        cum = np.searchsorted(np.flatnonzero(blk == code), nl)
+        per = np.diff(cum, prepend=0)
+        total = int(np.count_nonzero(blk == code))
+        if nl.size:
+            per[0] += carry
+            carry = total - int(cum[-1])
+        else:
+            carry += total
+        ends.append(nl + s)
+        counts.append(per)
+    if d.size and d[-1] != 10:                 # a last line without a newline
+        ends.append(np.array([d.size]))
+        counts.append(np.array([carry]))
+    ends = np.concatenate(ends) if ends else np.zeros(0, np.int64)
+    counts = np.concatenate(counts) if counts else np.zeros(0, np.int64)
+    begins = np.concatenate([[start], ends[:-1] + 1])
+    length = ends - begins
+    cr = length > 0
+    cr[cr] = d[ends[cr] - 1] == 13
+    filled = length - cr > 0
+    if not np.all(counts[filled] == len(header) - 1):
+        return None
+    del counts, begins, length, cr
+    use = [i for _, i in cols]
+    try:
+        with _warnings_as_errors():
+            arr = np.loadtxt(io.BytesIO(raw), delimiter=delim, skiprows=lineno,
+                             usecols=use or [0], ndmin=2, comments=None, quotechar=None,
+                             encoding="latin-1", dtype=float)
+    except (ValueError, Warning):
+        return None
+    rowlines = np.flatnonzero(filled) + lineno + 1
+    if arr.shape[0] != rowlines.size:
+        return None
+    data = {h: np.ascontiguousarray(arr[:, j]) for j, (h, _) in enumerate(cols)}
+    return data, header, rowlines, []
+
+
 def _read_csv(path: Path, wanted=None) -> tuple[dict, list, list]:
     """Read the columns ``wanted`` (all if None) of a CSV log as float arrays.
 
@@ -154,27 +251,15 @@ def _read_csv(path: Path, wanted=None) -> tuple[dict, list, list]:
         raise ValidationError(f"log: {path} is a folder, not a CSV file") from None
     except OSError as err:
         raise ValidationError(f"log: cannot read {path}: {err.strerror or err}") from None
+    plain = _read_plain(path, raw, wanted)
+    if plain is not None:
+        return plain
     text = _decode(path, raw)
+    del raw
     lines = text.splitlines()
-    lineno, header_line, delim = 0, None, None
-    for lineno, line in enumerate(lines, start=1):
-        s = line.strip()
-        if s and not s.startswith("#"):
-            m = re.fullmatch(r"""["']?sep=(.)["']?,*;*""", s.lstrip("\ufeff"))
-            if m and delim is None:
-                delim = "\t" if m.group(1) == "\t" else m.group(1)
-                continue
-            header_line = line
-            break
-    if header_line is None:
-        raise ValidationError(f"log: {path} has no header row; expected a first row naming "
-                              f"the columns ({', '.join(COLUMNS)})")
-    delim = delim or _sniff_delimiter(header_line)
-    header = [h.strip().strip('"').strip("'").strip().lstrip("\ufeff")
-              for h in next(csv.reader([header_line], delimiter=delim))]
-    want = list(header) if wanted is None else [w for w in dict.fromkeys(wanted) if w in header]
-    index = {h: i for i, h in reversed(list(enumerate(header)))}   # first occurrence
-    cols = [(h, index[h]) for h in want]
+    lineno, header_line, delim = _header(path, lines)
+    header, cols = _header_columns(header_line, delim, wanted)
+    want = [h for h, _ in cols]
     need = max((i for _, i in cols), default=-1) + 1
     data = {h: [] for h in want}
     rowlines, notes = [], []
@@ -219,6 +304,13 @@ def _read_csv(path: Path, wanted=None) -> tuple[dict, list, list]:
             data[h].append(v)
         rowlines.append(n)
     return data, header, rowlines, notes
+
+
+@contextlib.contextmanager
+def _warnings_as_errors():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        yield
 
 
 def _get_columns(log, wanted) -> tuple:
@@ -291,7 +383,7 @@ def _load(log, columns, time_unit=None) -> tuple[dict, list]:
 
     def where(k):
         """Sample k of the log, with its file line when it came from a file."""
-        return f"sample {k}" + (f" (line {rowlines[k]})" if rowlines else "")
+        return f"sample {k}" + (f" (line {rowlines[k]})" if rowlines is not None else "")
     missing = [k for k in COLUMNS if (cmap[k] not in data if data is not None
                                       else not hasattr(obj, cmap[k]))]
     if missing:
@@ -326,7 +418,8 @@ def _load(log, columns, time_unit=None) -> tuple[dict, list]:
         elif arr.size != n:
             raise ValidationError(f"log columns must have equal lengths: {k!r} has {arr.size} "
                                   f"samples, 't' has {n}")
-        out[k] = arr.copy()
+        # arrays read from a file are the log's own; a caller's are never changed
+        out[k] = arr if rowlines is not None else arr.copy()
     dt = np.diff(out["t"])
     same = np.flatnonzero(dt == 0)
     if same.size:
@@ -342,7 +435,7 @@ def _load(log, columns, time_unit=None) -> tuple[dict, list]:
         out = {k: v[keep] for k, v in out.items()}
         notes.append(f"log {what}: {same.size} exact duplicate row(s) dropped (first at "
                      f"{where(int(same[0]) + 1)}, t = {float(out['t'][same[0]])!r})")
-        rowlines = [ln for ln, kp in zip(rowlines, keep) if kp] if rowlines else None
+        rowlines = np.asarray(rowlines)[keep] if rowlines is not None else None
         n = out["t"].size
         dt = np.diff(out["t"])
     if n < 20:
