@@ -512,7 +512,7 @@ def _identify(lg, method, smoothing, window, order, rel_stderr_max, name, check_
 # bytes (its single-precision Jacobian, simulated and measured velocities, residuals,
 # the validation's copies), and per parameter fitted beyond the first eight
 _BYTES_PER_ROW = 300
-_BYTES_PER_ROW_PARAM = 16
+_BYTES_PER_ROW_PARAM = 8
 # logs of more rows than this show a progress bar on a terminal
 _PROGRESS_ROWS = 100_000
 
@@ -997,7 +997,7 @@ class _OutputErrorProblem:
         """Forward differences of :meth:`fun`, in single precision (see
         :mod:`~unidyn.identification.least_squares`); a piece's initial velocities
         act on its own rows only, so they are varied one piece at a time."""
-        base = self.sim(p).copy()
+        base = self.sim(p)       # a copy of the simulation's work array
         n, nd, sig = self.idx.size, self.nd, self.sig
         J = np.zeros((2 * n, p.size), dtype=np.float32)
         for i in range(p.size):
@@ -1011,7 +1011,10 @@ class _OutputErrorProblem:
             q = np.array(p, dtype=float)
             q[i] += h
             if i < 6 + nd:
-                J[:, i] = ((self.sim(q) - base) / h / sig).T.ravel()
+                dS = self.sim(q)
+                dS -= base
+                dS /= h * sig
+                J[:n, i], J[n:, i] = dS[:, 0], dS[:, 1]
             else:
                 s = (i - 6 - nd) // 2
                 a, b = self.pos[s], self.pos[s + 1]

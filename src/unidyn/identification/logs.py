@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import contextlib
 import csv
-import io
 import os
 import re
 import warnings
@@ -165,70 +164,84 @@ def _header_columns(header_line, delim, wanted) -> tuple[list, list]:
 _BLOCK = 1 << 24
 
 
-def _read_plain(path: Path, raw: bytes, wanted):
+def _read_plain(path: Path, wanted):
     """The columns of a plain CSV log read by numpy's reader, or None when the file
     is anything but plain: UTF-8 or Latin-1 text, no quotes, no comment lines or
     non-numbers among the data rows, and every data row with exactly the header's
     number of fields (so that no decimal comma can split a number unnoticed).
-    Such files, by far the commonest, are read in C at a few bytes of memory per
-    byte of data; any other goes through :func:`_read_csv`'s reader, which explains
-    what it skips or refuses."""
-    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
-        return None
-    head_end = raw.rfind(b"\n", 0, 1 << 16) + 1
+    Such files, by far the commonest, are read in C, a block at a time, holding
+    little more than the columns wanted; any other goes through
+    :func:`_read_csv`'s reader, which explains what it skips or refuses."""
     try:
-        head_lines = _decode(path, raw[:head_end]).split("\n")
-        lineno, header_line, delim = _header(path, head_lines[:-1])
-    except ValidationError:
+        with open(path, "rb") as fh:
+            head = fh.read(1 << 16)
+            if head.startswith((b"\xff\xfe", b"\xfe\xff")):
+                return None
+            head = head[:head.rfind(b"\n") + 1]
+            try:
+                lineno, header_line, delim = _header(path, _decode(path, head).split("\n")[:-1])
+            except ValidationError:
+                return None
+            if len(delim) != 1 or not delim.isascii():
+                return None
+            start = sum(len(x) + 1 for x in head.split(b"\n", lineno)[:lineno])
+            header, cols = _header_columns(header_line, delim, wanted)
+            fh.seek(start)
+            filled = _plain_rows(fh, ord(delim), len(header) - 1)
+    except OSError:
         return None
-    if len(delim) != 1 or not delim.isascii():
+    if filled is None:
         return None
-    start = sum(len(x) + 1 for x in raw[:head_end].split(b"\n", lineno)[:lineno])
-    if any(raw.find(c, start) >= 0 for c in (b'"', b"'", b"#", b"\x00")):
-        return None
-    header, cols = _header_columns(header_line, delim, wanted)
-    d = np.frombuffer(raw, np.uint8)
-    code = ord(delim)
-    ends, counts, carry = [], [], 0
-    for s in range(start, d.size, _BLOCK):
-        blk = d[s:s + _BLOCK]
-        nl = np.flatnonzero(blk == 10)
-        cum = np.searchsorted(np.flatnonzero(blk == code), nl)
-        per = np.diff(cum, prepend=0)
-        total = int(np.count_nonzero(blk == code))
-        if nl.size:
-            per[0] += carry
-            carry = total - int(cum[-1])
-        else:
-            carry += total
-        ends.append(nl + s)
-        counts.append(per)
-    if d.size and d[-1] != 10:                 # a last line without a newline
-        ends.append(np.array([d.size]))
-        counts.append(np.array([carry]))
-    ends = np.concatenate(ends) if ends else np.zeros(0, np.int64)
-    counts = np.concatenate(counts) if counts else np.zeros(0, np.int64)
-    begins = np.concatenate([[start], ends[:-1] + 1])
-    length = ends - begins
-    cr = length > 0
-    cr[cr] = d[ends[cr] - 1] == 13
-    filled = length - cr > 0
-    if not np.all(counts[filled] == len(header) - 1):
-        return None
-    del counts, begins, length, cr
-    use = [i for _, i in cols]
     try:
         with _warnings_as_errors():
-            arr = np.loadtxt(io.BytesIO(raw), delimiter=delim, skiprows=lineno,
-                             usecols=use or [0], ndmin=2, comments=None, quotechar=None,
+            arr = np.loadtxt(path, delimiter=delim, skiprows=lineno, usecols=[i for _, i in cols]
+                             or [0], ndmin=2, comments=None, quotechar=None,
                              encoding="latin-1", dtype=float)
-    except (ValueError, Warning):
+    except (ValueError, Warning, OSError):
         return None
     rowlines = np.flatnonzero(filled) + lineno + 1
     if arr.shape[0] != rowlines.size:
         return None
     data = {h: np.ascontiguousarray(arr[:, j]) for j, (h, _) in enumerate(cols)}
     return data, header, rowlines, []
+
+
+def _plain_rows(fh, code, separators):
+    """Which lines from the file position on hold data (are not blank), or None
+    when a line holds other than ``separators`` separators (byte ``code``), a
+    quote, a '#' or a NUL byte: read a block at a time."""
+    filled, carry, pending, prev = [], 0, 0, 10
+    while True:
+        raw = fh.read(_BLOCK)
+        if not raw:
+            break
+        if any(c in raw for c in (b'"', b"'", b"#", b"\x00")):
+            return None
+        blk = np.frombuffer(raw, np.uint8)
+        nl = np.flatnonzero(blk == 10)
+        sep = np.flatnonzero(blk == code)
+        per = np.diff(np.searchsorted(sep, nl), prepend=0)
+        length = np.diff(nl, prepend=-1)             # with the newline
+        if nl.size:
+            per[0] += carry
+            length[0] += pending
+            carry, pending = sep.size - int(np.searchsorted(sep, nl[-1])), blk.size - nl[-1] - 1
+        else:
+            carry, pending = carry + sep.size, pending + blk.size
+        cr = np.zeros(nl.size, bool)
+        cr[nl > 0] = blk[nl[nl > 0] - 1] == 13
+        if nl.size and nl[0] == 0:
+            cr[0] = prev == 13
+        full = length - 1 - cr > 0
+        if not np.all(per[full] == separators):
+            return None
+        filled.append(full)
+        prev = int(blk[-1])
+    if pending:                                      # a last line without a newline
+        if carry != separators and pending - (prev == 13) > 0:
+            return None
+        filled.append(np.array([pending - (prev == 13) > 0]))
+    return np.concatenate(filled) if filled else np.zeros(0, bool)
 
 
 def _read_csv(path: Path, wanted=None) -> tuple[dict, list, list]:
@@ -245,15 +258,16 @@ def _read_csv(path: Path, wanted=None) -> tuple[dict, list, list]:
     Returns (columns found, every header name, the file line of each row,
     notes: one line per kind of row skipped).
     """
+    if path.is_file():
+        plain = _read_plain(path, wanted)
+        if plain is not None:
+            return plain
     try:
         raw = path.read_bytes()
     except IsADirectoryError:
         raise ValidationError(f"log: {path} is a folder, not a CSV file") from None
     except OSError as err:
         raise ValidationError(f"log: cannot read {path}: {err.strerror or err}") from None
-    plain = _read_plain(path, raw, wanted)
-    if plain is not None:
-        return plain
     text = _decode(path, raw)
     del raw
     lines = text.splitlines()
