@@ -52,6 +52,7 @@ import math
 import os
 import warnings
 from array import array
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -156,9 +157,10 @@ def _read_messages(path, reader, cmd_name, odom_name):
     odometry receive times ns, u, w, whether the commands carry stamps)."""
     conns = [c for c in reader.connections if c.topic in (cmd_name, odom_name)]
     # compact growing arrays: 8 bytes a number, not a Python float's 24 or more
-    tc, to, tr = array("q"), array("q"), array("q")
+    tc, tcr, to, tr = array("q"), array("q"), array("q"), array("q")
     uc, wc, uo, wo = array("d"), array("d"), array("d"), array("d")
-    stamped = False
+    vy, yaw = array("d"), array("d")
+    stamped, frames = False, None
     for conn, t_ns, raw in reader.messages(connections=conns):
         msg = reader.deserialize(raw, conn.msgtype)
         if conn.topic == cmd_name:
@@ -168,16 +170,93 @@ def _read_messages(path, reader, cmd_name, odom_name):
                 msg = msg.twist
             else:
                 tc.append(t_ns)
+            tcr.append(t_ns)
             uc.append(float(msg.linear.x))
             wc.append(float(msg.angular.z))
         else:
             to.append(_stamp(msg, t_ns))
             tr.append(t_ns)
-            uo.append(float(msg.twist.twist.linear.x))
-            wo.append(float(msg.twist.twist.angular.z))
-    return (np.frombuffer(tc, np.int64), np.frombuffer(uc), np.frombuffer(wc),
-            np.frombuffer(to, np.int64), np.frombuffer(tr, np.int64), np.frombuffer(uo),
-            np.frombuffer(wo), stamped)
+            tw = msg.twist.twist
+            uo.append(float(tw.linear.x))
+            wo.append(float(tw.angular.z))
+            vy.append(float(tw.linear.y))
+            q = msg.pose.pose.orientation
+            yaw.append(math.atan2(2.0 * (q.w * q.z + q.x * q.y),
+                                  1.0 - 2.0 * (q.y * q.y + q.z * q.z)))
+            if frames is None:
+                frames = (str(msg.header.frame_id), str(msg.child_frame_id))
+    cmds = _Commands(np.frombuffer(tc, np.int64), np.frombuffer(tcr, np.int64),
+                     np.frombuffer(uc), np.frombuffer(wc), stamped)
+    odom = _Odometry(np.frombuffer(to, np.int64), np.frombuffer(tr, np.int64),
+                     np.frombuffer(uo), np.frombuffer(wo), np.frombuffer(vy),
+                     np.frombuffer(yaw), frames or ("", ""))
+    return cmds, odom
+
+
+@dataclass
+class _Commands:
+    """The commands as recorded: times (stamps, or receive times) and receive
+    times, ns; u_ref, w_ref; whether they carry stamps."""
+    t: np.ndarray
+    received: np.ndarray
+    u: np.ndarray
+    w: np.ndarray
+    stamped: bool
+
+
+@dataclass
+class _Odometry:
+    """The odometry as recorded: stamps and receive times, ns; the twist's
+    linear.x, angular.z and linear.y; the pose's heading, rad; the first message's
+    (frame_id, child_frame_id)."""
+    t: np.ndarray
+    received: np.ndarray
+    u: np.ndarray
+    w: np.ndarray
+    vy: np.ndarray
+    yaw: np.ndarray
+    frames: tuple
+
+
+# frame names that are a fixed (world) frame, never the robot's body (REP 105)
+_WORLD_FRAMES = ("odom", "map", "world", "earth")
+# a twist whose sideways part is this large against its length is not in the body
+# frame of a differential-drive robot (which cannot move sideways)
+_SIDEWAYS = 0.2
+
+
+def _body_twist(path, odom_name, od: _Odometry):
+    """(u, w, note or None): the odometry's forward speed in the robot's frame.
+
+    A twist is in the frame ``child_frame_id`` (REP 105), the robot's body. Some
+    drivers publish it in the world frame instead (``child_frame_id`` empty or a
+    fixed frame, or mislabelled): then its linear part turns with the heading, and
+    linear.x is the speed times cos(heading). It is turned into the body frame
+    with the pose's heading when the frame ids say so, or when the twist has a
+    large sideways part that the rotation removes; refused when that is not
+    possible."""
+    frame, child = (f.strip().lstrip("/") for f in od.frames)
+    said_world = child == "" or child == frame or child in _WORLD_FRAMES
+    c, s_ = np.cos(od.yaw), np.sin(od.yaw)
+    ub, lat_b = c * od.u + s_ * od.vy, -s_ * od.u + c * od.vy
+    size = max(float(np.sqrt(np.mean(od.u ** 2 + od.vy ** 2))), 1e-12)
+    side_given = float(np.sqrt(np.mean(od.vy ** 2))) / size
+    side_body = float(np.sqrt(np.mean(lat_b ** 2))) / size
+    turned = float(np.ptp(np.unwrap(od.yaw))) if od.yaw.size else 0.0
+    if not said_world and side_given <= _SIDEWAYS:
+        return od.u, od.w, None
+    why = (f"its child_frame_id is {child!r}" if said_world else
+           f"its sideways speed linear.y is {100 * side_given:.0f} % of the speed, which "
+           f"a differential-drive robot cannot have in its own frame")
+    if (said_world or turned > 0.5) and side_body <= _SIDEWAYS:
+        return ub, od.w, (f"bag {path}: the odometry on {odom_name} gives its twist in "
+                          f"the world frame ({why}); turned into the robot's frame with "
+                          f"the pose's heading")
+    raise ValidationError(
+        f"bag {path}: the odometry on {odom_name} gives its twist in the world frame "
+        f"{frame or child or '?'!r} ({why}), and its pose's heading does not turn it into "
+        f"the robot's frame (base_link): publish the twist in the robot's frame "
+        f"(REP 105), or record /joint_states and pass the wheel radius and separation")
 
 
 def read_bag(path, cmd: str | None = None, odom: str | None = None,
@@ -240,10 +319,42 @@ def read_bag(path, cmd: str | None = None, odom: str | None = None,
             if path.suffix.lower() == ".bag" else ""
         raise ValidationError(f"bag {path} cannot be read, truncated or corrupt?{hint}: "
                               f"{reason[:200]}") from None
-    tc, uc, wc, to, tr, uo, wo, stamped = data
-    return _log_from_messages(path, tc, uc, wc, to, tr, uo, wo, stamped, cmd_timeout,
+    cmds, od = data
+    uo, wo, note = _body_twist(path, odom_name, od)
+    if note:
+        warnings.warn(note, IdentificationWarning, stacklevel=2)
+    _check_clocks(path, cmd_name, odom_name, cmds, od)
+    return _log_from_messages(path, cmds.t, cmds.u, cmds.w, od.t, od.received, uo, wo,
+                              cmds.stamped, cmd_timeout,
                               {"cmd_topic": cmd_name, "cmd_type": cmd_type,
                                "odom_topic": odom_name})
+
+
+def _clock_name(ns) -> str:
+    """What clock a time (ns) is most likely on."""
+    s = float(ns) * 1e-9
+    if s > 1e9:      # after 2001: the wall clock
+        import datetime
+        when = datetime.datetime.fromtimestamp(s, datetime.timezone.utc)
+        return f"the wall clock ({when:%Y-%m-%d %H:%M:%S} UTC)"
+    return f"a clock from zero such as simulation time ({s:.1f} s)"
+
+
+def _check_clocks(path, cmd_name, odom_name, cmds, od):
+    """Refuse stamped commands and odometry whose stamps do not overlap in time:
+    they are on different clocks (one on the wall clock, one on simulation
+    time, as when use_sim_time is set on one node only)."""
+    if not cmds.stamped or cmds.t.size < 2 or od.t.size < 2:
+        return
+    a0, a1, b0, b1 = int(cmds.t.min()), int(cmds.t.max()), int(od.t.min()), int(od.t.max())
+    if a0 <= b1 and b0 <= a1:
+        return
+    raise ValidationError(
+        f"bag {path}: the stamps of the commands on {cmd_name} and of the odometry on "
+        f"{odom_name} do not overlap in time: the commands are stamped on "
+        f"{_clock_name(a0)}, the odometry on {_clock_name(b0)}; the nodes stamp on "
+        f"different clocks (use_sim_time set on one of them only?): stamp both on one "
+        f"clock")
 
 
 def _log_from_messages(path, tc, uc, wc, to, tr, uo, wo, stamped, cmd_timeout, meta) -> dict:

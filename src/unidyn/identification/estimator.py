@@ -106,6 +106,11 @@ MAX_TIME_CONSTANT = 60.0
 # time stamps jittering by more than this fraction of the median step (std) widen
 # the intervals (see _jitter_widening); rounding to microseconds stays below it
 _JITTER_MIN = 1e-3
+# a parameter whose information rests on less than this share of the samples is
+# reported as not identifiable (see _information_share): a multisine excitation gives
+# 0.08 to 0.25, ten one-sample blips in a minute and a half of constant commands 0.007
+# to 0.07
+_MIN_SHARE = 0.005
 # fits repeated with added jitter to measure its effect
 _JITTER_REPS = 4
 _UNIT_NAMES = {"ms": "milliseconds", "us": "microseconds", "ns": "nanoseconds"}
@@ -623,6 +628,7 @@ def _read_logs(logs, columns, gap, time_unit, stamp_jitter, commands, delay, win
     D, segs, _, _ = join_logs(logs, columns, gap, time_unit)
     t, u_ref, w_ref, u, w = (D[k] for k in COLUMNS)
     _check_excitation(u_ref, w_ref)
+    _check_measured(u_ref, w_ref, u, w)
     dt_med = float(np.median(np.concatenate([np.diff(t[a:b]) for a, b in segs])))
     delay_auto, delay = _delay_arg(delay, dt_med)
     longest = max(t[b - 1] - t[a] for a, b in segs)
@@ -708,6 +714,15 @@ def _oe_intervals(lg, oe, rel_stderr_max):
                                         lg.dt_med, jitter)
         warns.append(note)
     idx = oe["rows"]
+    for i in np.flatnonzero(oe["share"] < _MIN_SHARE):
+        if i in oe["dead"]:
+            continue
+        stderr[i] = math.inf
+        warns.append(f"{_NAMES[i]} is not identifiable from this log: its estimate "
+                     f"{theta[i]:.4g} rests on {100 * oe['share'][i]:.2g} % of the samples "
+                     f"(the few moments that excite it, such as isolated steps in otherwise "
+                     f"steady commands), too few for its interval to mean anything; it is "
+                     f"reported without one. Excite it throughout the log (see excitation())")
     for i in oe["dead"]:
         warns.append(f"{_NAMES[i]} is not identifiable from this log: the simulated velocities "
                      f"do not depend on it (or only through a combination with other "
@@ -1105,13 +1120,31 @@ def _oe_covariance(prob, p, S, R, rms, th):
         Yc = prob.Y[:, c]
         ss = float(np.sum((Yc - Yc.mean()) ** 2))
         r2.append(1.0 - float(R[:, c] @ R[:, c]) / ss if ss > 0 else math.nan)
+    share = _information_share(J, Minv)
     cov[dead, :] = 0.0
     cov[:, dead] = 0.0
     cov[dead, dead] = math.inf
     return dict(cov=cov, conds=conds, r2=r2, whiteness=[float(q) for q in lb_q],
-                warnings=warns, saturation=sat,
+                warnings=warns, saturation=sat, share=share,
                 dead=[i for i in np.flatnonzero(dead) if i < 6],
                 delay_stderr=float(np.sqrt(max(cov[6, 6], 0.0))) if nd else 0.0)
+
+
+def _information_share(J, Minv, chunk=1 << 16):
+    """Per parameter of theta, the share of the rows its estimate rests on: the
+    effective number (sum r^2)^2 / sum r^4 of the rows of r = J Minv[:, i] (the
+    part of its Jacobian column that no other parameter's explains), over the
+    number of rows. A parameter that only a few moments of the log excite (a blip
+    in otherwise constant commands) has a small share: its interval, computed as
+    if the model were exact at those few moments, is not to be trusted."""
+    s2, s4 = np.zeros(6), np.zeros(6)
+    C = Minv[:, :6]
+    for s in range(0, J.shape[0], chunk):
+        r = np.asarray(J[s:s + chunk], dtype=float) @ C
+        r2 = r * r
+        s2 += r2.sum(axis=0)
+        s4 += (r2 * r2).sum(axis=0)
+    return np.where(s4 > 0, s2 * s2 / np.where(s4 > 0, s4, 1.0), 0.0) / J.shape[0]
 
 
 def _whiteness(Z, pos, L=10):
@@ -1362,6 +1395,26 @@ def _check_excitation(u_ref, w_ref):
             raise ValidationError(
                 f"log column {k!r} is constant ({v[0]:g} {unit}) throughout: no excitation, "
                 f"{params} cannot be identified; vary the command (see excitation())")
+
+
+def _check_measured(u_ref, w_ref, u, w):
+    """Refuse velocities that are the commands themselves: odometry computed from
+    the commands (a controller's open-loop odometry) carries no dynamics, and
+    Eq. (2) fitted to it gives time constants of zero as if identified."""
+    same = np.zeros(u.size, bool)
+    for lag in (0, 1):     # the command held over the row, or over the row before
+        tu = 1e-6 * max(float(np.max(np.abs(u_ref))), 1e-9)
+        tw = 1e-6 * max(float(np.max(np.abs(w_ref))), 1e-9)
+        same[lag:] |= (np.abs(u[lag:] - u_ref[:u.size - lag]) <= tu) & \
+            (np.abs(w[lag:] - w_ref[:u.size - lag]) <= tw)
+    if np.mean(same) > 0.5:
+        raise ValidationError(
+            f"the measured velocities equal the commands in {100 * np.mean(same):.0f} % of "
+            f"the rows: they are computed from the commands (open-loop odometry, as a "
+            f"diff_drive_controller with open_loop: true publishes), not measured, and carry "
+            f"no dynamics to identify; log odometry from the wheel encoders (open_loop: "
+            f"false), or the wheel speeds on /joint_states (read_bag's wheel_radius and "
+            f"wheel_separation)")
 
 
 def _check_physical(theta, stderr):
