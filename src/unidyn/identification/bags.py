@@ -61,12 +61,15 @@ from .._errors import MissingDependency
 from .._validate import ValidationError, positive
 from .logs import IdentificationWarning
 
-__all__ = ["read_bag", "is_bag", "held_mean", "COMMAND_TYPES", "ODOMETRY_TYPE", "GAP_PERIODS"]
+__all__ = ["read_bag", "is_bag", "held_mean", "COMMAND_TYPES", "ODOMETRY_TYPE",
+           "JOINT_STATE_TYPE", "GAP_PERIODS"]
 
 #: Message types read as commands (u_ref = linear.x, w_ref = angular.z).
 COMMAND_TYPES = ("geometry_msgs/msg/Twist", "geometry_msgs/msg/TwistStamped")
 #: Message type read as the measured velocities (twist.twist.linear.x, angular.z).
 ODOMETRY_TYPE = "nav_msgs/msg/Odometry"
+#: Message type read as the wheel speeds (velocity, rad/s, of the wheel joints).
+JOINT_STATE_TYPE = "sensor_msgs/msg/JointState"
 #: No message of either topic for this many median command periods is a recording gap.
 GAP_PERIODS = 5.0
 # the recorder's and the header stamps' clocks are taken as different clocks when
@@ -116,10 +119,17 @@ def _describe(name, info, duration) -> str:
     return f"{name} ({info.msgtype}, {info.msgcount} messages{rate})"
 
 
-def _choose(path, topics, wanted, types, what, flag, duration) -> str:
-    """The topic to read ``what`` from: ``wanted`` if given, else the one topic of
-    one of ``types``; one line listing the candidates otherwise."""
-    cands = {n: i for n, i in topics.items() if i.msgtype in types}
+def _choose(path, topics, wanted, types, what, flag, duration) -> tuple[str, str]:
+    """(the topic to read ``what`` from, why): ``wanted`` if given, else the one
+    topic of one of ``types``, or among several the one ros2_control's
+    diff_drive_controller publishes as the command it applied (``cmd_vel_out``,
+    after its limits); one line listing the candidates otherwise."""
+    cands = {n: i for n, i in topics.items() if i.msgtype in types and i.msgcount}
+    applied = [n for n in cands if n.rstrip("/").rsplit("/", 1)[-1] == "cmd_vel_out"]
+    if wanted is None and len(cands) > 1 and len(applied) == 1:
+        return applied[0], (f"the command after the controller's limits, which the robot "
+                            f"applied, preferred to {', '.join(n for n in cands if n != applied[0])}")
+    cands = cands or {n: i for n, i in topics.items() if i.msgtype in types}
     typename = " or ".join(t.replace("/msg/", "/") for t in types)
     if wanted is not None:
         if wanted not in topics:
@@ -129,9 +139,10 @@ def _choose(path, topics, wanted, types, what, flag, duration) -> str:
         if topics[wanted].msgtype not in types:
             raise ValidationError(f"bag {path}: {flag} {wanted} is of type "
                                   f"{topics[wanted].msgtype}, not {typename}")
-        name = wanted
+        name, why = wanted, f"given as {flag}"
     elif len(cands) == 1:
         name = next(iter(cands))
+        why = f"the bag's one {typename} topic"
     elif not cands:
         have = "; ".join(_describe(n, i, duration) for n, i in topics.items()) or "no topics"
         raise ValidationError(f"bag {path} has no {typename} topic ({what}); it has {have}")
@@ -142,7 +153,7 @@ def _choose(path, topics, wanted, types, what, flag, duration) -> str:
     if topics[name].msgcount == 0:
         raise ValidationError(f"bag {path}: topic {name} ({topics[name].msgtype}) holds no "
                               f"messages")
-    return name
+    return name, why
 
 
 def _stamp(msg, received_ns: int) -> int:
@@ -152,7 +163,45 @@ def _stamp(msg, received_ns: int) -> int:
     return ns if ns > 0 else received_ns
 
 
-def _read_messages(path, reader, cmd_name, odom_name):
+def _wheels(radius, separation, joints):
+    """(r, D, (left, right) or None) from read_bag's wheel options, or None."""
+    if radius is None and separation is None and joints is None:
+        return None
+    if radius is None or separation is None:
+        raise ValidationError("wheel_radius and wheel_separation are needed together (both "
+                              "in m) to read the wheel speeds of /joint_states")
+    r, d = positive("wheel_radius", radius), positive("wheel_separation", separation)
+    if joints is not None:
+        if isinstance(joints, str) or len(joints) != 2 or \
+                not all(isinstance(j, str) and j.strip() for j in joints):
+            raise ValidationError(f"wheel_joints must be two joint names (left, right), "
+                                  f"got {joints!r}")
+        joints = (joints[0].strip(), joints[1].strip())
+    return r, d, joints
+
+
+def _wheel_joints(path, topic, names, given):
+    """The (left, right) wheel joints among a JointState message's ``names``."""
+    if given is not None:
+        missing = [j for j in given if j not in names]
+        if missing:
+            raise ValidationError(f"bag {path}: {topic} has no joint {missing[0]!r} "
+                                  f"(wheel joints); its joints: {', '.join(names)}")
+        return given
+    out = []
+    for side in ("left", "right"):
+        found = [n for n in names if side in n.lower()]
+        wheel = [n for n in found if "wheel" in n.lower()]
+        found = wheel if len(wheel) == 1 else found
+        if len(found) != 1:
+            raise ValidationError(
+                f"bag {path}: cannot tell the {side} wheel joint among the joints of {topic} "
+                f"({', '.join(names) or 'none'}); name them with --wheel-joints LEFT,RIGHT")
+        out.append(found[0])
+    return tuple(out)
+
+
+def _read_messages(path, reader, cmd_name, odom_name, wheels=None):
     """Stream the two topics: (command times ns, u_ref, w_ref, odometry stamps ns,
     odometry receive times ns, u, w, whether the commands carry stamps)."""
     conns = [c for c in reader.connections if c.topic in (cmd_name, odom_name)]
@@ -173,6 +222,20 @@ def _read_messages(path, reader, cmd_name, odom_name):
             tcr.append(t_ns)
             uc.append(float(msg.linear.x))
             wc.append(float(msg.angular.z))
+        elif wheels:
+            names = list(msg.name)
+            if frames is None:
+                frames = _wheel_joints(path, odom_name, names, wheels[2])
+            try:
+                wl, wr = (float(msg.velocity[names.index(j)]) for j in frames)
+            except (ValueError, IndexError):
+                continue     # a message of other joints (several broadcasters)
+            to.append(_stamp(msg, t_ns))
+            tr.append(t_ns)
+            uo.append(wheels[0] * (wl + wr) / 2.0)
+            wo.append(wheels[0] * (wr - wl) / wheels[1])
+            vy.append(0.0)
+            yaw.append(0.0)
         else:
             to.append(_stamp(msg, t_ns))
             tr.append(t_ns)
@@ -260,7 +323,8 @@ def _body_twist(path, odom_name, od: _Odometry):
 
 
 def read_bag(path, cmd: str | None = None, odom: str | None = None,
-             cmd_timeout: float | None = None) -> dict:
+             cmd_timeout: float | None = None, wheel_radius: float | None = None,
+             wheel_separation: float | None = None, wheel_joints=None) -> dict:
     """Read a ROS recording of a robot as an identification log.
 
     :param path: a ROS 2 bag folder (sqlite3 or MCAP), a single ``.mcap`` (or
@@ -272,6 +336,15 @@ def read_bag(path, cmd: str | None = None, odom: str | None = None,
     :param cmd_timeout: seconds after the last command at which the robot's
         driver stops it (command zero until the next one), > 0; default None:
         each command is held until the next
+    :param wheel_radius: r, m: with ``wheel_separation``, the measured velocities
+        are read from the wheel speeds wL, wR (rad/s) of a
+        ``sensor_msgs/JointState`` topic (``/joint_states``, as ros2_control's
+        joint_state_broadcaster publishes; ``odom`` names it when there are
+        several) instead of odometry: u = r (wL + wR) / 2, w = r (wR - wL) / D
+    :param wheel_separation: D, m, the distance between the wheels' contact points
+    :param wheel_joints: (left, right) joint names; default the one joint whose
+        name holds "left" and the one whose name holds "right" (preferring names
+        with "wheel")
     :raises MissingDependency: without the rosbags package (``pip install
         "unidyn[ros]"``)
     :raises ValidationError: one line naming the file and what is wrong: not a
@@ -284,7 +357,8 @@ def read_bag(path, cmd: str | None = None, odom: str | None = None,
         :func:`~unidyn.identification.load_log` returns, plus ``"gap"`` (s, the
         recording-gap threshold :func:`identify` uses), ``"stamp_jitter"`` (0:
         samples are at their header stamps), ``"source"``
-        (the path), ``"cmd_topic"``, ``"cmd_type"``, ``"odom_topic"``,
+        (the path), ``"cmd_topic"``, ``"cmd_type"``, ``"odom_topic"``, ``"cmd_why"``
+        and ``"odom_why"`` (why these topics were read),
         ``"cmd_timeout"`` and ``"t0"`` (the first command's time, ns since the
         epoch)
 
@@ -299,18 +373,20 @@ def read_bag(path, cmd: str | None = None, odom: str | None = None,
     for flag, v in (("cmd", cmd), ("odom", odom)):
         if v is not None and (not isinstance(v, str) or not v.strip()):
             raise ValidationError(f"{flag} must be a topic name such as /cmd_vel, got {v!r}")
+    wheels = _wheels(wheel_radius, wheel_separation, wheel_joints)
     _check_path(path)
     AnyReader, typestore = _rosbags()
     try:
         with AnyReader([path], default_typestore=typestore) as reader:
             topics = reader.topics
             duration = reader.duration * 1e-9 if reader.message_count else 0.0
-            cmd_name = _choose(path, topics, cmd, COMMAND_TYPES, "the commands", "--cmd",
-                               duration)
-            odom_name = _choose(path, topics, odom, (ODOMETRY_TYPE,), "the measured velocities",
-                                "--odom", duration)
+            cmd_name, cmd_why = _choose(path, topics, cmd, COMMAND_TYPES, "the commands",
+                                        "--cmd", duration)
+            odom_name, odom_why = _choose(
+                path, topics, odom, (JOINT_STATE_TYPE,) if wheels else (ODOMETRY_TYPE,),
+                "the measured velocities", "--odom", duration)
             cmd_type = topics[cmd_name].msgtype
-            data = _read_messages(path, reader, cmd_name, odom_name)
+            data = _read_messages(path, reader, cmd_name, odom_name, wheels)
     except (ValidationError, MissingDependency, KeyboardInterrupt, MemoryError):
         raise
     except Exception as err:  # noqa: BLE001 - a damaged file fails in many ways
@@ -320,14 +396,21 @@ def read_bag(path, cmd: str | None = None, odom: str | None = None,
         raise ValidationError(f"bag {path} cannot be read, truncated or corrupt?{hint}: "
                               f"{reason[:200]}") from None
     cmds, od = data
-    uo, wo, note = _body_twist(path, odom_name, od)
-    if note:
-        warnings.warn(note, IdentificationWarning, stacklevel=2)
+    if wheels:
+        uo, wo = od.u, od.w
+        odom_why += (f"; u = r (wL + wR) / 2, w = r (wR - wL) / D from joints "
+                     f"{od.frames[0]} (left), {od.frames[1]} (right), r = {wheels[0]:g} m, "
+                     f"D = {wheels[1]:g} m")
+    else:
+        uo, wo, note = _body_twist(path, odom_name, od)
+        if note:
+            warnings.warn(note, IdentificationWarning, stacklevel=2)
     _check_clocks(path, cmd_name, odom_name, cmds, od)
     return _log_from_messages(path, cmds.t, cmds.u, cmds.w, od.t, od.received, uo, wo,
                               cmds.stamped, cmd_timeout,
                               {"cmd_topic": cmd_name, "cmd_type": cmd_type,
-                               "odom_topic": odom_name})
+                               "odom_topic": odom_name, "cmd_why": cmd_why,
+                               "odom_why": odom_why})
 
 
 def _clock_name(ns) -> str:
