@@ -61,7 +61,7 @@ from .._errors import MissingDependency
 from .._validate import ValidationError, positive
 from .logs import IdentificationWarning
 
-__all__ = ["read_bag", "is_bag", "held_mean", "COMMAND_TYPES", "ODOMETRY_TYPE",
+__all__ = ["read_bag", "is_bag", "held_mean", "held_weighted", "COMMAND_TYPES", "ODOMETRY_TYPE",
            "JOINT_STATE_TYPE", "GAP_PERIODS"]
 
 #: Message types read as commands (u_ref = linear.x, w_ref = angular.z).
@@ -504,7 +504,8 @@ def _log_from_messages(path, tc, uc, wc, to, tr, uo, wo, stamped, cmd_timeout, m
     u_ref = held_mean(c_t, uc, t, cmd_timeout)
     w_ref = held_mean(c_t, wc, t, cmd_timeout)
     return {"t": t, "u_ref": u_ref, "w_ref": w_ref, "u": u, "w": w, "gap": gap,
-            "stamp_jitter": 0.0, "source": str(path), **meta, "cmd_timeout": cmd_timeout, "t0": t0}
+            "stamp_jitter": 0.0, "source": str(path), **meta, "cmd_timeout": cmd_timeout, "t0": t0,
+            "commands": {"t": c_t, "u_ref": uc, "w_ref": wc, "stamped": bool(stamped)}}
 
 
 def held_mean(c_t, c, t, timeout=None) -> np.ndarray:
@@ -532,3 +533,33 @@ def held_mean(c_t, c, t, timeout=None) -> np.ndarray:
     out[-1] = c[j[-1]] if timeout is None or since[-1] < timeout else 0.0
     return out
 
+
+
+def held_weighted(c_t, c, t, tau, timeout=None) -> np.ndarray:
+    """Like :func:`held_mean`, the commands over the intervals [t[k], t[k+1]) of
+    other sample times, but each the mean weighted by exp(-(t[k+1] - s) / tau):
+    the held value that brings a first-order response of time constant ``tau``
+    (s) to the same value at t[k+1] as the commands as applied. The plain mean
+    is this for tau much longer than the interval; for an interval of a sixth
+    of tau (30 Hz odometry, tau = 0.2 s) the plain mean is off by about
+    (dt / tau)^2 / 8 = 0.3 % of a command step, which biases theta1 and theta2
+    by more than their standard errors in a long log. ``tau`` = inf gives
+    :func:`held_mean`."""
+    if not np.isfinite(tau) or tau <= 0:
+        return held_mean(c_t, c, t, timeout)
+    bp = [c_t, t] + ([c_t + timeout] if timeout is not None else [])
+    bp = np.unique(np.concatenate(bp))
+    bp = bp[(bp >= t[0]) & (bp <= t[-1])]
+    a, b = bp[:-1], bp[1:]
+    row = np.searchsorted(t, a, "right") - 1
+    j = np.searchsorted(c_t, a, "right") - 1
+    val = c[j]
+    if timeout is not None:
+        val = np.where(a < c_t[j] + timeout, val, 0.0)
+    # the integral of exp((s - t[k+1]) / tau) over [a, b), exponents <= 0
+    wgt = -tau * np.exp((b - t[row + 1]) / tau) * np.expm1(-(b - a) / tau)
+    num = np.bincount(row, wgt * val, minlength=t.size - 1)
+    den = np.bincount(row, wgt, minlength=t.size - 1)
+    out = held_mean(c_t, c, t, timeout)        # its last sample: the command in force
+    out[:-1] = num[:t.size - 1] / den[:t.size - 1]
+    return out

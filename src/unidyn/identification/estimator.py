@@ -75,6 +75,7 @@ from .._validate import ValidationError, choice, integer, nonnegative, positive
 from ..model.unicycle import regressor
 from ..model.parameters import RobotParameters
 from ._simulate import COMMAND_CONVENTIONS, simulate_held, step_length
+from .bags import held_weighted
 from .least_squares import levenberg_marquardt, normal_equations
 from .logs import COLUMNS, TIME_UNITS, IdentificationWarning, _short, join_logs
 from .results import _NAMES, IdentificationResult
@@ -504,6 +505,10 @@ def _identify(lg, method, smoothing, window, order, rel_stderr_max, name, check_
         theta0, start_kind, m0 = _start(lg.D, lg.segs, lg.linear, lg.delay, lg.delay_auto,
                                         lg.dt_med, smoothing, window, order, lg.su, lg.sw)
         oe = _weighted_oe_fit(lg, theta0, m0 * lg.dt_med if lg.delay_auto else lg.delay)
+        if lg.recorded and not lg.linear and oe["delay"] == 0:
+            # the commands of the rows weighted as the robot's response weighs them
+            lg.D.update(_row_commands(lg.recorded, oe["theta"]))
+            oe = _weighted_oe_fit(lg, oe["theta"], 0.0)
         stderr, warns = _oe_intervals(lg, oe, rel_stderr_max)
         if check_commands:
             warns += _command_check(lg, oe)
@@ -609,6 +614,7 @@ class _Logs:
     stamp_jitter: float | None
     warnings: list          # about the logs: missing rows, gaps, dropped rows
     tick: object = None     # called as the fits advance (a progress bar), or None
+    recorded: list = None   # the logs read from bags, with the commands as recorded
 
     @property
     def linear(self) -> bool:
@@ -655,8 +661,11 @@ def _read_logs(logs, columns, gap, time_unit, stamp_jitter, commands, delay, win
                      f"step): the log is split there into pieces, each with its own initial "
                      f"state")
     warns += D["notes"]     # rows dropped or skipped, short pieces not used
+    recorded = [lg for lg in logs if isinstance(lg, dict) and "commands" in lg]
+    if len(recorded) != len(logs) or sum(lg["t"].size for lg in recorded) != D["t"].size:
+        recorded = None
     return _Logs(D, segs, len(logs), commands, dt_med, delay, delay_auto, su, sw,
-                 stamp_jitter, warns)
+                 stamp_jitter, warns, recorded=recorded)
 
 
 def _identify_equation_error(lg, smoothing, window, order, rel_stderr_max, name):
@@ -712,6 +721,10 @@ def _oe_intervals(lg, oe, rel_stderr_max):
     if jitter > _JITTER_MIN * lg.dt_med:
         stderr, note = _jitter_widening(lg.D, lg.segs, oe, theta, stderr, lg.linear,
                                         lg.dt_med, jitter)
+        warns.append(note)
+    unstamped = lg.recorded and not all(r["commands"]["stamped"] for r in lg.recorded)
+    if unstamped and not lg.linear and oe["delay"] == 0:
+        stderr, note = _lag_widening(lg, oe, theta, stderr)
         warns.append(note)
     idx = oe["rows"]
     for i in np.flatnonzero(oe["share"] < _MIN_SHARE):
@@ -836,6 +849,59 @@ def _jitter_widening(D, segs, oe, theta, stderr, linear, dt_med, jitter):
             f"it (refitted {_JITTER_REPS} times with as much jitter again; standard errors "
             + (f"widened: {', '.join(grown)})" if grown else "barely changed)")
             + "; stamp the samples when they are taken if you can")
+    return wide, note
+
+
+def _row_commands(recorded, theta, lags=None):
+    """u_ref, w_ref of the rows of logs read from bags, from their commands as
+    recorded (each delayed by ``lags``, one array per log, s), each row's held value
+    weighted by the response of time constant theta1/theta4 (u) or theta2/theta6
+    (w): see :func:`~unidyn.identification.bags.held_weighted`."""
+    tau_u = theta[0] / theta[3] if theta[3] > 0 else math.inf
+    tau_w = theta[1] / theta[5] if theta[5] > 0 else math.inf
+    out = {"u_ref": [], "w_ref": []}
+    for k, log in enumerate(recorded):
+        c = log["commands"]
+        c_t = c["t"] if lags is None else np.sort(c["t"] + lags[k])
+        for key, tau in (("u_ref", tau_u), ("w_ref", tau_w)):
+            out[key].append(held_weighted(c_t, c[key], log["t"], tau, log.get("cmd_timeout")))
+    return {k: np.concatenate(v) for k, v in out.items()}
+
+
+#: The most by which a recorder receives a command after the robot does (s): an
+#: unstamped command's time in a bag is when the recorder received it, a few ms
+#: after the robot started to apply it (one delivery on the same computer).
+RECORDER_LAG = 0.005
+
+
+def _lag_widening(lg, oe, theta, stderr):
+    """Standard errors that allow for unstamped commands timed by the recorder: the
+    fit repeated ``_JITTER_REPS`` times with each command applied up to
+    ``RECORDER_LAG`` earlier than recorded (uniform, seeded); the shift and the
+    scatter of the estimates are added to the standard errors, as for stamp jitter
+    (:func:`_jitter_widening`). The time a robot applied a command is not in the
+    bag, and a lag of a few ms biases theta1 and theta2 like a delay (by about
+    theta4 and theta6 times the lag)."""
+    rng = np.random.default_rng(1)
+    reps = []
+    for _ in range(_JITTER_REPS):
+        lags = [-rng.uniform(0.0, RECORDER_LAG, r["commands"]["t"].size) for r in lg.recorded]
+        D = {**lg.D, **_row_commands(lg.recorded, theta, lags)}
+        fk = _oe_fit(D, lg.segs, theta, oe["sig"], False, 0.0, False, lg.dt_med,
+                     v0=oe["v0"], covariance=False, progress=lg.tick)
+        reps.append(fk["theta"])
+    reps = np.array(reps)
+    shift = reps.mean(axis=0) - theta
+    wide = np.sqrt(stderr ** 2 + shift ** 2 + reps.var(axis=0, ddof=1))
+    wide = np.where(np.isfinite(stderr), wide, stderr)
+    grown = [f"{_NAMES[i]} x{wide[i] / stderr[i]:.2g}" for i in range(6)
+             if stderr[i] > 0 and wide[i] > 1.1 * stderr[i]]
+    note = (f"the commands carry no stamps: their times are when the recorder received "
+            f"them, up to {1e3 * RECORDER_LAG:g} ms after the robot applied them. The "
+            f"intervals allow for it (refitted {_JITTER_REPS} times with the commands that "
+            f"much earlier; standard errors "
+            + (f"widened: {', '.join(grown)})" if grown else "barely changed)")
+            + "; TwistStamped commands, stamped when the robot takes them, avoid this")
     return wide, note
 
 
