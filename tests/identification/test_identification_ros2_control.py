@@ -65,12 +65,14 @@ def robot_run(seed=3, T=60.0, cmd_hz=10.0, odom_hz=50.0, noise=0.005):
 
 
 def write(path, run, odom="measured", world=False, odom_clock=0.0, joints=False,
-          cmd_out=True):
+          cmd_out=True, unstamped_lag=None):
     """Write the run as a ros2_control robot records it. ``odom``: "measured" or
     "open-loop" (the commands themselves, as open_loop: true publishes); ``world``:
     the twist in the odom frame (child_frame_id "odom"); ``odom_clock``: the
     odometry stamped on a clock this many s behind (simulation time from 0 when
-    EPOCH); ``joints``: /joint_states with the wheel speeds instead of odometry."""
+    EPOCH); ``joints``: /joint_states with the wheel speeds instead of odometry;
+    ``unstamped_lag``: the commands as Twist on /cmd_vel only, received this many s
+    (one per command) after the robot applied them."""
     (tc, uc, wc), (to, uo, wo, psi) = run
     ts = get_typestore(Stores.ROS2_JAZZY)
     T = ts.types
@@ -91,11 +93,16 @@ def write(path, run, odom="measured", world=False, odom_clock=0.0, joints=False,
     if odom == "open-loop":     # the command in force at each stamp
         j = np.searchsorted(tc, to, "right") - 1
         uo, wo = uc[j], wc[j]
-    events = [(ns(t) + 2_000_000, 0, i) for i, t in enumerate(tc)]
+    lag = np.full(tc.size, 0.002) if unstamped_lag is None else unstamped_lag
+    events = [(ns(t + lag[i]), 0, i) for i, t in enumerate(tc)]
     events += [(ns(t) + 1_000_000, 1, i) for i, t in enumerate(to)]
     w = Writer(path, version=9, storage_plugin=StoragePlugin.MCAP)
     with w:
-        c_in = w.add_connection(f"{NS}/cmd_vel", TwistS.__msgtype__, typestore=ts)
+        if unstamped_lag is not None:
+            cmd_out = False
+            c_in = w.add_connection("/cmd_vel", Twist.__msgtype__, typestore=ts)
+        else:
+            c_in = w.add_connection(f"{NS}/cmd_vel", TwistS.__msgtype__, typestore=ts)
         c_out = w.add_connection(f"{NS}/cmd_vel_out", TwistS.__msgtype__, typestore=ts) \
             if cmd_out else None
         c_od = w.add_connection("/joint_states" if joints else f"{NS}/odom",
@@ -104,6 +111,9 @@ def write(path, run, odom="measured", world=False, odom_clock=0.0, joints=False,
             if kind == 0:
                 tw = Twist(linear=V3(x=float(uc[i]), y=0.0, z=0.0),
                            angular=V3(x=0.0, y=0.0, z=float(wc[i])))
+                if unstamped_lag is not None:
+                    w.write(c_in, t_ns, ts.serialize_cdr(tw, Twist.__msgtype__))
+                    continue
                 msg = TwistS(header=header(tc[i], "base_link"), twist=tw)
                 # the teleop sends a little more than the controller's limits let through
                 fast = TwistS(header=msg.header, twist=Twist(
@@ -213,3 +223,26 @@ def test_a_parameter_excited_only_by_blips_gets_no_interval():
     assert flagged, res.stderr
     for i in flagged:
         assert any(f"theta{i + 1} is not identifiable" in w for w in res.warnings)
+
+
+@pytest.mark.slow
+def test_intervals_hold_the_truth_at_30_hz_with_unstamped_commands(tmp_path):
+    """Ten seeded bags: unstamped Twist commands at 10 Hz received 1-3 ms after the
+    robot applied them, odometry at 30 Hz. Without weighting the rows' commands by
+    the response and widening the intervals for the recorder's lag, theta1's
+    interval held the truth in 4 of these ten bags and theta2's in none (errors
+    -0.5 to -0.9 %, half-widths 0.12 %); theta1, theta2, theta4 and theta6 must
+    each be held in at least 9 of 10 (95 % coverage gives 9 or 10 in 91 % of runs
+    of ten)."""
+    truth = ROBOT.theta
+    cover = []
+    for seed in range(10):
+        run = robot_run(seed=10 + seed, T=60.0, odom_hz=30.0, noise=0.002)
+        lag = np.random.default_rng(seed).uniform(0.001, 0.003, run[0][0].size)
+        log = ident.read_bag(write(tmp_path / f"bag{seed}", run, unstamped_lag=lag))
+        with pytest.warns(ident.IdentificationWarning, match="carry no stamps"):
+            res = ident.identify(log, validate=False, check_commands=False)
+        assert_identified(res, tol=0.02)
+        cover.append((res.ci95[:, 0] <= truth) & (truth <= res.ci95[:, 1]))
+    held_ = np.sum(cover, axis=0)
+    assert np.all(held_[POSITIVE] >= 9), held_
