@@ -994,8 +994,10 @@ def _arx(D, segs, delay, auto, dt_med):
             sc = np.linalg.norm(X, axis=0)
             if np.any(sc == 0):
                 raise ValidationError("a regressor column is zero (no motion)")
-            beta, *_ = np.linalg.lstsq(X / sc, y[k + 1], rcond=None)
-            r = y[k + 1] - (X / sc) @ beta
+            X /= sc                  # three columns: their normal equations, in place
+            yk = y[k + 1]
+            beta = np.linalg.solve(X.T @ X, X.T @ yk)
+            r = yk - X @ beta
             cost += float(r @ r) / max(float(np.var(y[k + 1])), 1e-300)
             aa, bb, cc = beta / sc
             if not (0 < aa < 1 and bb > 0):
@@ -1031,9 +1033,9 @@ class _OutputErrorProblem:
         self.segs, self.sig, self.linear, self.delay = segs, sig, linear, delay
         self.nd = 1 if est_delay else 0
         self.dt_med = dt_med
-        self.idx = np.concatenate([np.arange(a, b) for a, b in segs])
         self.pos = np.cumsum([0] + [b - a for a, b in segs])
-        self.Y = np.stack([u[self.idx], w[self.idx]], axis=1)
+        self.measured = (u, w)
+        self._idx = None
         self.hmax = step_length(theta0, dt_med)
         self.tau_min = TAU_MIN_SAMPLES * dt_med
         self.buf = np.full((self.t.size, 2), np.nan)
@@ -1070,17 +1072,51 @@ class _OutputErrorProblem:
                       self.hmax, out=self.buf)
         return self.buf[self.idx]
 
+    @property
+    def idx(self):
+        """The rows of the log that are fitted (those of its pieces)."""
+        if self._idx is None:
+            self._idx = np.concatenate([np.arange(a, b) for a, b in self.segs])
+        return self._idx
+
+    @property
+    def Y(self):
+        """The measured (u, w) on the fitted rows, (rows, 2) (a new array)."""
+        u, w = self.measured
+        return np.stack([u[self.idx], w[self.idx]], axis=1)
+
+    def _errors(self, p, out, which=None):
+        """The velocity errors (u of every row, then w; each channel divided by its
+        noise level) written into ``out`` (all rows, or piece ``which`` only: its
+        rows of ``out`` are written), without temporaries the size of the log."""
+        th, dl, vv = self.unpack(p)
+        segs = self.segs if which is None else [self.segs[which]]
+        vv = vv if which is None else vv[which:which + 1]
+        simulate_held(th, self.t, self.u_ref, self.w_ref, segs, vv, dl, self.linear,
+                      self.hmax, out=self.buf)
+        n = int(self.pos[-1])
+        pieces = range(len(self.segs)) if which is None else [which]
+        for c in range(2):
+            for s in pieces:
+                a, b = self.segs[s]
+                o = out[c * n + self.pos[s]:c * n + self.pos[s + 1]]
+                np.subtract(self.buf[a:b, c], self.measured[c][a:b], out=o)
+                o /= self.sig[c]
+        return out
+
     def fun(self, p):
         """The velocity errors, each channel divided by its noise level."""
-        return ((self.sim(p) - self.Y) / self.sig).T.ravel()
+        return self._errors(p, np.empty(2 * int(self.pos[-1])))
 
     def jac(self, p, f=None):
-        """Forward differences of :meth:`fun`, in single precision (see
-        :mod:`~unidyn.identification.least_squares`); a piece's initial velocities
-        act on its own rows only, so they are varied one piece at a time."""
-        base = self.sim(p)       # a copy of the simulation's work array
-        n, nd, sig = self.idx.size, self.nd, self.sig
+        """Forward differences of :meth:`fun` (``f``: its value at ``p``), in single
+        precision (see :mod:`~unidyn.identification.least_squares`); a piece's
+        initial velocities act on its own rows only, so they are varied one piece
+        at a time."""
+        f = self.fun(p) if f is None else f
+        n, nd = int(self.pos[-1]), self.nd
         J = np.zeros((2 * n, p.size), dtype=np.float32)
+        work = np.empty(2 * n)
         for i in range(p.size):
             if i < 6:
                 h = 1e-7 * max(abs(p[i]), 1e-3)
@@ -1092,16 +1128,16 @@ class _OutputErrorProblem:
             q = np.array(p, dtype=float)
             q[i] += h
             if i < 6 + nd:
-                dS = self.sim(q)
-                dS -= base
-                dS /= h * sig
-                J[:n, i], J[n:, i] = dS[:, 0], dS[:, 1]
+                self._errors(q, work)
+                work -= f
+                work /= h
+                J[:, i] = work
             else:
                 s = (i - 6 - nd) // 2
-                a, b = self.pos[s], self.pos[s + 1]
-                dS = (self.sim(q, s)[a:b] - base[a:b]) / h
-                J[a:b, i] = dS[:, 0] / sig[0]
-                J[n + a:n + b, i] = dS[:, 1] / sig[1]
+                self._errors(q, work, which=s)
+                for rows in (slice(self.pos[s], self.pos[s + 1]),
+                             slice(n + self.pos[s], n + self.pos[s + 1])):
+                    J[rows, i] = (work[rows] - f[rows]) / h
         return J
 
     def solve(self, p0, max_nfev):
@@ -1173,20 +1209,23 @@ def _oe_covariance(prob, p, S, R, rms, th):
                 f"dynamics unexplained (an input delay, see delay='auto'; the other command "
                 f"convention; saturation or friction; filtered velocity measurements); the "
                 f"intervals allow for correlated errors but the estimate may be biased")
-    sat, sat_warns = _saturation(S, R, prob.Y)
-    warns += sat_warns
     conds = []
     for c, cols in ((0, [0, 2, 3]), (1, [1, 4, 5])):
-        B = J[c * n:(c + 1) * n][:, cols]
-        nb = np.linalg.norm(B, axis=0)
-        sv = np.linalg.svd(B / np.where(nb > 0, nb, 1.0), compute_uv=False)
-        conds.append(float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf)
+        # the condition number of the channel's columns, scaled to unit length, from
+        # their normal matrix (its eigenvalues are the squared singular values)
+        B = normal_equations(J[c * n:(c + 1) * n])[np.ix_(cols, cols)]
+        nb = np.sqrt(np.diag(B))
+        ev = np.linalg.eigvalsh(B / np.outer(*(2 * [np.where(nb > 0, nb, 1.0)])))
+        conds.append(float(np.sqrt(ev[-1] / ev[0])) if ev[0] > 0 else math.inf)
+    share = _information_share(J, Minv)
+    del J
+    sat, sat_warns = _saturation(S, R, prob.Y)
+    warns += sat_warns
     r2 = []
     for c in range(2):
         Yc = prob.Y[:, c]
         ss = float(np.sum((Yc - Yc.mean()) ** 2))
         r2.append(1.0 - float(R[:, c] @ R[:, c]) / ss if ss > 0 else math.nan)
-    share = _information_share(J, Minv)
     cov[dead, :] = 0.0
     cov[:, dead] = 0.0
     cov[dead, dead] = math.inf
@@ -1266,10 +1305,12 @@ def _saturation(S, R, Y):
     per channel and a warning for each channel below ``_SATURATION_CORR``."""
     sat, warns = [], []
     for c in range(2):
-        x = S[:, c]
-        B = np.stack([np.ones_like(x), x], axis=1)
-        f = x ** 3
-        f = f - B @ np.linalg.lstsq(B, f, rcond=None)[0]
+        f = S[:, c] ** 3     # beyond its linear part: less its regression on 1 and u (w)
+        f -= np.mean(f)
+        x = S[:, c] - np.mean(S[:, c])
+        xx = float(x @ x)
+        if xx > 0:
+            f -= (float(x @ f) / xx) * x
         nf, nr = float(np.linalg.norm(f)), float(np.linalg.norm(R[:, c]))
         sat.append(float(f @ R[:, c]) / (nf * nr) if nf > 0 and nr > 0 else 0.0)
     for c, (k, unit) in enumerate((("u", "m/s"), ("w", "rad/s"))):

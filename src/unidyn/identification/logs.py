@@ -598,7 +598,8 @@ def join_logs(logs, columns=None, gap=None, time_unit=None):
     if not segs:
         raise ValidationError(f"every piece of the log(s) between gaps holds fewer than "
                               f"{MIN_SEGMENT} samples: nothing to identify from")
-    D = {k: np.concatenate([p[k] for p in parts]) for k in COLUMNS}
+    D = {k: np.concatenate([p[k] for p in parts]) if len(parts) > 1 else parts[0][k]
+         for k in COLUMNS}
     D["missing"] = (n_missing, n_gaps)
     D["notes"] = notes
     return D, segs, dropped, sources
