@@ -246,3 +246,41 @@ def test_intervals_hold_the_truth_at_30_hz_with_unstamped_commands(tmp_path):
         cover.append((res.ci95[:, 0] <= truth) & (truth <= res.ci95[:, 1]))
     held_ = np.sum(cover, axis=0)
     assert np.all(held_[POSITIVE] >= 9), held_
+
+
+@pytest.mark.slow
+def test_cli_reads_wheel_speeds_and_says_which_topics_and_why(tmp_path):
+    import json
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+    bag = write(tmp_path / "bag", robot_run(), joints=True)
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2] / "src"),
+           "MPLBACKEND": "Agg"}
+    p = subprocess.run([sys.executable, "-m", "unidyn", "identify", str(bag), "--wheel-radius",
+                        str(R_WHEEL), "--wheel-separation", str(SEPARATION), "--no-validate",
+                        "--out", str(tmp_path / "out")], capture_output=True, text=True,
+                       env=env, timeout=600)
+    assert p.returncode == 0, p.stderr
+    line = next(x for x in p.stdout.splitlines() if x.startswith("bag"))
+    assert f"{NS}/cmd_vel_out" in line and "applied" in line
+    assert "/joint_states" in line and "left_wheel_joint (left)" in line
+    theta = json.loads((tmp_path / "out" / "theta.json").read_text())
+    assert abs(theta["theta1"] / ROBOT.theta1 - 1) < 0.05
+    p = subprocess.run([sys.executable, "-m", "unidyn", "identify", str(bag), "--wheel-radius",
+                        "0.08", "--out", str(tmp_path / "out2")], capture_output=True,
+                       text=True, env=env, timeout=600)
+    assert p.returncode != 0 and "wheel_separation" in p.stderr
+
+
+def test_progress_bar_counts_the_fits_simulations(capsys):
+    exc = ident.excitation(30.0, 0.05, robot=ROBOT, seed=0)
+    log = ident.simulate_log(ROBOT, exc, noise_std=0.01, seed=1, commands="held")
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ident.IdentificationWarning)   # not the subject
+        ident.identify(log, validate=False, check_commands=False, progress=True)
+        assert "simulations" in capsys.readouterr().err
+        ident.identify(log, validate=False, check_commands=False)   # short: no bar
+        assert "simulations" not in capsys.readouterr().err
