@@ -114,6 +114,8 @@ _JITTER_MIN = 1e-3
 _MIN_SHARE = 0.005
 # fits repeated with added jitter to measure its effect
 _JITTER_REPS = 4
+# the shortest sampling step (s) of a robot's log: 10 kHz
+_MIN_STEP = 1e-4
 _UNIT_NAMES = {"ms": "milliseconds", "us": "microseconds", "ns": "nanoseconds"}
 
 
@@ -539,7 +541,7 @@ def _available_memory() -> float | None:
     return None
 
 
-def memory_needed(rows: int, pieces: int = 1) -> float:
+def _memory_needed(rows: int, pieces: int = 1) -> float:
     """Bytes the output-error fit of a log of ``rows`` rows in ``pieces`` pieces
     needs beyond the log itself (about 300 a row)."""
     extra = max(2 * pieces - 2, 0)
@@ -550,7 +552,7 @@ def _check_memory(lg, method):
     """Refuse, before the fit, a log whose fit would not fit in the memory available."""
     if method != "output-error":
         return
-    need = memory_needed(lg.D["t"].size, len(lg.segs))
+    need = _memory_needed(lg.D["t"].size, len(lg.segs))
     have = _available_memory()
     if have is not None and need > have:
         raise ValidationError(
@@ -1584,11 +1586,18 @@ def _warnings(theta, stderr, conds, u, w, dt, rel_max) -> list:
         tau = max(theta[i], theta[i] / theta[j] if theta[j] > 0 else 0.0)
         if tau > MAX_TIME_CONSTANT:
             unit = next((u for u in ("ms", "us", "ns") if tau * TIME_UNITS[u] <= 10.0), "ns")
+            # time in another unit also shows as steps that, in that unit, are a robot's
+            # sampling (at most 10 kHz); a log at a robot's rate read in seconds is not
+            # in another unit: the log, not its unit, is what is wrong
+            why = (f"is t in {_UNIT_NAMES[unit]}? pass time_unit='{unit}'"
+                   if dt * TIME_UNITS[unit] >= _MIN_STEP
+                   else "the log does not determine it: check that the measured velocities "
+                        "respond to the commands (units, signs, the frame of the odometry) "
+                        "and that the commands vary (see excitation())")
             out.append(f"{_NAMES[i]} = {theta[i]:.4g} s and {_NAMES[i]}/{_NAMES[j]} = "
                        f"{theta[i] / theta[j]:.4g} s: a time constant over "
                        f"{MAX_TIME_CONSTANT:g} s is implausible for a wheeled robot (tenths of a "
-                       f"second to seconds); is t in {_UNIT_NAMES[unit]}? pass "
-                       f"time_unit='{unit}'")
+                       f"second to seconds); {why}")
     for i in (0, 1):
         if theta[i] > 0 and 2 * stderr[i] > theta[i]:
             out.append(f"{_NAMES[i]} = {theta[i]:.3g} s has a standard error of "
