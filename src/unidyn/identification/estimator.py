@@ -422,8 +422,13 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
     every log with the logged commands applied as the robot received them, and
     adjusts theta (and each piece's initial velocities, and the input delay if
     asked) so that the simulated velocities match the measured ones
-    (scipy's bounded least squares, each channel weighted by its noise level;
-    derivatives by finite differences of the compiled simulation).
+    (bounded Levenberg-Marquardt, each channel weighted by its noise level;
+    derivatives by finite differences of the compiled simulation, held once in
+    single precision, so that a log of 10^6 rows fits in a few hundred MB).
+    Logs read from bags (:func:`~unidyn.identification.read_bag`) are refitted
+    once with each row's command weighted by the fitted response (see
+    :func:`~unidyn.identification.bags.held_weighted`), and with unstamped
+    commands the intervals allow for the recorder's lag (``RECORDER_LAG``).
     It starts from a least-squares estimate: for held commands the exact
     discretisation of the linear part of Eq. (2) under a held input,
     u[k+1] = a u[k] + b u_ref[k] + c w[k]^2 with a = exp(-theta4 dt / theta1),
@@ -1144,8 +1149,8 @@ class _OutputErrorProblem:
 
     def solve(self, p0, max_nfev):
         """Levenberg-Marquardt within the bounds, each parameter scaled by its
-        column of the Jacobian (:func:`~unidyn.identification.least_squares.
-        levenberg_marquardt`: the Jacobian held once, in single precision)."""
+        column of the Jacobian (the Jacobian held once, in single precision: see
+        :mod:`~unidyn.identification.least_squares`)."""
         x = levenberg_marquardt(self.fun, self.jac, p0, self.lb, self.ub,
                                 max_nfev=max_nfev, progress=self.progress)
         th, dl, _ = self.unpack(x)
