@@ -484,7 +484,7 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
         to force it on or off
     :raises ValidationError: for a bad log (see :func:`load_log`; every row it
         drops or skips is reported in ``warnings``), a log whose fit needs more
-        memory than the system has available (about 300 bytes a row), constant
+        memory than the system has available (about 250 bytes a row), constant
         commands or no motion (nothing to identify), a window that does not fit the
         log, or a non-positive theta1, theta2, theta4 or theta6 (no physical robot
         has one; the message lists the likely causes)
@@ -527,8 +527,9 @@ def _identify(lg, method, smoothing, window, order, rel_stderr_max, name, check_
 
 # memory the output-error fit holds per row of the log beyond the log's own columns,
 # bytes (its single-precision Jacobian, simulated and measured velocities, residuals,
-# the validation's copies), and per parameter fitted beyond the first eight
-_BYTES_PER_ROW = 300
+# the validation's copies: 2.2 GB in all for 10^7 rows), and per parameter fitted
+# beyond the first eight
+_BYTES_PER_ROW = 250
 _BYTES_PER_ROW_PARAM = 8
 # logs of more rows than this show a progress bar on a terminal
 _PROGRESS_ROWS = 100_000
@@ -548,7 +549,7 @@ def _available_memory() -> float | None:
 
 def _memory_needed(rows: int, pieces: int = 1) -> float:
     """Bytes the output-error fit of a log of ``rows`` rows in ``pieces`` pieces
-    needs beyond the log itself (about 300 a row)."""
+    needs beyond the log itself (about 250 a row)."""
     extra = max(2 * pieces - 2, 0)
     return rows * (_BYTES_PER_ROW + _BYTES_PER_ROW_PARAM * extra)
 
