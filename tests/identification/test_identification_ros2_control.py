@@ -65,14 +65,15 @@ def robot_run(seed=3, T=60.0, cmd_hz=10.0, odom_hz=50.0, noise=0.005):
 
 
 def write(path, run, odom="measured", world=False, odom_clock=0.0, joints=False,
-          cmd_out=True, unstamped_lag=None):
+          cmd_out=True, unstamped_lag=None, heading=True):
     """Write the run as a ros2_control robot records it. ``odom``: "measured" or
     "open-loop" (the commands themselves, as open_loop: true publishes); ``world``:
     the twist in the odom frame (child_frame_id "odom"); ``odom_clock``: the
     odometry stamped on a clock this many s behind (simulation time from 0 when
     EPOCH); ``joints``: /joint_states with the wheel speeds instead of odometry;
     ``unstamped_lag``: the commands as Twist on /cmd_vel only, received this many s
-    (one per command) after the robot applied them."""
+    (one per command) after the robot applied them; ``heading`` False: the pose's
+    orientation left at identity."""
     (tc, uc, wc), (to, uo, wo, psi) = run
     ts = get_typestore(Stores.ROS2_JAZZY)
     T = ts.types
@@ -133,8 +134,8 @@ def write(path, run, odom="measured", world=False, odom_clock=0.0, joints=False,
                 tw = Twist(linear=V3(x=float(c * uo[i]), y=float(s * uo[i]), z=0.0),
                            angular=V3(x=0.0, y=0.0, z=float(wo[i])))
                 pose = Pose(position=Point(x=0.0, y=0.0, z=0.0),
-                            orientation=Q(x=0.0, y=0.0, z=float(np.sin(psi[i] / 2)),
-                                          w=float(np.cos(psi[i] / 2))))
+                            orientation=Q(x=0.0, y=0.0, z=float(np.sin(psi[i] / 2) * heading),
+                                          w=float(np.cos(psi[i] / 2) if heading else 1.0)))
                 msg = Odom(header=header(to[i], "odom", odom_clock),
                            child_frame_id="odom" if world else "base_link",
                            pose=PC(pose=pose, covariance=np.zeros(36)),
@@ -194,6 +195,11 @@ def test_world_frame_twist_is_turned_into_the_robots_frame(tmp_path):
         world = ident.read_bag(write(tmp_path / "world", robot_run(), world=True))
     np.testing.assert_allclose(world["u"], body["u"], atol=1e-9)
     assert_identified(ident.identify(world, validate=False, check_commands=False))
+
+
+def test_world_frame_twist_without_a_heading_is_refused_naming_the_frame(tmp_path):
+    with pytest.raises(ValidationError, match="world frame 'odom'.*child_frame_id is 'odom'"):
+        ident.read_bag(write(tmp_path / "bag", robot_run(), world=True, heading=False))
 
 
 def test_commands_on_the_wall_clock_and_odometry_on_sim_time_are_named(tmp_path):
