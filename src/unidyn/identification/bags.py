@@ -124,12 +124,13 @@ def _choose(path, topics, wanted, types, what, flag, duration) -> tuple[str, str
     topic of one of ``types``, or among several the one ros2_control's
     diff_drive_controller publishes as the command it applied (``cmd_vel_out``,
     after its limits); one line listing the candidates otherwise."""
-    cands = {n: i for n, i in topics.items() if i.msgtype in types and i.msgcount}
-    applied = [n for n in cands if n.rstrip("/").rsplit("/", 1)[-1] == "cmd_vel_out"]
+    cands = {n: i for n, i in topics.items() if i.msgtype in types}
+    applied = [n for n, i in cands.items()
+               if n.rstrip("/").rsplit("/", 1)[-1] == "cmd_vel_out" and i.msgcount]
     if wanted is None and len(cands) > 1 and len(applied) == 1:
+        others = ", ".join(n for n in cands if n != applied[0])
         return applied[0], (f"the command after the controller's limits, which the robot "
-                            f"applied, preferred to {', '.join(n for n in cands if n != applied[0])}")
-    cands = cands or {n: i for n, i in topics.items() if i.msgtype in types}
+                            f"applied, preferred to {others}")
     typename = " or ".join(t.replace("/msg/", "/") for t in types)
     if wanted is not None:
         if wanted not in topics:
