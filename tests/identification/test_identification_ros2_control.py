@@ -182,7 +182,13 @@ def test_wheel_speeds_of_joint_states_give_the_robots_velocities(tmp_path):
 
 
 def test_open_loop_odometry_is_refused_naming_it(tmp_path):
-    log = ident.read_bag(write(tmp_path / "bag", robot_run(), odom="open-loop"))
+    """Read from a bag, or as a log of its own (the velocities one row behind)."""
+    with pytest.raises(ValidationError, match=r"bag .*/diff_drive_controller/odom: .*"
+                                              r"open-loop odometry"):
+        ident.read_bag(write(tmp_path / "bag", robot_run(), odom="open-loop"))
+    (tc, uc, wc), _ = robot_run()
+    log = {"t": tc, "u_ref": uc, "w_ref": wc, "u": np.append(0.0, uc[:-1]),
+           "w": np.append(0.0, wc[:-1])}
     with pytest.raises(ValidationError, match="open-loop odometry"):
         ident.identify(log, validate=False)
 

@@ -59,7 +59,7 @@ import numpy as np
 
 from .._errors import MissingDependency
 from .._validate import ValidationError, positive
-from .logs import IdentificationWarning
+from .logs import IdentificationWarning, check_measured
 
 __all__ = ["read_bag", "is_bag", "held_mean", "held_weighted", "COMMAND_TYPES", "ODOMETRY_TYPE",
            "JOINT_STATE_TYPE", "GAP_PERIODS"]
@@ -504,6 +504,7 @@ def _log_from_messages(path, tc, uc, wc, to, tr, uo, wo, stamped, cmd_timeout, m
             f"estimate needs a minute or more of varied commands")
     u_ref = held_mean(c_t, uc, t, cmd_timeout)
     w_ref = held_mean(c_t, wc, t, cmd_timeout)
+    check_measured(u_ref, w_ref, u, w, f"bag {path}: {odom_name}")
     return {"t": t, "u_ref": u_ref, "w_ref": w_ref, "u": u, "w": w, "gap": gap,
             "stamp_jitter": 0.0, "source": str(path), **meta, "cmd_timeout": cmd_timeout, "t0": t0,
             "commands": {"t": c_t, "u_ref": uc, "w_ref": wc, "stamped": bool(stamped)}}

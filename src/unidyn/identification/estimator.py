@@ -77,7 +77,8 @@ from ..model.parameters import RobotParameters
 from ._simulate import COMMAND_CONVENTIONS, simulate_held, step_length
 from .bags import held_weighted
 from .least_squares import levenberg_marquardt, normal_equations
-from .logs import COLUMNS, TIME_UNITS, IdentificationWarning, _short, join_logs
+from .logs import (COLUMNS, TIME_UNITS, IdentificationWarning, _short, check_measured,
+                   join_logs)
 from .results import _NAMES, IdentificationResult
 from .validation import validation_report
 
@@ -642,7 +643,7 @@ def _read_logs(logs, columns, gap, time_unit, stamp_jitter, commands, delay, win
     D, segs, _, _ = join_logs(logs, columns, gap, time_unit)
     t, u_ref, w_ref, u, w = (D[k] for k in COLUMNS)
     _check_excitation(u_ref, w_ref)
-    _check_measured(u_ref, w_ref, u, w)
+    check_measured(u_ref, w_ref, u, w)
     dt_med = float(np.median(np.concatenate([np.diff(t[a:b]) for a, b in segs])))
     delay_auto, delay = _delay_arg(delay, dt_med)
     longest = max(t[b - 1] - t[a] for a, b in segs)
@@ -1510,26 +1511,6 @@ def _check_excitation(u_ref, w_ref):
             raise ValidationError(
                 f"log column {k!r} is constant ({v[0]:g} {unit}) throughout: no excitation, "
                 f"{params} cannot be identified; vary the command (see excitation())")
-
-
-def _check_measured(u_ref, w_ref, u, w):
-    """Refuse velocities that are the commands themselves: odometry computed from
-    the commands (a controller's open-loop odometry) carries no dynamics, and
-    Eq. (2) fitted to it gives time constants of zero as if identified."""
-    same = np.zeros(u.size, bool)
-    for lag in (0, 1):     # the command held over the row, or over the row before
-        tu = 1e-6 * max(float(np.max(np.abs(u_ref))), 1e-9)
-        tw = 1e-6 * max(float(np.max(np.abs(w_ref))), 1e-9)
-        same[lag:] |= (np.abs(u[lag:] - u_ref[:u.size - lag]) <= tu) & \
-            (np.abs(w[lag:] - w_ref[:u.size - lag]) <= tw)
-    if np.mean(same) > 0.5:
-        raise ValidationError(
-            f"the measured velocities equal the commands in {100 * np.mean(same):.0f} % of "
-            f"the rows: they are computed from the commands (open-loop odometry, as a "
-            f"diff_drive_controller with open_loop: true publishes), not measured, and carry "
-            f"no dynamics to identify; log odometry from the wheel encoders (open_loop: "
-            f"false), or the wheel speeds on /joint_states (read_bag's wheel_radius and "
-            f"wheel_separation)")
 
 
 def _check_physical(theta, stderr):

@@ -514,6 +514,29 @@ def missing_rows(t, gap: float = None) -> tuple[int, int]:
     return int(np.sum(np.round(dt[short] / med) - 1)), int(np.sum(split & ~short))
 
 
+def check_measured(u_ref, w_ref, u, w, what="the log"):
+    """Refuse velocities that are the commands themselves: odometry computed from
+    the commands (a controller's open-loop odometry) carries no dynamics, and
+    Eq. (2) fitted to it gives time constants of zero as if identified."""
+    tu = 1e-6 * max(float(np.max(np.abs(u_ref))), 1e-9)
+    tw = 1e-6 * max(float(np.max(np.abs(w_ref))), 1e-9)
+    same = np.zeros(u.size, bool)
+    for lag in (0, 1):     # the command held over the row, or over the row before
+        same[lag:] |= (np.abs(u[lag:] - u_ref[:u.size - lag]) <= tu) & \
+            (np.abs(w[lag:] - w_ref[:u.size - lag]) <= tw)
+    # a robot at rest measures exactly the zero it is commanded: only motion tells
+    moving = (np.abs(u_ref) > tu) | (np.abs(w_ref) > tw)
+    share = float(np.mean(same[moving])) if moving.sum() >= 20 else 0.0
+    if share > 0.5:
+        raise ValidationError(
+            f"{what}: the measured velocities equal the commands in "
+            f"{100 * share:.0f} % of the rows in motion: they are computed from the commands "
+            f"(open-loop odometry, as a diff_drive_controller with open_loop: true "
+            f"publishes), not measured, and carry no dynamics to identify; log odometry "
+            f"from the wheel encoders (open_loop: false), or the wheel speeds on "
+            f"/joint_states (read_bag's wheel_radius and wheel_separation)")
+
+
 def split_log(log, t_split: float, columns=None,
               time_unit: str | None = None) -> tuple[dict, dict]:
     """Split a log at time ``t_split``: (samples with t < t_split, samples with t >= t_split).
