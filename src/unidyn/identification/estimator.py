@@ -1103,6 +1103,8 @@ class _OutputErrorProblem:
         vv = vv if which is None else vv[which:which + 1]
         simulate_held(th, self.t, self.u_ref, self.w_ref, segs, vv, dl, self.linear,
                       self.hmax, out=self.buf)
+        if self.progress is not None:
+            self.progress()
         n = int(self.pos[-1])
         pieces = range(len(self.segs)) if which is None else [which]
         for c in range(2):
@@ -1153,8 +1155,7 @@ class _OutputErrorProblem:
         """Levenberg-Marquardt within the bounds, each parameter scaled by its
         column of the Jacobian (the Jacobian held once, in single precision: see
         :mod:`~unidyn.identification.least_squares`)."""
-        x = levenberg_marquardt(self.fun, self.jac, p0, self.lb, self.ub,
-                                max_nfev=max_nfev, progress=self.progress)
+        x = levenberg_marquardt(self.fun, self.jac, p0, self.lb, self.ub, max_nfev=max_nfev)
         th, dl, _ = self.unpack(x)
         p = np.array(x)
         p[:6] = th       # a time constant below the explored limit is reported at it

@@ -33,7 +33,7 @@ def normal_equations(J, f=None):
 
 
 def levenberg_marquardt(fun, jac, p0, lb, ub, max_nfev=200, ftol=1e-10, xtol=1e-10,
-                        gtol=1e-10, progress=None):
+                        gtol=1e-10):
     """Minimise sum(fun(p)^2) / 2 within lb <= p <= ub from ``p0``.
 
     :param fun: p -> residuals (float array)
@@ -42,15 +42,12 @@ def levenberg_marquardt(fun, jac, p0, lb, ub, max_nfev=200, ftol=1e-10, xtol=1e-
     :param ftol: stop when a step lowers the cost by less than this fraction of it
     :param xtol: stop when a step is shorter than this fraction of the (scaled) p
     :param gtol: stop when the scaled gradient is below this
-    :param progress: called with no argument after each evaluation of ``fun``
     :return: the p reached
     """
     lb, ub = np.asarray(lb, float), np.asarray(ub, float)
     p = np.clip(np.asarray(p0, dtype=float), lb, ub)
     f = fun(p)
     cost, nfev, lam = 0.5 * float(f @ f), 1, 1e-3
-    tick = progress or (lambda: None)
-    tick()
     while nfev < max_nfev:
         J = jac(p, f)
         M, g = normal_equations(J, f)
@@ -69,7 +66,6 @@ def levenberg_marquardt(fun, jac, p0, lb, ub, max_nfev=200, ftol=1e-10, xtol=1e-
             q = np.clip(p + step, lb, ub)
             fq = fun(q)
             nfev += 1
-            tick()
             cq = 0.5 * float(fq @ fq)
             if np.isfinite(cq) and cq <= cost:
                 break
