@@ -215,8 +215,8 @@ def _read_messages(path, reader, cmd_name, odom_name, wheels=None):
         msg = reader.deserialize(raw, conn.msgtype)
         if conn.topic == cmd_name:
             if conn.msgtype.endswith("TwistStamped"):
-                stamped = True
                 tc.append(_stamp(msg, t_ns))
+                stamped = stamped or tc[-1] != t_ns    # a stamp left at zero is none
                 msg = msg.twist
             else:
                 tc.append(t_ns)
@@ -260,7 +260,8 @@ def _read_messages(path, reader, cmd_name, odom_name, wheels=None):
 @dataclass
 class _Commands:
     """The commands as recorded: times (stamps, or receive times) and receive
-    times, ns; u_ref, w_ref; whether they carry stamps."""
+    times, ns; u_ref, w_ref; whether they carry stamps (TwistStamped whose stamps
+    are not left at zero)."""
     t: np.ndarray
     received: np.ndarray
     u: np.ndarray
@@ -307,15 +308,17 @@ def _body_twist(path, odom_name, od: _Odometry):
     side_given = float(np.sqrt(np.mean(od.vy ** 2))) / size
     side_body = float(np.sqrt(np.mean(lat_b ** 2))) / size
     turned = float(np.ptp(np.unwrap(od.yaw))) if od.yaw.size else 0.0
-    if not said_world and side_given <= _SIDEWAYS:
+    body_ok, world_ok = side_given <= _SIDEWAYS, side_body <= _SIDEWAYS
+    if body_ok and (not said_world or not world_ok):
+        # in the robot's frame (whatever the label says, if turning it would not be)
         return od.u, od.w, None
     why = (f"its child_frame_id is {child!r}" if said_world else
            f"its sideways speed linear.y is {100 * side_given:.0f} % of the speed, which "
            f"a differential-drive robot cannot have in its own frame")
-    if (said_world or turned > 0.5) and side_body <= _SIDEWAYS:
+    if world_ok:
         return ub, od.w, (f"bag {path}: the odometry on {odom_name} gives its twist in "
                           f"the world frame ({why}); turned into the robot's frame with "
-                          f"the pose's heading")
+                          f"the pose's heading (heading range {turned:.2g} rad)")
     raise ValidationError(
         f"bag {path}: the odometry on {odom_name} gives its twist in the world frame "
         f"{frame or child or '?'!r} ({why}), and its pose's heading does not turn it into "
