@@ -65,7 +65,7 @@ def robot_run(seed=3, T=60.0, cmd_hz=10.0, odom_hz=50.0, noise=0.005):
 
 
 def write(path, run, odom="measured", world=False, odom_clock=0.0, joints=False,
-          cmd_out=True, unstamped_lag=None, heading=True):
+          cmd_out=True, unstamped_lag=None, heading=True, zero_stamps=False):
     """Write the run as a ros2_control robot records it. ``odom``: "measured" or
     "open-loop" (the commands themselves, as open_loop: true publishes); ``world``:
     the twist in the odom frame (child_frame_id "odom"); ``odom_clock``: the
@@ -73,7 +73,8 @@ def write(path, run, odom="measured", world=False, odom_clock=0.0, joints=False,
     EPOCH); ``joints``: /joint_states with the wheel speeds instead of odometry;
     ``unstamped_lag``: the commands as Twist on /cmd_vel only, received this many s
     (one per command) after the robot applied them; ``heading`` False: the pose's
-    orientation left at identity."""
+    orientation left at identity; ``zero_stamps``: TwistStamped commands whose
+    stamps are left at zero, as some teleop nodes send them."""
     (tc, uc, wc), (to, uo, wo, psi) = run
     ts = get_typestore(Stores.ROS2_JAZZY)
     T = ts.types
@@ -116,6 +117,9 @@ def write(path, run, odom="measured", world=False, odom_clock=0.0, joints=False,
                     w.write(c_in, t_ns, ts.serialize_cdr(tw, Twist.__msgtype__))
                     continue
                 msg = TwistS(header=header(tc[i], "base_link"), twist=tw)
+                if zero_stamps:
+                    msg = TwistS(header=Header(stamp=Time(sec=0, nanosec=0),
+                                               frame_id="base_link"), twist=tw)
                 # the teleop sends a little more than the controller's limits let through
                 fast = TwistS(header=msg.header, twist=Twist(
                     linear=V3(x=1.3 * float(uc[i]), y=0.0, z=0.0), angular=tw.angular))
@@ -212,6 +216,18 @@ def test_commands_on_the_wall_clock_and_odometry_on_sim_time_are_named(tmp_path)
     bag = write(tmp_path / "bag", robot_run(), odom_clock=EPOCH)
     with pytest.raises(ValidationError, match="wall clock.*simulation time"):
         ident.read_bag(bag)
+
+
+def test_zero_stamps_are_timed_as_unstamped_commands_on_another_clock(tmp_path):
+    """TwistStamped commands with zero stamps, odometry on simulation time: the
+    commands are timed by the recorder and moved onto the odometry's clock, not
+    refused as stamped on another clock."""
+    bag = write(tmp_path / "bag", robot_run(), odom_clock=EPOCH, zero_stamps=True)
+    with pytest.warns(ident.IdentificationWarning, match="another clock"):
+        log = ident.read_bag(bag)
+    assert log["commands"]["stamped"] is False
+    with pytest.warns(ident.IdentificationWarning, match="carry no stamps"):
+        assert_identified(ident.identify(log, validate=False, check_commands=False))
 
 
 def test_a_parameter_excited_only_by_blips_gets_no_interval():

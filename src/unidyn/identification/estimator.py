@@ -910,7 +910,7 @@ def _lag_widening(lg, oe, theta, stderr):
             f"intervals allow for it (refitted {_JITTER_REPS} times with the commands that "
             f"much earlier; standard errors "
             + (f"widened: {', '.join(grown)})" if grown else "barely changed)")
-            + "; TwistStamped commands, stamped when the robot takes them, avoid this")
+            + "; commands stamped when the robot takes them (TwistStamped) avoid this")
     return wide, note
 
 
