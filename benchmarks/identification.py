@@ -23,6 +23,15 @@ as smooth commands (the equation-error estimate, the earlier default).
 
 Table 2: wall time of ``validate()`` and ``identify(validate=False)`` on long logs.
 
+Table 4 (``--scale``): wall time and peak memory (the process's maximum resident
+set) of ``identify(CSV)`` with its defaults on logs of 1e5, 1e6 and 1e7 rows
+(the cart at 50 Hz, held multisine commands, noise std 0.01), each in a process
+of its own, for this checkout ("after") and for another source tree given with
+``--before SRC`` (e.g. an earlier commit exported with ``git archive``), killed
+above ``--max-gb`` or after ``--timeout`` seconds (then printed as such).
+
+    python benchmarks/identification.py --scale --before /tmp/old/src
+
 Table 3 (``--jitter-seeds``, default 30): coverage of the 95 % intervals for a
 small fast robot, theta = (0.05, 0.03, 0, 1, 0, 1) (time constants 50 and 30 ms),
 logged at 20 Hz for 60 s with held multisine commands (8 sines up to 0.8 Hz,
@@ -35,7 +44,11 @@ for the measured stamp jitter (the default). Target: >= 90 % for theta1, 2, 4, 6
 
 import argparse
 import os
+import subprocess
+import sys
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -215,6 +228,84 @@ def jitter_coverage(seeds):
                       + f" {w:>18s} {np.mean(walls[when]):6.2f}", flush=True)
 
 
+SCALE_ROWS = (10 ** 5, 10 ** 6, 10 ** 7)
+# the child process: identify a CSV log with the defaults, print seconds and peak RSS
+_CHILD = """
+import resource, sys, time, warnings
+from unidyn import identification as ident
+warnings.simplefilter("ignore")
+t0 = time.perf_counter()
+res = ident.identify(sys.argv[1])
+wall = time.perf_counter() - t0
+print(wall, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024, res.theta.theta1)
+"""
+
+
+def scale_log(n, folder) -> Path:
+    """A CSV log of n rows (the cart at 50 Hz, held multisine commands), cached."""
+    path = Path(folder) / f"log_{n}.csv"
+    if path.exists():
+        return path
+    rp = ROBOTS["cart (30 kg, b = 5 cm)"]
+    t = np.arange(n) / 50.0
+    rng = np.random.default_rng(0)
+    f = np.geomspace(0.01, 1.0, 8)
+    ur = 0.4 + 0.3 / 4 * np.sum([np.sin(2 * np.pi * fk * t + p)
+                                  for fk, p in zip(f, rng.uniform(0, 6.3, 8))], axis=0)
+    wr = 1.0 / 4 * np.sum([np.sin(2 * np.pi * fk * t + p)
+                           for fk, p in zip(f, rng.uniform(0, 6.3, 8))], axis=0)
+    v = simulate_held(rp.theta, t, ur, wr, [(0, n)], [[0.0, 0.0]])
+    v += NOISE * rng.standard_normal(v.shape)
+    tmp = path.with_suffix(".part")
+    np.savetxt(tmp, np.column_stack([t, ur, wr, v]), fmt="%.6f", delimiter=",",
+               header="t,u_ref,w_ref,u,w", comments="")
+    os.replace(tmp, path)
+    return path
+
+
+def _measure(src, path, timeout, max_bytes):
+    """(seconds, peak bytes, note) of identify(path) in a child with ``src`` on its path."""
+    env = {**os.environ, "PYTHONPATH": str(src), "MPLBACKEND": "Agg"}
+    p = subprocess.Popen([sys.executable, "-c", _CHILD, str(path)], env=env,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    t0, peak = time.perf_counter(), 0
+    while p.poll() is None:
+        try:
+            with open(f"/proc/{p.pid}/status") as fh:
+                rss = next(int(x.split()[1]) * 1024 for x in fh if x.startswith("VmRSS"))
+            peak = max(peak, rss)
+        except (OSError, StopIteration):
+            pass
+        wall = time.perf_counter() - t0
+        if peak > max_bytes or wall > timeout:
+            p.kill()
+            p.wait()
+            why = f"killed at {peak / 1e9:.2f} GB" if peak > max_bytes else \
+                f"no result after {timeout:g} s ({peak / 1e9:.2f} GB)"
+            return wall, peak, why
+        time.sleep(0.2)
+    out, err = p.communicate()
+    if p.returncode != 0:
+        last = (err.strip().splitlines() or ["?"])[-1]
+        return time.perf_counter() - t0, peak, f"failed: {last[:100]}"
+    wall, rss, th1 = out.split()[-3:]
+    return float(wall), max(int(rss), peak), f"theta1 {float(th1):.4f}"
+
+
+def scale(before, rows, timeout, max_gb, folder):
+    print(f"\nTable 4. identify(CSV) with its defaults: wall s and peak resident memory, "
+          f"one process per cell (numba {'on' if ident.FAST else 'off'}; killed above "
+          f"{max_gb:g} GB or after {timeout:g} s)")
+    print(f"{'rows':>9s} {'tree':7s} {'wall s':>8s} {'peak MB':>8s}  result")
+    here = Path(__file__).resolve().parents[1] / "src"
+    trees = ([("before", Path(before))] if before else []) + [("after", here)]
+    for n in rows:
+        path = scale_log(n, folder)
+        for label, src in trees:
+            wall, peak, note = _measure(src, path, timeout, max_gb * 1e9)
+            print(f"{n:9d} {label:7s} {wall:8.1f} {peak / 1e6:8.0f}  {note}", flush=True)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", type=int, default=20)
@@ -224,8 +315,19 @@ def main():
     ap.add_argument("--only-jitter", action="store_true", help="print Table 3 only")
     ap.add_argument("--paper-limits", action="store_true",
                     help="excite within the paper's limits (0.75 m/s, 0.3 m/s^2) instead")
+    ap.add_argument("--scale", action="store_true", help="print Table 4 only")
+    ap.add_argument("--before", metavar="SRC", help="Table 4: the source tree to compare with")
+    ap.add_argument("--rows", type=int, nargs="+", default=SCALE_ROWS, help="Table 4's sizes")
+    ap.add_argument("--timeout", type=float, default=900.0, help="Table 4: s per cell")
+    ap.add_argument("--max-gb", type=float, default=6.0, help="Table 4: memory per cell")
+    ap.add_argument("--data", default=os.path.join(tempfile.gettempdir(), "unidyn-scale"),
+                    help="Table 4: folder caching the generated logs")
     args = ap.parse_args()
     warnings.simplefilter("ignore", ident.IdentificationWarning)
+    if args.scale:
+        os.makedirs(args.data, exist_ok=True)
+        scale(args.before, args.rows, args.timeout, args.max_gb, args.data)
+        return
     from unidyn.model.unicycle import PAPER_LIMITS
     if not args.only_jitter:
         accuracy(args.seeds, PAPER_LIMITS if args.paper_limits else LIMITS)

@@ -567,8 +567,9 @@ def _cmd_identify(args) -> int:
         _record_topics(path, logs)
         for b in logs:
             if isinstance(b, dict):
-                print(f"bag        {b['source']}: commands {b['cmd_topic']} ({b['cmd_type']}), "
-                      f"odometry {b['odom_topic']}")
+                print(f"bag        {b['source']}: commands {b['cmd_topic']} ({b['cmd_type']}: "
+                      f"{b['cmd_why']}), measured velocities {b['odom_topic']} "
+                      f"({b['odom_why']})")
         print(_cli_words(res.summary()))
         if not args.no_validate:
             with warnings.catch_warnings(record=True) as seen:  # rows the held-out log
@@ -614,7 +615,10 @@ def _read_bags(ident, paths, args) -> list:
     --cmd, --odom or --cmd-timeout every path must be one."""
     from .identification.bags import is_bag
     flags = [f for f, v in (("--cmd", args.cmd), ("--odom", args.odom),
-                            ("--cmd-timeout", args.cmd_timeout)) if v is not None]
+                            ("--cmd-timeout", args.cmd_timeout),
+                            ("--wheel-radius", args.wheel_radius),
+                            ("--wheel-separation", args.wheel_separation),
+                            ("--wheel-joints", args.wheel_joints)) if v is not None]
     csv = [p for p in paths if not is_bag(p)]
     if flags and csv:
         raise _UsageError(f"{flags[0]} applies to ROS bags; {csv[0]} is a CSV log")
@@ -623,7 +627,10 @@ def _read_bags(ident, paths, args) -> list:
     import warnings
     with warnings.catch_warnings(record=True) as caught:   # told as one line each
         warnings.simplefilter("always", ident.IdentificationWarning)
-        logs = [ident.read_bag(p, cmd=args.cmd, odom=args.odom, cmd_timeout=args.cmd_timeout)
+        joints = args.wheel_joints.split(",") if args.wheel_joints is not None else None
+        logs = [ident.read_bag(p, cmd=args.cmd, odom=args.odom, cmd_timeout=args.cmd_timeout,
+                               wheel_radius=args.wheel_radius,
+                               wheel_separation=args.wheel_separation, wheel_joints=joints)
                 for p in paths if is_bag(p)]
     for w in caught:
         print(f"unidyn: warning: {w.message}", file=sys.stderr)
@@ -762,12 +769,24 @@ def _parser() -> argparse.ArgumentParser:
     i.add_argument("log", nargs="+", metavar="LOG",
                    help="one or more logs of one robot: CSV files or ROS bags")
     i.add_argument("--cmd", metavar="TOPIC",
-                   help="bags: the command topic (default: the one Twist or TwistStamped topic)")
+                   help="bags: the command topic (default: the one Twist or TwistStamped "
+                        "topic, or the one named cmd_vel_out among several)")
     i.add_argument("--odom", metavar="TOPIC",
-                   help="bags: the odometry topic (default: the one nav_msgs/Odometry topic)")
+                   help="bags: the odometry topic (default: the one nav_msgs/Odometry topic; "
+                        "with --wheel-radius the one sensor_msgs/JointState topic)")
     i.add_argument("--cmd-timeout", type=float, metavar="SECONDS",
                    help="bags: the robot's driver stops it (command zero) this long after "
                         "the last command (default: each command held until the next)")
+    i.add_argument("--wheel-radius", type=float, metavar="M",
+                   help="bags: read the measured velocities from the wheel speeds of "
+                        "/joint_states (sensor_msgs/JointState) with this wheel radius r, "
+                        "m; needs --wheel-separation")
+    i.add_argument("--wheel-separation", type=float, metavar="M",
+                   help="bags: the distance D between the wheels, m (u = r (wL + wR) / 2, "
+                        "w = r (wR - wL) / D)")
+    i.add_argument("--wheel-joints", metavar="LEFT,RIGHT",
+                   help="bags: the wheel joints' names (default: the joints named left "
+                        "and right)")
     i.add_argument("--columns", metavar="NAME=COLUMN,...",
                    help="map t, u_ref, w_ref, u, w to the log's column names, "
                         "e.g. t=time,u=v_meas,w=omega_meas")

@@ -52,20 +52,24 @@ import math
 import os
 import warnings
 from array import array
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from .._errors import MissingDependency
 from .._validate import ValidationError, positive
-from .logs import IdentificationWarning
+from .logs import IdentificationWarning, check_measured
 
-__all__ = ["read_bag", "is_bag", "held_mean", "COMMAND_TYPES", "ODOMETRY_TYPE", "GAP_PERIODS"]
+__all__ = ["read_bag", "is_bag", "held_mean", "held_weighted", "COMMAND_TYPES", "ODOMETRY_TYPE",
+           "JOINT_STATE_TYPE", "GAP_PERIODS"]
 
 #: Message types read as commands (u_ref = linear.x, w_ref = angular.z).
 COMMAND_TYPES = ("geometry_msgs/msg/Twist", "geometry_msgs/msg/TwistStamped")
 #: Message type read as the measured velocities (twist.twist.linear.x, angular.z).
 ODOMETRY_TYPE = "nav_msgs/msg/Odometry"
+#: Message type read as the wheel speeds (velocity, rad/s, of the wheel joints).
+JOINT_STATE_TYPE = "sensor_msgs/msg/JointState"
 #: No message of either topic for this many median command periods is a recording gap.
 GAP_PERIODS = 5.0
 # the recorder's and the header stamps' clocks are taken as different clocks when
@@ -115,10 +119,18 @@ def _describe(name, info, duration) -> str:
     return f"{name} ({info.msgtype}, {info.msgcount} messages{rate})"
 
 
-def _choose(path, topics, wanted, types, what, flag, duration) -> str:
-    """The topic to read ``what`` from: ``wanted`` if given, else the one topic of
-    one of ``types``; one line listing the candidates otherwise."""
+def _choose(path, topics, wanted, types, what, flag, duration) -> tuple[str, str]:
+    """(the topic to read ``what`` from, why): ``wanted`` if given, else the one
+    topic of one of ``types``, or among several the one ros2_control's
+    diff_drive_controller publishes as the command it applied (``cmd_vel_out``,
+    after its limits); one line listing the candidates otherwise."""
     cands = {n: i for n, i in topics.items() if i.msgtype in types}
+    applied = [n for n, i in cands.items()
+               if n.rstrip("/").rsplit("/", 1)[-1] == "cmd_vel_out" and i.msgcount]
+    if wanted is None and len(cands) > 1 and len(applied) == 1:
+        others = ", ".join(n for n in cands if n != applied[0])
+        return applied[0], (f"the command after the controller's limits, which the robot "
+                            f"applied, preferred to {others}")
     typename = " or ".join(t.replace("/msg/", "/") for t in types)
     if wanted is not None:
         if wanted not in topics:
@@ -128,9 +140,10 @@ def _choose(path, topics, wanted, types, what, flag, duration) -> str:
         if topics[wanted].msgtype not in types:
             raise ValidationError(f"bag {path}: {flag} {wanted} is of type "
                                   f"{topics[wanted].msgtype}, not {typename}")
-        name = wanted
+        name, why = wanted, f"given as {flag}"
     elif len(cands) == 1:
         name = next(iter(cands))
+        why = f"the bag's one {typename} topic"
     elif not cands:
         have = "; ".join(_describe(n, i, duration) for n, i in topics.items()) or "no topics"
         raise ValidationError(f"bag {path} has no {typename} topic ({what}); it has {have}")
@@ -141,7 +154,7 @@ def _choose(path, topics, wanted, types, what, flag, duration) -> str:
     if topics[name].msgcount == 0:
         raise ValidationError(f"bag {path}: topic {name} ({topics[name].msgtype}) holds no "
                               f"messages")
-    return name
+    return name, why
 
 
 def _stamp(msg, received_ns: int) -> int:
@@ -151,37 +164,171 @@ def _stamp(msg, received_ns: int) -> int:
     return ns if ns > 0 else received_ns
 
 
-def _read_messages(path, reader, cmd_name, odom_name):
+def _wheels(radius, separation, joints):
+    """(r, D, (left, right) or None) from read_bag's wheel options, or None."""
+    if radius is None and separation is None and joints is None:
+        return None
+    if radius is None or separation is None:
+        raise ValidationError("wheel_radius and wheel_separation are needed together (both "
+                              "in m) to read the wheel speeds of /joint_states")
+    r, d = positive("wheel_radius", radius), positive("wheel_separation", separation)
+    if joints is not None:
+        if isinstance(joints, str) or len(joints) != 2 or \
+                not all(isinstance(j, str) and j.strip() for j in joints):
+            raise ValidationError(f"wheel_joints must be two joint names (left, right), "
+                                  f"got {joints!r}")
+        joints = (joints[0].strip(), joints[1].strip())
+    return r, d, joints
+
+
+def _wheel_joints(path, topic, names, given):
+    """The (left, right) wheel joints among a JointState message's ``names``."""
+    if given is not None:
+        missing = [j for j in given if j not in names]
+        if missing:
+            raise ValidationError(f"bag {path}: {topic} has no joint {missing[0]!r} "
+                                  f"(wheel joints); its joints: {', '.join(names)}")
+        return given
+    out = []
+    for side in ("left", "right"):
+        found = [n for n in names if side in n.lower()]
+        wheel = [n for n in found if "wheel" in n.lower()]
+        found = wheel if len(wheel) == 1 else found
+        if len(found) != 1:
+            raise ValidationError(
+                f"bag {path}: cannot tell the {side} wheel joint among the joints of {topic} "
+                f"({', '.join(names) or 'none'}); name them with --wheel-joints LEFT,RIGHT")
+        out.append(found[0])
+    return tuple(out)
+
+
+def _read_messages(path, reader, cmd_name, odom_name, wheels=None):
     """Stream the two topics: (command times ns, u_ref, w_ref, odometry stamps ns,
     odometry receive times ns, u, w, whether the commands carry stamps)."""
     conns = [c for c in reader.connections if c.topic in (cmd_name, odom_name)]
     # compact growing arrays: 8 bytes a number, not a Python float's 24 or more
-    tc, to, tr = array("q"), array("q"), array("q")
+    tc, tcr, to, tr = array("q"), array("q"), array("q"), array("q")
     uc, wc, uo, wo = array("d"), array("d"), array("d"), array("d")
-    stamped = False
+    vy, yaw = array("d"), array("d")
+    stamped, frames = False, None
     for conn, t_ns, raw in reader.messages(connections=conns):
         msg = reader.deserialize(raw, conn.msgtype)
         if conn.topic == cmd_name:
             if conn.msgtype.endswith("TwistStamped"):
-                stamped = True
                 tc.append(_stamp(msg, t_ns))
+                stamped = stamped or tc[-1] != t_ns    # a stamp left at zero is none
                 msg = msg.twist
             else:
                 tc.append(t_ns)
+            tcr.append(t_ns)
             uc.append(float(msg.linear.x))
             wc.append(float(msg.angular.z))
+        elif wheels:
+            names = list(msg.name)
+            if frames is None:
+                frames = _wheel_joints(path, odom_name, names, wheels[2])
+            try:
+                wl, wr = (float(msg.velocity[names.index(j)]) for j in frames)
+            except (ValueError, IndexError):
+                continue     # a message of other joints (several broadcasters)
+            to.append(_stamp(msg, t_ns))
+            tr.append(t_ns)
+            uo.append(wheels[0] * (wl + wr) / 2.0)
+            wo.append(wheels[0] * (wr - wl) / wheels[1])
+            vy.append(0.0)
+            yaw.append(0.0)
         else:
             to.append(_stamp(msg, t_ns))
             tr.append(t_ns)
-            uo.append(float(msg.twist.twist.linear.x))
-            wo.append(float(msg.twist.twist.angular.z))
-    return (np.frombuffer(tc, np.int64), np.frombuffer(uc), np.frombuffer(wc),
-            np.frombuffer(to, np.int64), np.frombuffer(tr, np.int64), np.frombuffer(uo),
-            np.frombuffer(wo), stamped)
+            tw = msg.twist.twist
+            uo.append(float(tw.linear.x))
+            wo.append(float(tw.angular.z))
+            vy.append(float(tw.linear.y))
+            q = msg.pose.pose.orientation
+            yaw.append(math.atan2(2.0 * (q.w * q.z + q.x * q.y),
+                                  1.0 - 2.0 * (q.y * q.y + q.z * q.z)))
+            if frames is None:
+                frames = (str(msg.header.frame_id), str(msg.child_frame_id))
+    cmds = _Commands(np.frombuffer(tc, np.int64), np.frombuffer(tcr, np.int64),
+                     np.frombuffer(uc), np.frombuffer(wc), stamped)
+    odom = _Odometry(np.frombuffer(to, np.int64), np.frombuffer(tr, np.int64),
+                     np.frombuffer(uo), np.frombuffer(wo), np.frombuffer(vy),
+                     np.frombuffer(yaw), frames or ("", ""))
+    return cmds, odom
+
+
+@dataclass
+class _Commands:
+    """The commands as recorded: times (stamps, or receive times) and receive
+    times, ns; u_ref, w_ref; whether they carry stamps (TwistStamped whose stamps
+    are not left at zero)."""
+    t: np.ndarray
+    received: np.ndarray
+    u: np.ndarray
+    w: np.ndarray
+    stamped: bool
+
+
+@dataclass
+class _Odometry:
+    """The odometry as recorded: stamps and receive times, ns; the twist's
+    linear.x, angular.z and linear.y; the pose's heading, rad; the first message's
+    (frame_id, child_frame_id)."""
+    t: np.ndarray
+    received: np.ndarray
+    u: np.ndarray
+    w: np.ndarray
+    vy: np.ndarray
+    yaw: np.ndarray
+    frames: tuple
+
+
+# frame names that are a fixed (world) frame, never the robot's body (REP 105)
+_WORLD_FRAMES = ("odom", "map", "world", "earth")
+# a twist whose sideways part is this large against its length is not in the body
+# frame of a differential-drive robot (which cannot move sideways)
+_SIDEWAYS = 0.2
+
+
+def _body_twist(path, odom_name, od: _Odometry):
+    """(u, w, note or None): the odometry's forward speed in the robot's frame.
+
+    A twist is in the frame ``child_frame_id`` (REP 105), the robot's body. Some
+    drivers publish it in the world frame instead (``child_frame_id`` empty or a
+    fixed frame, or mislabelled): then its linear part turns with the heading, and
+    linear.x is the speed times cos(heading). It is turned into the body frame
+    with the pose's heading when the frame ids say so, or when the twist has a
+    large sideways part that the rotation removes; refused when that is not
+    possible."""
+    frame, child = (f.strip().lstrip("/") for f in od.frames)
+    said_world = child == "" or child == frame or child in _WORLD_FRAMES
+    c, s_ = np.cos(od.yaw), np.sin(od.yaw)
+    ub, lat_b = c * od.u + s_ * od.vy, -s_ * od.u + c * od.vy
+    size = max(float(np.sqrt(np.mean(od.u ** 2 + od.vy ** 2))), 1e-12)
+    side_given = float(np.sqrt(np.mean(od.vy ** 2))) / size
+    side_body = float(np.sqrt(np.mean(lat_b ** 2))) / size
+    turned = float(np.ptp(np.unwrap(od.yaw))) if od.yaw.size else 0.0
+    body_ok, world_ok = side_given <= _SIDEWAYS, side_body <= _SIDEWAYS
+    if body_ok and (not said_world or not world_ok):
+        # in the robot's frame (whatever the label says, if turning it would not be)
+        return od.u, od.w, None
+    why = (f"its child_frame_id is {child!r}" if said_world else
+           f"its sideways speed linear.y is {100 * side_given:.0f} % of the speed, which "
+           f"a differential-drive robot cannot have in its own frame")
+    if world_ok:
+        return ub, od.w, (f"bag {path}: the odometry on {odom_name} gives its twist in "
+                          f"the world frame ({why}); turned into the robot's frame with "
+                          f"the pose's heading (heading range {turned:.2g} rad)")
+    raise ValidationError(
+        f"bag {path}: the odometry on {odom_name} gives its twist in the world frame "
+        f"{frame or child or '?'!r} ({why}), and its pose's heading does not turn it into "
+        f"the robot's frame (base_link): publish the twist in the robot's frame "
+        f"(REP 105), or record /joint_states and pass the wheel radius and separation")
 
 
 def read_bag(path, cmd: str | None = None, odom: str | None = None,
-             cmd_timeout: float | None = None) -> dict:
+             cmd_timeout: float | None = None, wheel_radius: float | None = None,
+             wheel_separation: float | None = None, wheel_joints=None) -> dict:
     """Read a ROS recording of a robot as an identification log.
 
     :param path: a ROS 2 bag folder (sqlite3 or MCAP), a single ``.mcap`` (or
@@ -193,6 +340,15 @@ def read_bag(path, cmd: str | None = None, odom: str | None = None,
     :param cmd_timeout: seconds after the last command at which the robot's
         driver stops it (command zero until the next one), > 0; default None:
         each command is held until the next
+    :param wheel_radius: r, m: with ``wheel_separation``, the measured velocities
+        are read from the wheel speeds wL, wR (rad/s) of a
+        ``sensor_msgs/JointState`` topic (``/joint_states``, as ros2_control's
+        joint_state_broadcaster publishes; ``odom`` names it when there are
+        several) instead of odometry: u = r (wL + wR) / 2, w = r (wR - wL) / D
+    :param wheel_separation: D, m, the distance between the wheels' contact points
+    :param wheel_joints: (left, right) joint names; default the one joint whose
+        name holds "left" and the one whose name holds "right" (preferring names
+        with "wheel")
     :raises MissingDependency: without the rosbags package (``pip install
         "unidyn[ros]"``)
     :raises ValidationError: one line naming the file and what is wrong: not a
@@ -205,7 +361,8 @@ def read_bag(path, cmd: str | None = None, odom: str | None = None,
         :func:`~unidyn.identification.load_log` returns, plus ``"gap"`` (s, the
         recording-gap threshold :func:`identify` uses), ``"stamp_jitter"`` (0:
         samples are at their header stamps), ``"source"``
-        (the path), ``"cmd_topic"``, ``"cmd_type"``, ``"odom_topic"``,
+        (the path), ``"cmd_topic"``, ``"cmd_type"``, ``"odom_topic"``, ``"cmd_why"``
+        and ``"odom_why"`` (why these topics were read),
         ``"cmd_timeout"`` and ``"t0"`` (the first command's time, ns since the
         epoch)
 
@@ -220,18 +377,20 @@ def read_bag(path, cmd: str | None = None, odom: str | None = None,
     for flag, v in (("cmd", cmd), ("odom", odom)):
         if v is not None and (not isinstance(v, str) or not v.strip()):
             raise ValidationError(f"{flag} must be a topic name such as /cmd_vel, got {v!r}")
+    wheels = _wheels(wheel_radius, wheel_separation, wheel_joints)
     _check_path(path)
     AnyReader, typestore = _rosbags()
     try:
         with AnyReader([path], default_typestore=typestore) as reader:
             topics = reader.topics
             duration = reader.duration * 1e-9 if reader.message_count else 0.0
-            cmd_name = _choose(path, topics, cmd, COMMAND_TYPES, "the commands", "--cmd",
-                               duration)
-            odom_name = _choose(path, topics, odom, (ODOMETRY_TYPE,), "the measured velocities",
-                                "--odom", duration)
+            cmd_name, cmd_why = _choose(path, topics, cmd, COMMAND_TYPES, "the commands",
+                                        "--cmd", duration)
+            odom_name, odom_why = _choose(
+                path, topics, odom, (JOINT_STATE_TYPE,) if wheels else (ODOMETRY_TYPE,),
+                "the measured velocities", "--odom", duration)
             cmd_type = topics[cmd_name].msgtype
-            data = _read_messages(path, reader, cmd_name, odom_name)
+            data = _read_messages(path, reader, cmd_name, odom_name, wheels)
     except (ValidationError, MissingDependency, KeyboardInterrupt, MemoryError):
         raise
     except Exception as err:  # noqa: BLE001 - a damaged file fails in many ways
@@ -240,10 +399,49 @@ def read_bag(path, cmd: str | None = None, odom: str | None = None,
             if path.suffix.lower() == ".bag" else ""
         raise ValidationError(f"bag {path} cannot be read, truncated or corrupt?{hint}: "
                               f"{reason[:200]}") from None
-    tc, uc, wc, to, tr, uo, wo, stamped = data
-    return _log_from_messages(path, tc, uc, wc, to, tr, uo, wo, stamped, cmd_timeout,
+    cmds, od = data
+    if wheels:
+        uo, wo = od.u, od.w
+        odom_why += (f"; u = r (wL + wR) / 2, w = r (wR - wL) / D from joints "
+                     f"{od.frames[0]} (left), {od.frames[1]} (right), r = {wheels[0]:g} m, "
+                     f"D = {wheels[1]:g} m")
+    else:
+        uo, wo, note = _body_twist(path, odom_name, od)
+        if note:
+            warnings.warn(note, IdentificationWarning, stacklevel=2)
+    _check_clocks(path, cmd_name, odom_name, cmds, od)
+    return _log_from_messages(path, cmds.t, cmds.u, cmds.w, od.t, od.received, uo, wo,
+                              cmds.stamped, cmd_timeout,
                               {"cmd_topic": cmd_name, "cmd_type": cmd_type,
-                               "odom_topic": odom_name})
+                               "odom_topic": odom_name, "cmd_why": cmd_why,
+                               "odom_why": odom_why})
+
+
+def _clock_name(ns) -> str:
+    """What clock a time (ns) is most likely on."""
+    s = float(ns) * 1e-9
+    if s > 1e9:      # after 2001: the wall clock
+        import datetime
+        when = datetime.datetime.fromtimestamp(s, datetime.timezone.utc)
+        return f"the wall clock ({when:%Y-%m-%d %H:%M:%S} UTC)"
+    return f"a clock from zero such as simulation time ({s:.1f} s)"
+
+
+def _check_clocks(path, cmd_name, odom_name, cmds, od):
+    """Refuse stamped commands and odometry whose stamps do not overlap in time:
+    they are on different clocks (one on the wall clock, one on simulation
+    time, as when use_sim_time is set on one node only)."""
+    if not cmds.stamped or cmds.t.size < 2 or od.t.size < 2:
+        return
+    a0, a1, b0, b1 = int(cmds.t.min()), int(cmds.t.max()), int(od.t.min()), int(od.t.max())
+    if a0 <= b1 and b0 <= a1:
+        return
+    raise ValidationError(
+        f"bag {path}: the stamps of the commands on {cmd_name} and of the odometry on "
+        f"{odom_name} do not overlap in time: the commands are stamped on "
+        f"{_clock_name(a0)}, the odometry on {_clock_name(b0)}; the nodes stamp on "
+        f"different clocks (use_sim_time set on one of them only?): stamp both on one "
+        f"clock")
 
 
 def _log_from_messages(path, tc, uc, wc, to, tr, uo, wo, stamped, cmd_timeout, meta) -> dict:
@@ -309,8 +507,10 @@ def _log_from_messages(path, tc, uc, wc, to, tr, uo, wo, stamped, cmd_timeout, m
             f"estimate needs a minute or more of varied commands")
     u_ref = held_mean(c_t, uc, t, cmd_timeout)
     w_ref = held_mean(c_t, wc, t, cmd_timeout)
+    check_measured(u_ref, w_ref, u, w, f"bag {path}: {odom_name}")
     return {"t": t, "u_ref": u_ref, "w_ref": w_ref, "u": u, "w": w, "gap": gap,
-            "stamp_jitter": 0.0, "source": str(path), **meta, "cmd_timeout": cmd_timeout, "t0": t0}
+            "stamp_jitter": 0.0, "source": str(path), **meta, "cmd_timeout": cmd_timeout, "t0": t0,
+            "commands": {"t": c_t, "u_ref": uc, "w_ref": wc, "stamped": bool(stamped)}}
 
 
 def held_mean(c_t, c, t, timeout=None) -> np.ndarray:
@@ -338,3 +538,33 @@ def held_mean(c_t, c, t, timeout=None) -> np.ndarray:
     out[-1] = c[j[-1]] if timeout is None or since[-1] < timeout else 0.0
     return out
 
+
+
+def held_weighted(c_t, c, t, tau, timeout=None) -> np.ndarray:
+    """Like :func:`held_mean`, the commands over the intervals [t[k], t[k+1]) of
+    other sample times, but each the mean weighted by exp(-(t[k+1] - s) / tau):
+    the held value that brings a first-order response of time constant ``tau``
+    (s) to the same value at t[k+1] as the commands as applied. The plain mean
+    is this for tau much longer than the interval; for an interval of a sixth
+    of tau (30 Hz odometry, tau = 0.2 s) the plain mean is off by about
+    (dt / tau)^2 / 8 = 0.3 % of a command step, which biases theta1 and theta2
+    by more than their standard errors in a long log. ``tau`` = inf gives
+    :func:`held_mean`."""
+    if not np.isfinite(tau) or tau <= 0:
+        return held_mean(c_t, c, t, timeout)
+    bp = [c_t, t] + ([c_t + timeout] if timeout is not None else [])
+    bp = np.unique(np.concatenate(bp))
+    bp = bp[(bp >= t[0]) & (bp <= t[-1])]
+    a, b = bp[:-1], bp[1:]
+    row = np.searchsorted(t, a, "right") - 1
+    j = np.searchsorted(c_t, a, "right") - 1
+    val = c[j]
+    if timeout is not None:
+        val = np.where(a < c_t[j] + timeout, val, 0.0)
+    # the integral of exp((s - t[k+1]) / tau) over [a, b), exponents <= 0
+    wgt = -tau * np.exp((b - t[row + 1]) / tau) * np.expm1(-(b - a) / tau)
+    num = np.bincount(row, wgt * val, minlength=t.size - 1)
+    den = np.bincount(row, wgt, minlength=t.size - 1)
+    out = held_mean(c_t, c, t, timeout)        # its last sample: the command in force
+    out[:-1] = num[:t.size - 1] / den[:t.size - 1]
+    return out

@@ -63,18 +63,22 @@ about 0.5..1.5; they describe the noise, not model error.
 
 from __future__ import annotations
 
+import contextlib
 import math
+import sys
 import warnings as _warnings_mod
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from .._validate import ValidationError, choice, integer, nonnegative, positive
 from ..model.unicycle import regressor
 from ..model.parameters import RobotParameters
 from ._simulate import COMMAND_CONVENTIONS, simulate_held, step_length
-from .logs import COLUMNS, TIME_UNITS, IdentificationWarning, _short, join_logs
+from .bags import held_weighted
+from .least_squares import levenberg_marquardt, normal_equations
+from .logs import (COLUMNS, TIME_UNITS, IdentificationWarning, _short, check_measured,
+                   join_logs)
 from .results import _NAMES, IdentificationResult
 from .validation import validation_report
 
@@ -104,8 +108,15 @@ MAX_TIME_CONSTANT = 60.0
 # time stamps jittering by more than this fraction of the median step (std) widen
 # the intervals (see _jitter_widening); rounding to microseconds stays below it
 _JITTER_MIN = 1e-3
+# a parameter whose information rests on less than this share of the samples is
+# reported as not identifiable (see _information_share): a multisine excitation gives
+# 0.08 to 0.25, ten one-sample blips in a minute and a half of constant commands 0.007
+# to 0.07
+_MIN_SHARE = 0.005
 # fits repeated with added jitter to measure its effect
 _JITTER_REPS = 4
+# the shortest sampling step (s) of a robot's log: 10 kHz
+_MIN_STEP = 1e-4
 _UNIT_NAMES = {"ms": "milliseconds", "us": "microseconds", "ns": "nanoseconds"}
 
 
@@ -178,6 +189,18 @@ def _eq11_columns(v, v_dot):
     comes from here."""
     Y = regressor(v, v_dot)
     return np.stack([Y[..., r, list(cols)] for r, cols in enumerate(_ROW_PARAMS)], axis=-2)
+
+
+def _coupling(u, w, chunk=1 << 16):
+    """The coupling columns of Eq. (11) per sample, (w^2, u w), from
+    :func:`_eq11_columns` a block of samples at a time (its (n, 2, 3) arrays for a
+    whole long log would be many times the log's size)."""
+    w2, uw = np.empty(u.size), np.empty(u.size)
+    for s in range(0, u.size, chunk):
+        v = np.stack([u[s:s + chunk], w[s:s + chunk]], axis=1)
+        Y0 = _eq11_columns(v, np.zeros_like(v))
+        w2[s:s + chunk], uw[s:s + chunk] = -Y0[:, 0, 1], Y0[:, 1, 1]
+    return w2, uw
 
 
 def _eq11_parts(v):
@@ -392,15 +415,21 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
              name: str = "identified", rel_stderr_max: float = 0.25, validate: bool = True,
              gap: float | None = None, check_commands: bool = True,
              time_unit: str | None = None,
-             stamp_jitter: float | None = None) -> IdentificationResult:
+             stamp_jitter: float | None = None,
+             progress: bool | None = None) -> IdentificationResult:
     r"""Estimate theta1..theta6 of Eq. (2) from one or more logs of one robot.
 
     The default ``method="output-error"`` simulates Eq. (2) over every piece of
     every log with the logged commands applied as the robot received them, and
     adjusts theta (and each piece's initial velocities, and the input delay if
     asked) so that the simulated velocities match the measured ones
-    (scipy's bounded least squares, each channel weighted by its noise level;
-    derivatives by finite differences of the compiled simulation).
+    (bounded Levenberg-Marquardt, each channel weighted by its noise level;
+    derivatives by finite differences of the compiled simulation, held once in
+    single precision, so that a log of 10^6 rows fits in a few hundred MB).
+    Logs read from bags (:func:`~unidyn.identification.read_bag`) are refitted
+    once with each row's command weighted by the fitted response (see
+    :func:`~unidyn.identification.bags.held_weighted`), and with unstamped
+    commands the intervals allow for the recorder's lag (``RECORDER_LAG``).
     It starts from a least-squares estimate: for held commands the exact
     discretisation of the linear part of Eq. (2) under a held input,
     u[k+1] = a u[k] + b u_ref[k] + c w[k]^2 with a = exp(-theta4 dt / theta1),
@@ -451,8 +480,12 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
         fit: it is repeated with as much jitter again added to the stamps, and
         the shift and scatter of the estimates are added to the standard
         errors) and a warning says by how much
+    :param progress: a progress bar on stderr while the fits run: None (default)
+        for logs of more than 100,000 rows when stderr is a terminal; True or False
+        to force it on or off
     :raises ValidationError: for a bad log (see :func:`load_log`; every row it
-        drops or skips is reported in ``warnings``), constant
+        drops or skips is reported in ``warnings``), a log whose fit needs more
+        memory than the system has available (about 250 bytes a row), constant
         commands or no motion (nothing to identify), a window that does not fit the
         log, or a non-positive theta1, theta2, theta4 or theta6 (no physical robot
         has one; the message lists the likely causes)
@@ -461,21 +494,96 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
     commands, method, smoothing, order, window, rel_stderr_max, gap, stamp_jitter = \
         _checked_options(commands, method, smoothing, order, window, rel_stderr_max, name,
                          gap, stamp_jitter, validate, check_commands)
+    if progress is not None and not isinstance(progress, (bool, np.bool_)):
+        raise ValidationError(f"progress must be None, True or False, got {_short(progress)}")
     lg = _read_logs((log,) + more_logs, columns, gap, time_unit, stamp_jitter, commands,
                     delay, window, noise_std)
+    _check_memory(lg, method)
+    with _progress_bar(lg, progress) as lg.tick:
+        res = _identify(lg, method, smoothing, window, order, rel_stderr_max, name,
+                        check_commands, validate)
+    return _emit(res)
+
+
+def _identify(lg, method, smoothing, window, order, rel_stderr_max, name, check_commands,
+              validate):
     if method == "equation-error":
         res = _identify_equation_error(lg, smoothing, window, order, rel_stderr_max, name)
     else:
         theta0, start_kind, m0 = _start(lg.D, lg.segs, lg.linear, lg.delay, lg.delay_auto,
                                         lg.dt_med, smoothing, window, order, lg.su, lg.sw)
         oe = _weighted_oe_fit(lg, theta0, m0 * lg.dt_med if lg.delay_auto else lg.delay)
+        if lg.recorded and not lg.linear and oe["delay"] == 0:
+            # the commands of the rows weighted as the robot's response weighs them
+            lg.D.update(_row_commands(lg.recorded, oe["theta"]))
+            oe = _weighted_oe_fit(lg, oe["theta"], 0.0)
         stderr, warns = _oe_intervals(lg, oe, rel_stderr_max)
         if check_commands:
             warns += _command_check(lg, oe)
         res = _oe_result(lg, oe, stderr, warns, start_kind, name)
     if validate:
         res = _with_validation(res, lg.D, lg.segs)
-    return _emit(res)
+    return res
+
+
+# memory the output-error fit holds per row of the log beyond the log's own columns,
+# bytes (its single-precision Jacobian, simulated and measured velocities, residuals,
+# the validation's copies: 2.2 GB in all for 10^7 rows), and per parameter fitted
+# beyond the first eight
+_BYTES_PER_ROW = 250
+_BYTES_PER_ROW_PARAM = 8
+# logs of more rows than this show a progress bar on a terminal
+_PROGRESS_ROWS = 100_000
+
+
+def _available_memory() -> float | None:
+    """Bytes of memory the system can give this process now (Linux), else None."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return float(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return None
+
+
+def _memory_needed(rows: int, pieces: int = 1) -> float:
+    """Bytes the output-error fit of a log of ``rows`` rows in ``pieces`` pieces
+    needs beyond the log itself (about 250 a row)."""
+    extra = max(2 * pieces - 2, 0)
+    return rows * (_BYTES_PER_ROW + _BYTES_PER_ROW_PARAM * extra)
+
+
+def _check_memory(lg, method):
+    """Refuse, before the fit, a log whose fit would not fit in the memory available."""
+    if method != "output-error":
+        return
+    need = _memory_needed(lg.D["t"].size, len(lg.segs))
+    have = _available_memory()
+    if have is not None and need > have:
+        raise ValidationError(
+            f"the log's {lg.D['t'].size} rows need about {need / 1e9:.2g} GB of memory to "
+            f"identify from and {have / 1e9:.2g} GB are available: identify from a part "
+            f"(split_log), or on a machine with more memory")
+
+
+@contextlib.contextmanager
+def _progress_bar(lg, progress):
+    """A tqdm progress bar on stderr counting the simulations of the fits (for logs
+    over ``_PROGRESS_ROWS`` rows, on a terminal; ``progress`` True or False forces it
+    on or off), as the callable to tick; None without a bar."""
+    show = lg.D["t"].size > _PROGRESS_ROWS if progress is None else bool(progress)
+    if not show:
+        yield None
+        return
+    from tqdm import tqdm
+    bar = tqdm(desc=f"identify ({lg.D['t'].size} rows)", unit=" simulations",
+               file=sys.stderr, disable=None if progress is None else False, leave=False)
+    try:
+        yield bar.update
+    finally:
+        bar.close()
 
 
 def _checked_options(commands, method, smoothing, order, window, rel_stderr_max, name,
@@ -514,6 +622,8 @@ class _Logs:
     sw: float
     stamp_jitter: float | None
     warnings: list          # about the logs: missing rows, gaps, dropped rows
+    tick: object = None     # called as the fits advance (a progress bar), or None
+    recorded: list = None   # the logs read from bags, with the commands as recorded
 
     @property
     def linear(self) -> bool:
@@ -533,6 +643,7 @@ def _read_logs(logs, columns, gap, time_unit, stamp_jitter, commands, delay, win
     D, segs, _, _ = join_logs(logs, columns, gap, time_unit)
     t, u_ref, w_ref, u, w = (D[k] for k in COLUMNS)
     _check_excitation(u_ref, w_ref)
+    check_measured(u_ref, w_ref, u, w)
     dt_med = float(np.median(np.concatenate([np.diff(t[a:b]) for a, b in segs])))
     delay_auto, delay = _delay_arg(delay, dt_med)
     longest = max(t[b - 1] - t[a] for a, b in segs)
@@ -559,8 +670,11 @@ def _read_logs(logs, columns, gap, time_unit, stamp_jitter, commands, delay, win
                      f"step): the log is split there into pieces, each with its own initial "
                      f"state")
     warns += D["notes"]     # rows dropped or skipped, short pieces not used
+    recorded = [lg for lg in logs if isinstance(lg, dict) and "commands" in lg]
+    if len(recorded) != len(logs) or sum(lg["t"].size for lg in recorded) != D["t"].size:
+        recorded = None
     return _Logs(D, segs, len(logs), commands, dt_med, delay, delay_auto, su, sw,
-                 stamp_jitter, warns)
+                 stamp_jitter, warns, recorded=recorded)
 
 
 def _identify_equation_error(lg, smoothing, window, order, rel_stderr_max, name):
@@ -595,11 +709,12 @@ def _weighted_oe_fit(lg, theta0, delay):
     floor_u = 1e-9 * max(float(np.sqrt(np.mean(u * u))), 1e-9)
     floor_w = 1e-9 * max(float(np.sqrt(np.mean(w * w))), 1e-9)
     sig = np.array([max(lg.su, floor_u), max(lg.sw, floor_w)])
-    oe = _oe_fit(lg.D, lg.segs, theta0, sig, lg.linear, delay, lg.delay_auto, lg.dt_med)
+    oe = _oe_fit(lg.D, lg.segs, theta0, sig, lg.linear, delay, lg.delay_auto, lg.dt_med,
+                 progress=lg.tick)
     if np.any(np.abs(oe["rms"] / sig - 1.0) > 0.25):
         sig = np.maximum(oe["rms"], [floor_u, floor_w])
         oe = _oe_fit(lg.D, lg.segs, oe["theta"], sig, lg.linear, oe["delay"], lg.delay_auto,
-                     lg.dt_med, v0=oe["v0"])
+                     lg.dt_med, v0=oe["v0"], progress=lg.tick)
     return oe
 
 
@@ -616,7 +731,20 @@ def _oe_intervals(lg, oe, rel_stderr_max):
         stderr, note = _jitter_widening(lg.D, lg.segs, oe, theta, stderr, lg.linear,
                                         lg.dt_med, jitter)
         warns.append(note)
+    unstamped = lg.recorded and not all(r["commands"]["stamped"] for r in lg.recorded)
+    if unstamped and not lg.linear and oe["delay"] == 0:
+        stderr, note = _lag_widening(lg, oe, theta, stderr)
+        warns.append(note)
     idx = oe["rows"]
+    for i in np.flatnonzero(oe["share"] < _MIN_SHARE):
+        if i in oe["dead"]:
+            continue
+        stderr[i] = math.inf
+        warns.append(f"{_NAMES[i]} is not identifiable from this log: its estimate "
+                     f"{theta[i]:.4g} rests on {100 * oe['share'][i]:.2g} % of the samples "
+                     f"(the few moments that excite it, such as isolated steps in otherwise "
+                     f"steady commands), too few for its interval to mean anything; it is "
+                     f"reported without one. Excite it throughout the log (see excitation())")
     for i in oe["dead"]:
         warns.append(f"{_NAMES[i]} is not identifiable from this log: the simulated velocities "
                      f"do not depend on it (or only through a combination with other "
@@ -631,7 +759,7 @@ def _command_check(lg, oe) -> list:
     """A warning when the other command convention fits the log clearly better."""
     other = "held" if lg.linear else "linear"
     alt = _oe_fit(lg.D, lg.segs, oe["theta"], oe["sig"], not lg.linear, oe["delay"], False,
-                  lg.dt_med, v0=oe["v0"], covariance=False)
+                  lg.dt_med, v0=oe["v0"], covariance=False, progress=lg.tick)
     gain = oe["cost"] - alt["cost"]
     # an absolute floor (noise), and a relative one: a log that Eq. (2) does not
     # fit (a saturating robot) can fit a little better either way
@@ -733,6 +861,59 @@ def _jitter_widening(D, segs, oe, theta, stderr, linear, dt_med, jitter):
     return wide, note
 
 
+def _row_commands(recorded, theta, lags=None):
+    """u_ref, w_ref of the rows of logs read from bags, from their commands as
+    recorded (each delayed by ``lags``, one array per log, s), each row's held value
+    weighted by the response of time constant theta1/theta4 (u) or theta2/theta6
+    (w): see :func:`~unidyn.identification.bags.held_weighted`."""
+    tau_u = theta[0] / theta[3] if theta[3] > 0 else math.inf
+    tau_w = theta[1] / theta[5] if theta[5] > 0 else math.inf
+    out = {"u_ref": [], "w_ref": []}
+    for k, log in enumerate(recorded):
+        c = log["commands"]
+        c_t = c["t"] if lags is None else np.sort(c["t"] + lags[k])
+        for key, tau in (("u_ref", tau_u), ("w_ref", tau_w)):
+            out[key].append(held_weighted(c_t, c[key], log["t"], tau, log.get("cmd_timeout")))
+    return {k: np.concatenate(v) for k, v in out.items()}
+
+
+#: The most by which a recorder receives a command after the robot does (s): an
+#: unstamped command's time in a bag is when the recorder received it, a few ms
+#: after the robot started to apply it (one delivery on the same computer).
+RECORDER_LAG = 0.005
+
+
+def _lag_widening(lg, oe, theta, stderr):
+    """Standard errors that allow for unstamped commands timed by the recorder: the
+    fit repeated ``_JITTER_REPS`` times with each command applied up to
+    ``RECORDER_LAG`` earlier than recorded (uniform, seeded); the shift and the
+    scatter of the estimates are added to the standard errors, as for stamp jitter
+    (:func:`_jitter_widening`). The time a robot applied a command is not in the
+    bag, and a lag of a few ms biases theta1 and theta2 like a delay (by about
+    theta4 and theta6 times the lag)."""
+    rng = np.random.default_rng(1)
+    reps = []
+    for _ in range(_JITTER_REPS):
+        lags = [-rng.uniform(0.0, RECORDER_LAG, r["commands"]["t"].size) for r in lg.recorded]
+        D = {**lg.D, **_row_commands(lg.recorded, theta, lags)}
+        fk = _oe_fit(D, lg.segs, theta, oe["sig"], False, 0.0, False, lg.dt_med,
+                     v0=oe["v0"], covariance=False, progress=lg.tick)
+        reps.append(fk["theta"])
+    reps = np.array(reps)
+    shift = reps.mean(axis=0) - theta
+    wide = np.sqrt(stderr ** 2 + shift ** 2 + reps.var(axis=0, ddof=1))
+    wide = np.where(np.isfinite(stderr), wide, stderr)
+    grown = [f"{_NAMES[i]} x{wide[i] / stderr[i]:.2g}" for i in range(6)
+             if stderr[i] > 0 and wide[i] > 1.1 * stderr[i]]
+    note = (f"the commands carry no stamps: their times are when the recorder received "
+            f"them, up to {1e3 * RECORDER_LAG:g} ms after the robot applied them. The "
+            f"intervals allow for it (refitted {_JITTER_REPS} times with the commands that "
+            f"much earlier; standard errors "
+            + (f"widened: {', '.join(grown)})" if grown else "barely changed)")
+            + "; commands stamped when the robot takes them (TwistStamped) avoid this")
+    return wide, note
+
+
 def _ci(theta, stderr):
     return np.stack([theta - _Z95 * stderr, theta + _Z95 * stderr], axis=1)
 
@@ -801,9 +982,7 @@ def _arx(D, segs, delay, auto, dt_med):
     whole delay in samples 0..3 with the smallest residual is used; otherwise
     ``delay`` is rounded to whole samples. Returns (theta, delay in samples)."""
     t, u_ref, w_ref, u, w = (D[k] for k in COLUMNS)
-    # the coupling columns of Eq. (11), w^2 and u w, of each sample
-    Y0 = _eq11_columns(np.stack([u, w], axis=1), np.zeros((u.size, 2)))
-    w2, uw = -Y0[:, 0, 1], Y0[:, 1, 1]
+    w2, uw = _coupling(u, w)      # the coupling columns of Eq. (11) of each sample
     cands = range(4) if auto else [int(round(delay / dt_med))]
     best = None
     for m in cands:
@@ -824,8 +1003,10 @@ def _arx(D, segs, delay, auto, dt_med):
             sc = np.linalg.norm(X, axis=0)
             if np.any(sc == 0):
                 raise ValidationError("a regressor column is zero (no motion)")
-            beta, *_ = np.linalg.lstsq(X / sc, y[k + 1], rcond=None)
-            r = y[k + 1] - (X / sc) @ beta
+            X /= sc                  # three columns: their normal equations, in place
+            yk = y[k + 1]
+            beta = np.linalg.solve(X.T @ X, X.T @ yk)
+            r = yk - X @ beta
             cost += float(r @ r) / max(float(np.var(y[k + 1])), 1e-300)
             aa, bb, cc = beta / sc
             if not (0 < aa < 1 and bb > 0):
@@ -861,9 +1042,9 @@ class _OutputErrorProblem:
         self.segs, self.sig, self.linear, self.delay = segs, sig, linear, delay
         self.nd = 1 if est_delay else 0
         self.dt_med = dt_med
-        self.idx = np.concatenate([np.arange(a, b) for a, b in segs])
         self.pos = np.cumsum([0] + [b - a for a, b in segs])
-        self.Y = np.stack([u[self.idx], w[self.idx]], axis=1)
+        self.measured = (u, w)
+        self._idx = None
         self.hmax = step_length(theta0, dt_med)
         self.tau_min = TAU_MIN_SAMPLES * dt_med
         self.buf = np.full((self.t.size, 2), np.nan)
@@ -881,6 +1062,7 @@ class _OutputErrorProblem:
         for i, j in ((0, 3), (1, 5)):
             p0[i] = max(p0[i], 1.001 * self.tau_min * p0[j])
         self.p0 = p0
+        self.progress = None     # called after each simulation of the fit
 
     def unpack(self, p):
         """(theta held at the fastest time constant explored, delay, v0)."""
@@ -899,16 +1081,53 @@ class _OutputErrorProblem:
                       self.hmax, out=self.buf)
         return self.buf[self.idx]
 
+    @property
+    def idx(self):
+        """The rows of the log that are fitted (those of its pieces)."""
+        if self._idx is None:
+            self._idx = np.concatenate([np.arange(a, b) for a, b in self.segs])
+        return self._idx
+
+    @property
+    def Y(self):
+        """The measured (u, w) on the fitted rows, (rows, 2) (a new array)."""
+        u, w = self.measured
+        return np.stack([u[self.idx], w[self.idx]], axis=1)
+
+    def _errors(self, p, out, which=None):
+        """The velocity errors (u of every row, then w; each channel divided by its
+        noise level) written into ``out`` (all rows, or piece ``which`` only: its
+        rows of ``out`` are written), without temporaries the size of the log."""
+        th, dl, vv = self.unpack(p)
+        segs = self.segs if which is None else [self.segs[which]]
+        vv = vv if which is None else vv[which:which + 1]
+        simulate_held(th, self.t, self.u_ref, self.w_ref, segs, vv, dl, self.linear,
+                      self.hmax, out=self.buf)
+        if self.progress is not None:
+            self.progress()
+        n = int(self.pos[-1])
+        pieces = range(len(self.segs)) if which is None else [which]
+        for c in range(2):
+            for s in pieces:
+                a, b = self.segs[s]
+                o = out[c * n + self.pos[s]:c * n + self.pos[s + 1]]
+                np.subtract(self.buf[a:b, c], self.measured[c][a:b], out=o)
+                o /= self.sig[c]
+        return out
+
     def fun(self, p):
         """The velocity errors, each channel divided by its noise level."""
-        return ((self.sim(p) - self.Y) / self.sig).T.ravel()
+        return self._errors(p, np.empty(2 * int(self.pos[-1])))
 
-    def jac(self, p):
-        """Forward differences of :meth:`fun`; a piece's initial velocities act
-        on its own rows only, so they are varied one piece at a time."""
-        base = self.sim(p).copy()
-        n, nd, sig = self.idx.size, self.nd, self.sig
-        J = np.zeros((2 * n, p.size))
+    def jac(self, p, f=None):
+        """Forward differences of :meth:`fun` (``f``: its value at ``p``), in single
+        precision (see :mod:`~unidyn.identification.least_squares`); a piece's
+        initial velocities act on its own rows only, so they are varied one piece
+        at a time."""
+        f = self.fun(p) if f is None else f
+        n, nd = int(self.pos[-1]), self.nd
+        J = np.zeros((2 * n, p.size), dtype=np.float32)
+        work = np.empty(2 * n)
         for i in range(p.size):
             if i < 6:
                 h = 1e-7 * max(abs(p[i]), 1e-3)
@@ -920,34 +1139,37 @@ class _OutputErrorProblem:
             q = np.array(p, dtype=float)
             q[i] += h
             if i < 6 + nd:
-                J[:, i] = ((self.sim(q) - base) / h / sig).T.ravel()
+                self._errors(q, work)
+                work -= f
+                work /= h
+                J[:, i] = work
             else:
                 s = (i - 6 - nd) // 2
-                a, b = self.pos[s], self.pos[s + 1]
-                dS = (self.sim(q, s)[a:b] - base[a:b]) / h
-                J[a:b, i] = dS[:, 0] / sig[0]
-                J[n + a:n + b, i] = dS[:, 1] / sig[1]
+                self._errors(q, work, which=s)
+                for rows in (slice(self.pos[s], self.pos[s + 1]),
+                             slice(n + self.pos[s], n + self.pos[s + 1])):
+                    J[rows, i] = (work[rows] - f[rows]) / h
         return J
 
     def solve(self, p0, max_nfev):
-        """scipy's trust-region reflective least squares within the bounds,
-        each parameter scaled by its column of the Jacobian."""
-        sol = least_squares(self.fun, p0, jac=self.jac, bounds=(self.lb, self.ub),
-                            method="trf", x_scale="jac", ftol=1e-10, xtol=1e-10,
-                            gtol=1e-10, max_nfev=max_nfev)
-        th, dl, _ = self.unpack(sol.x)
-        p = np.array(sol.x)
+        """Levenberg-Marquardt within the bounds, each parameter scaled by its
+        column of the Jacobian (the Jacobian held once, in single precision: see
+        :mod:`~unidyn.identification.least_squares`)."""
+        x = levenberg_marquardt(self.fun, self.jac, p0, self.lb, self.ub, max_nfev=max_nfev)
+        th, dl, _ = self.unpack(x)
+        p = np.array(x)
         p[:6] = th       # a time constant below the explored limit is reported at it
         return p
 
 
 def _oe_fit(D, segs, theta0, sig, linear, delay, est_delay, dt_med, v0=None,
-            covariance=True, max_nfev=200):
+            covariance=True, max_nfev=200, progress=None):
     """The output-error fit (see :func:`identify`). Returns a dict with theta,
     delay, v0, cost (sum of squared normalised errors), rms per channel, rows,
     residuals, and with ``covariance``: cov, conds, r2, whiteness, warnings,
     dead, delay_stderr."""
     prob = _OutputErrorProblem(D, segs, theta0, sig, linear, delay, est_delay, dt_med, v0)
+    prob.progress = progress
     p = prob.solve(prob.p0, max_nfev)
     # a faster robot than the start needs more RK4 steps: refine once
     if step_length(p[:6], dt_med) < 0.8 * prob.hmax:
@@ -980,7 +1202,7 @@ def _oe_covariance(prob, p, S, R, rms, th):
     J[n:] *= scale[1]
     Z = R / rms                                   # normalised residuals
     rho, lb_q, white = _whiteness(Z, prob.pos)
-    M = J.T @ J
+    M = normal_equations(J)
     Minv, dead = _scaled_inverse(M)
     cov = Minv * (float(np.sum(Z * Z)) / max(2 * n - npar, 1))
     warns = []
@@ -997,14 +1219,18 @@ def _oe_covariance(prob, p, S, R, rms, th):
                 f"dynamics unexplained (an input delay, see delay='auto'; the other command "
                 f"convention; saturation or friction; filtered velocity measurements); the "
                 f"intervals allow for correlated errors but the estimate may be biased")
-    sat, sat_warns = _saturation(S, R, prob.Y)
-    warns += sat_warns
     conds = []
     for c, cols in ((0, [0, 2, 3]), (1, [1, 4, 5])):
-        B = J[c * n:(c + 1) * n][:, cols]
-        nb = np.linalg.norm(B, axis=0)
-        sv = np.linalg.svd(B / np.where(nb > 0, nb, 1.0), compute_uv=False)
-        conds.append(float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf)
+        # the condition number of the channel's columns, scaled to unit length, from
+        # their normal matrix (its eigenvalues are the squared singular values)
+        B = normal_equations(J[c * n:(c + 1) * n])[np.ix_(cols, cols)]
+        nb = np.sqrt(np.diag(B))
+        ev = np.linalg.eigvalsh(B / np.outer(*(2 * [np.where(nb > 0, nb, 1.0)])))
+        conds.append(float(np.sqrt(ev[-1] / ev[0])) if ev[0] > 0 else math.inf)
+    share = _information_share(J, Minv)
+    del J
+    sat, sat_warns = _saturation(S, R, prob.Y)
+    warns += sat_warns
     r2 = []
     for c in range(2):
         Yc = prob.Y[:, c]
@@ -1014,9 +1240,26 @@ def _oe_covariance(prob, p, S, R, rms, th):
     cov[:, dead] = 0.0
     cov[dead, dead] = math.inf
     return dict(cov=cov, conds=conds, r2=r2, whiteness=[float(q) for q in lb_q],
-                warnings=warns, saturation=sat,
+                warnings=warns, saturation=sat, share=share,
                 dead=[i for i in np.flatnonzero(dead) if i < 6],
                 delay_stderr=float(np.sqrt(max(cov[6, 6], 0.0))) if nd else 0.0)
+
+
+def _information_share(J, Minv, chunk=1 << 16):
+    """Per parameter of theta, the share of the rows its estimate rests on: the
+    effective number (sum r^2)^2 / sum r^4 of the rows of r = J Minv[:, i] (the
+    part of its Jacobian column that no other parameter's explains), over the
+    number of rows. A parameter that only a few moments of the log excite (a blip
+    in otherwise constant commands) has a small share: its interval, computed as
+    if the model were exact at those few moments, is not to be trusted."""
+    s2, s4 = np.zeros(6), np.zeros(6)
+    C = Minv[:, :6]
+    for s in range(0, J.shape[0], chunk):
+        r = np.asarray(J[s:s + chunk], dtype=float) @ C
+        r2 = r * r
+        s2 += r2.sum(axis=0)
+        s4 += (r2 * r2).sum(axis=0)
+    return np.where(s4 > 0, s2 * s2 / np.where(s4 > 0, s4, 1.0), 0.0) / J.shape[0]
 
 
 def _whiteness(Z, pos, L=10):
@@ -1072,10 +1315,12 @@ def _saturation(S, R, Y):
     per channel and a warning for each channel below ``_SATURATION_CORR``."""
     sat, warns = [], []
     for c in range(2):
-        x = S[:, c]
-        B = np.stack([np.ones_like(x), x], axis=1)
-        f = x ** 3
-        f = f - B @ np.linalg.lstsq(B, f, rcond=None)[0]
+        f = S[:, c] ** 3     # beyond its linear part: less its regression on 1 and u (w)
+        f -= np.mean(f)
+        x = S[:, c] - np.mean(S[:, c])
+        xx = float(x @ x)
+        if xx > 0:
+            f -= (float(x @ f) / xx) * x
         nf, nr = float(np.linalg.norm(f)), float(np.linalg.norm(R[:, c]))
         sat.append(float(f @ R[:, c]) / (nf * nr) if nf > 0 and nr > 0 else 0.0)
     for c, (k, unit) in enumerate((("u", "m/s"), ("w", "rad/s"))):
@@ -1284,8 +1529,8 @@ def _check_physical(theta, stderr):
 def _warnings(theta, stderr, conds, u, w, dt, rel_max) -> list:
     out = []
     rms = lambda a: float(np.sqrt(np.mean(np.square(a))))  # noqa: E731
-    Y0 = _eq11_columns(np.stack([u, w], axis=1), np.zeros((np.size(u), 2)))
-    turning = (f"rms(w^2) = {rms(Y0[:, 0, 1]):.3g} rad²/s², rms(u*w) = {rms(Y0[:, 1, 1]):.3g} "
+    w2, uw = _coupling(u, w)
+    turning = (f"rms(w^2) = {rms(w2):.3g} rad²/s², rms(u*w) = {rms(uw):.3g} "
                f"m·rad/s², "
                f"rms(u) = {rms(u):.3g} m/s, rms(w) = {rms(w):.3g} rad/s")
     for i, term in ((2, "-w^2 (centripetal)"), (4, "u*w (Coriolis)")):
@@ -1329,11 +1574,18 @@ def _warnings(theta, stderr, conds, u, w, dt, rel_max) -> list:
         tau = max(theta[i], theta[i] / theta[j] if theta[j] > 0 else 0.0)
         if tau > MAX_TIME_CONSTANT:
             unit = next((u for u in ("ms", "us", "ns") if tau * TIME_UNITS[u] <= 10.0), "ns")
+            # time in another unit also shows as steps that, in that unit, are a robot's
+            # sampling (at most 10 kHz); a log at a robot's rate read in seconds is not
+            # in another unit: the log, not its unit, is what is wrong
+            why = (f"is t in {_UNIT_NAMES[unit]}? pass time_unit='{unit}'"
+                   if dt * TIME_UNITS[unit] >= _MIN_STEP
+                   else "the log does not determine it: check that the measured velocities "
+                        "respond to the commands (units, signs, the frame of the odometry) "
+                        "and that the commands vary (see excitation())")
             out.append(f"{_NAMES[i]} = {theta[i]:.4g} s and {_NAMES[i]}/{_NAMES[j]} = "
                        f"{theta[i] / theta[j]:.4g} s: a time constant over "
                        f"{MAX_TIME_CONSTANT:g} s is implausible for a wheeled robot (tenths of a "
-                       f"second to seconds); is t in {_UNIT_NAMES[unit]}? pass "
-                       f"time_unit='{unit}'")
+                       f"second to seconds); {why}")
     for i in (0, 1):
         if theta[i] > 0 and 2 * stderr[i] > theta[i]:
             out.append(f"{_NAMES[i]} = {theta[i]:.3g} s has a standard error of "

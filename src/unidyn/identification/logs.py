@@ -7,6 +7,7 @@ A log holds the commands (u_ref, w_ref) a robot received and the velocities
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import os
 import re
@@ -134,6 +135,115 @@ def _number(cell: str):
     return None
 
 
+def _header(path, lines) -> tuple[int, str, str]:
+    """(line number, text, separator) of the header row among ``lines``: the first
+    line that is neither blank nor a comment, after an optional ``sep=`` line."""
+    delim = None
+    for lineno, line in enumerate(lines, start=1):
+        s = line.strip()
+        if s and not s.startswith("#"):
+            m = re.fullmatch(r"""["']?sep=(.)["']?,*;*""", s.lstrip("\ufeff"))
+            if m and delim is None:
+                delim = "\t" if m.group(1) == "\t" else m.group(1)
+                continue
+            return lineno, line, delim or _sniff_delimiter(line)
+    raise ValidationError(f"log: {path} has no header row; expected a first row naming "
+                          f"the columns ({', '.join(COLUMNS)})")
+
+
+def _header_columns(header_line, delim, wanted) -> tuple[list, list]:
+    """(every header name, [(name, field index)] of the columns wanted and present)."""
+    header = [h.strip().strip('"').strip("'").strip().lstrip("\ufeff")
+              for h in next(csv.reader([header_line], delimiter=delim))]
+    want = list(header) if wanted is None else [w for w in dict.fromkeys(wanted) if w in header]
+    index = {h: i for i, h in reversed(list(enumerate(header)))}   # first occurrence
+    return header, [(h, index[h]) for h in want]
+
+
+# bytes of a CSV file examined at a time when counting its fields
+_BLOCK = 1 << 24
+
+
+def _read_plain(path: Path, wanted):
+    """The columns of a plain CSV log read by numpy's reader, or None when the file
+    is anything but plain: UTF-8 or Latin-1 text, no quotes, no comment lines or
+    non-numbers among the data rows, and every data row with exactly the header's
+    number of fields (so that no decimal comma can split a number unnoticed).
+    Such files, by far the commonest, are read in C, a block at a time, holding
+    little more than the columns wanted; any other goes through
+    :func:`_read_csv`'s reader, which explains what it skips or refuses."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(1 << 16)
+            if head.startswith((b"\xff\xfe", b"\xfe\xff")):
+                return None
+            head = head[:head.rfind(b"\n") + 1]
+            try:
+                lineno, header_line, delim = _header(path, _decode(path, head).split("\n")[:-1])
+            except ValidationError:
+                return None
+            if len(delim) != 1 or not delim.isascii():
+                return None
+            start = sum(len(x) + 1 for x in head.split(b"\n", lineno)[:lineno])
+            header, cols = _header_columns(header_line, delim, wanted)
+            fh.seek(start)
+            filled = _plain_rows(fh, ord(delim), len(header) - 1)
+    except OSError:
+        return None
+    if filled is None:
+        return None
+    try:
+        with _warnings_as_errors():
+            arr = np.loadtxt(path, delimiter=delim, skiprows=lineno, usecols=[i for _, i in cols]
+                             or [0], ndmin=2, comments=None, quotechar=None,
+                             encoding="latin-1", dtype=float)
+    except (ValueError, Warning, OSError):
+        return None
+    rowlines = np.flatnonzero(filled) + lineno + 1
+    if arr.shape[0] != rowlines.size:
+        return None
+    data = {h: np.ascontiguousarray(arr[:, j]) for j, (h, _) in enumerate(cols)}
+    return data, header, rowlines, []
+
+
+def _plain_rows(fh, code, separators):
+    """Which lines from the file position on hold data (are not blank), or None
+    when a line holds other than ``separators`` separators (byte ``code``), a
+    quote, a '#' or a NUL byte: read a block at a time."""
+    filled, carry, pending, prev = [], 0, 0, 10
+    while True:
+        raw = fh.read(_BLOCK)
+        if not raw:
+            break
+        if any(c in raw for c in (b'"', b"'", b"#", b"\x00")):
+            return None
+        blk = np.frombuffer(raw, np.uint8)
+        nl = np.flatnonzero(blk == 10)
+        sep = np.flatnonzero(blk == code)
+        per = np.diff(np.searchsorted(sep, nl), prepend=0)
+        length = np.diff(nl, prepend=-1)             # with the newline
+        if nl.size:
+            per[0] += carry
+            length[0] += pending
+            carry, pending = sep.size - int(np.searchsorted(sep, nl[-1])), blk.size - nl[-1] - 1
+        else:
+            carry, pending = carry + sep.size, pending + blk.size
+        cr = np.zeros(nl.size, bool)
+        cr[nl > 0] = blk[nl[nl > 0] - 1] == 13
+        if nl.size and nl[0] == 0:
+            cr[0] = prev == 13
+        full = length - 1 - cr > 0
+        if not np.all(per[full] == separators):
+            return None
+        filled.append(full)
+        prev = int(blk[-1])
+    if pending:                                      # a last line without a newline
+        if carry != separators and pending - (prev == 13) > 0:
+            return None
+        filled.append(np.array([pending - (prev == 13) > 0]))
+    return np.concatenate(filled) if filled else np.zeros(0, bool)
+
+
 def _read_csv(path: Path, wanted=None) -> tuple[dict, list, list]:
     """Read the columns ``wanted`` (all if None) of a CSV log as float arrays.
 
@@ -148,6 +258,10 @@ def _read_csv(path: Path, wanted=None) -> tuple[dict, list, list]:
     Returns (columns found, every header name, the file line of each row,
     notes: one line per kind of row skipped).
     """
+    if path.is_file():
+        plain = _read_plain(path, wanted)
+        if plain is not None:
+            return plain
     try:
         raw = path.read_bytes()
     except IsADirectoryError:
@@ -155,26 +269,11 @@ def _read_csv(path: Path, wanted=None) -> tuple[dict, list, list]:
     except OSError as err:
         raise ValidationError(f"log: cannot read {path}: {err.strerror or err}") from None
     text = _decode(path, raw)
+    del raw
     lines = text.splitlines()
-    lineno, header_line, delim = 0, None, None
-    for lineno, line in enumerate(lines, start=1):
-        s = line.strip()
-        if s and not s.startswith("#"):
-            m = re.fullmatch(r"""["']?sep=(.)["']?,*;*""", s.lstrip("\ufeff"))
-            if m and delim is None:
-                delim = "\t" if m.group(1) == "\t" else m.group(1)
-                continue
-            header_line = line
-            break
-    if header_line is None:
-        raise ValidationError(f"log: {path} has no header row; expected a first row naming "
-                              f"the columns ({', '.join(COLUMNS)})")
-    delim = delim or _sniff_delimiter(header_line)
-    header = [h.strip().strip('"').strip("'").strip().lstrip("\ufeff")
-              for h in next(csv.reader([header_line], delimiter=delim))]
-    want = list(header) if wanted is None else [w for w in dict.fromkeys(wanted) if w in header]
-    index = {h: i for i, h in reversed(list(enumerate(header)))}   # first occurrence
-    cols = [(h, index[h]) for h in want]
+    lineno, header_line, delim = _header(path, lines)
+    header, cols = _header_columns(header_line, delim, wanted)
+    want = [h for h, _ in cols]
     need = max((i for _, i in cols), default=-1) + 1
     data = {h: [] for h in want}
     rowlines, notes = [], []
@@ -219,6 +318,13 @@ def _read_csv(path: Path, wanted=None) -> tuple[dict, list, list]:
             data[h].append(v)
         rowlines.append(n)
     return data, header, rowlines, notes
+
+
+@contextlib.contextmanager
+def _warnings_as_errors():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        yield
 
 
 def _get_columns(log, wanted) -> tuple:
@@ -291,7 +397,7 @@ def _load(log, columns, time_unit=None) -> tuple[dict, list]:
 
     def where(k):
         """Sample k of the log, with its file line when it came from a file."""
-        return f"sample {k}" + (f" (line {rowlines[k]})" if rowlines else "")
+        return f"sample {k}" + (f" (line {rowlines[k]})" if rowlines is not None else "")
     missing = [k for k in COLUMNS if (cmap[k] not in data if data is not None
                                       else not hasattr(obj, cmap[k]))]
     if missing:
@@ -326,7 +432,8 @@ def _load(log, columns, time_unit=None) -> tuple[dict, list]:
         elif arr.size != n:
             raise ValidationError(f"log columns must have equal lengths: {k!r} has {arr.size} "
                                   f"samples, 't' has {n}")
-        out[k] = arr.copy()
+        # arrays read from a file are the log's own; a caller's are never changed
+        out[k] = arr if rowlines is not None else arr.copy()
     dt = np.diff(out["t"])
     same = np.flatnonzero(dt == 0)
     if same.size:
@@ -342,7 +449,7 @@ def _load(log, columns, time_unit=None) -> tuple[dict, list]:
         out = {k: v[keep] for k, v in out.items()}
         notes.append(f"log {what}: {same.size} exact duplicate row(s) dropped (first at "
                      f"{where(int(same[0]) + 1)}, t = {float(out['t'][same[0]])!r})")
-        rowlines = [ln for ln, kp in zip(rowlines, keep) if kp] if rowlines else None
+        rowlines = np.asarray(rowlines)[keep] if rowlines is not None else None
         n = out["t"].size
         dt = np.diff(out["t"])
     if n < 20:
@@ -405,6 +512,29 @@ def missing_rows(t, gap: float = None) -> tuple[int, int]:
     split = dt > limit
     short = split & (dt <= _GAP_FACTOR * med)
     return int(np.sum(np.round(dt[short] / med) - 1)), int(np.sum(split & ~short))
+
+
+def check_measured(u_ref, w_ref, u, w, what="the log"):
+    """Refuse velocities that are the commands themselves: odometry computed from
+    the commands (a controller's open-loop odometry) carries no dynamics, and
+    Eq. (2) fitted to it gives time constants of zero as if identified."""
+    tu = 1e-6 * max(float(np.max(np.abs(u_ref))), 1e-9)
+    tw = 1e-6 * max(float(np.max(np.abs(w_ref))), 1e-9)
+    same = np.zeros(u.size, bool)
+    for lag in (0, 1):     # the command held over the row, or over the row before
+        same[lag:] |= (np.abs(u[lag:] - u_ref[:u.size - lag]) <= tu) & \
+            (np.abs(w[lag:] - w_ref[:u.size - lag]) <= tw)
+    # a robot at rest measures exactly the zero it is commanded: only motion tells
+    moving = (np.abs(u_ref) > tu) | (np.abs(w_ref) > tw)
+    share = float(np.mean(same[moving])) if moving.sum() >= 20 else 0.0
+    if share > 0.5:
+        raise ValidationError(
+            f"{what}: the measured velocities equal the commands in "
+            f"{100 * share:.0f} % of the rows in motion: they are computed from the commands "
+            f"(open-loop odometry, as a diff_drive_controller with open_loop: true "
+            f"publishes), not measured, and carry no dynamics to identify; log odometry "
+            f"from the wheel encoders (open_loop: false), or the wheel speeds on "
+            f"/joint_states (read_bag's wheel_radius and wheel_separation)")
 
 
 def split_log(log, t_split: float, columns=None,
@@ -491,7 +621,8 @@ def join_logs(logs, columns=None, gap=None, time_unit=None):
     if not segs:
         raise ValidationError(f"every piece of the log(s) between gaps holds fewer than "
                               f"{MIN_SEGMENT} samples: nothing to identify from")
-    D = {k: np.concatenate([p[k] for p in parts]) for k in COLUMNS}
+    D = {k: np.concatenate([p[k] for p in parts]) if len(parts) > 1 else parts[0][k]
+         for k in COLUMNS}
     D["missing"] = (n_missing, n_gaps)
     D["notes"] = notes
     return D, segs, dropped, sources
