@@ -456,3 +456,21 @@ def test_plot_validation_is_headless(monkeypatch):
     assert len(two) == 2 and all(len(a.lines) == 2 for a in two)
     plt.close("all")
     assert math.isfinite(rep.fit["u"]) and math.isfinite(rep.rmse["w"])
+
+
+def test_a_result_prints_in_under_twenty_lines_however_many_warnings():
+    import dataclasses
+    import warnings as w
+    from pathlib import Path
+    log = Path(__file__).resolve().parents[2] / "examples" / "log.csv"
+    with w.catch_warnings():
+        w.simplefilter("ignore", ident.IdentificationWarning)
+        res = ident.identify(str(log), validate=False)
+    many = dataclasses.replace(res, warnings=tuple(f"warning number {i}\nsecond line"
+                                                   for i in range(40)))
+    text = repr(many)
+    lines = text.splitlines()
+    assert len(lines) <= 20, text
+    assert lines[0] == "unidyn IdentificationResult:"
+    assert sum(line.startswith("theta") for line in lines) == 6
+    assert "... and 37 more warning(s) in .warnings" in text and "second line" not in text

@@ -186,3 +186,20 @@ class IdentificationResult:
             lines.append(f"in-sample simulation fit: u {f['u']:.1f} %, w {f['w']:.1f} %")
         lines += [f"warning: {w}" for w in self.warnings]
         return "\n".join(lines)
+
+    def __repr__(self) -> str:
+        """:meth:`summary` in at most a dozen and a half lines: the estimates with their
+        intervals, how they were fitted, and the first warnings (all of them are in
+        ``warnings``; every field is in :meth:`as_dict`)."""
+        head = self.summary().split("\nwarning: ")[0].splitlines()
+        shown, more = self.warnings[:3], len(self.warnings) - 3
+        lines = ["unidyn IdentificationResult:", *head]
+        lines += [f"warning: {_first_line(w)}" for w in shown]
+        if more > 0:
+            lines.append(f"... and {more} more warning(s) in .warnings")
+        return "\n".join(lines)
+
+
+def _first_line(text: str, limit: int = 160) -> str:
+    line = str(text).splitlines()[0] if str(text) else ""
+    return line if len(line) <= limit else line[:limit - 3] + "..."
