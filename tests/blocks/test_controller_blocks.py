@@ -23,6 +23,8 @@ import re
 import numpy as np
 import pytest
 
+import paper_equations
+
 import unidyn  # registers the blocks with bdsim before any BDSim is created
 import unidyn.blocks
 from bdsim.block import Block
@@ -42,22 +44,11 @@ THETA = robots.get("p3dx_laser").theta  # [0.2604, 0.2509, -0.000499, 0.9965, 0.
 # ---------------------------------------------------------------------------
 
 def eq10(h_d, h_d_dot, q, a, k, l):
-    """Eq. (10): v_d = A^-1(psi) (h_d' + L tanh(K h~ / L))."""
-    x, y, psi = q
-    nu_x = h_d_dot[0] + l[0] * math.tanh(k[0] * (h_d[0] - x) / l[0])
-    nu_y = h_d_dot[1] + l[1] * math.tanh(k[1] * (h_d[1] - y) / l[1])
-    c, s = math.cos(psi), math.sin(psi)
-    return np.array([c * nu_x + s * nu_y, (-s * nu_x + c * nu_y) / a])
+    """Eq. (10) of the pose q = (x, y, psi)."""
+    return paper_equations.eq10(h_d, h_d_dot, q[:2], q[2], a, k, l)
 
 
-def eq14(v_d, v_d_dot, v, k, l):
-    """The regressor G of Eq. (14), v_r = G theta_hat."""
-    ud, wd = v_d
-    u, w = v
-    s1 = v_d_dot[0] + l[0] * math.tanh(k[0] * (ud - u) / l[0])
-    s2 = v_d_dot[1] + l[1] * math.tanh(k[1] * (wd - w) / l[1])
-    return np.array([[s1, 0.0, -wd * w, ud, 0.0, 0.0],
-                     [0.0, s2, ud * w - u * wd, 0.0, u * wd, wd]])
+eq14 = paper_equations.eq14
 
 
 # ---------------------------------------------------------------------------

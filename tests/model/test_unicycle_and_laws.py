@@ -15,6 +15,8 @@ import math
 import numpy as np
 import pytest
 
+import paper_equations
+
 import unidyn
 from unidyn.model import laws as control, unicycle as model, robots, trajectories
 from unidyn import Limits, RobotParameters, ValidationError
@@ -601,11 +603,7 @@ def test_function_trajectory_validation():
 # controllers
 # ---------------------------------------------------------------------------
 
-def hand_eq10(h_d, h_d_dot, h, psi, a, k, l):
-    nx = h_d_dot[0] + l[0] * math.tanh(k[0] * (h_d[0] - h[0]) / l[0])
-    ny = h_d_dot[1] + l[1] * math.tanh(k[1] * (h_d[1] - h[1]) / l[1])
-    c, s = math.cos(psi), math.sin(psi)
-    return np.array([c * nx + s * ny, (-s * nx + c * ny) / a])
+hand_eq10 = paper_equations.eq10
 
 
 def test_kinematic_control_eq10_by_hand():
@@ -670,13 +668,7 @@ def test_kinematic_control_rate_matches_finite_difference_along_motion():
         np.testing.assert_allclose(rate, fd, rtol=1e-6, atol=1e-6)
 
 
-def hand_G(v_d, v_d_dot, v, k, l):
-    ud, wd = v_d
-    u, w = v
-    s1 = v_d_dot[0] + l[0] * math.tanh(k[0] * (ud - u) / l[0])
-    s2 = v_d_dot[1] + l[1] * math.tanh(k[1] * (wd - w) / l[1])
-    return np.array([[s1, 0.0, -wd * w, ud, 0.0, 0.0],
-                     [0.0, s2, ud * w - u * wd, 0.0, u * wd, wd]])
+hand_G = paper_equations.eq14
 
 
 def test_compensation_regressor_eq14_by_hand():
