@@ -255,6 +255,13 @@ def test_sdist_and_wheel_pass_twine_and_the_wheel_behaves_as_the_editable_instal
     # bdedit's palette icons are package data
     icons = {p.name for p in (ROOT / "src" / "unidyn" / "blocks" / "Icons").glob("*.png")}
     assert icons and icons == {p.name for p in (site / "unidyn" / "blocks" / "Icons").glob("*.png")}
+    # the sample data too, found through unidyn.datasets in the installed package (the
+    # notebooks, the guides and the docs build read it so, wherever unidyn is installed)
+    r = _in_venv(python, "import unidyn.datasets as d; print(*[d.path(n) for n in d.NAMES])")
+    shipped = [Path(p) for p in r.stdout.split()]
+    assert len(shipped) == 2 and all(p.is_file() and site in p.parents for p in shipped), r.stdout
+    assert [p.read_bytes() for p in shipped] == [
+        (ROOT / "src" / "unidyn" / "datasets" / p.name).read_bytes() for p in shipped]
     _check_install(python, site)
 
 

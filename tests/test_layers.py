@@ -18,9 +18,10 @@ PACKAGE = "unidyn"
 #: submodules sit in the package's layer unless listed themselves.
 LAYERS = {
     # what every part shares: the package's namespace, its exceptions and validators,
-    # how bdsim finds the blocks, signals and exit status (standard library only)
+    # how bdsim finds the blocks, signals and exit status, the sample data (standard
+    # library only)
     "base": ("unidyn", "unidyn._errors", "unidyn._validate", "unidyn._bdsim_path",
-             "unidyn.process"),
+             "unidyn.process", "unidyn.datasets"),
     # the paper's science, free of bdsim and of files
     "science": ("unidyn.model",),
     # what a run gives back: the result, its folders, files and figures

@@ -78,7 +78,7 @@ def test_examples_are_present():
 #: the parts a notebook may import from, by their public names (``__all__``) and their
 #: public modules
 SUBPACKAGES = ("model", "results", "blocks", "diagrams", "engine", "identification",
-               "sweeps", "teaching")
+               "sweeps", "teaching", "datasets")
 
 
 def _public_uses(path):

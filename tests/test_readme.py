@@ -139,9 +139,12 @@ def test_included_blocks_equal_their_files():
 # ------------------------------------------------------------------------ workspace
 
 def _workspace(tmp):
-    """An empty folder outside the checkout with a copy of examples/ (its data files)."""
+    """An empty folder outside the checkout with a copy of examples/ and of the sample
+    data (src/unidyn/datasets/), the files the commands read."""
     shutil.copytree(ROOT / "examples", tmp / "examples",
                     ignore=shutil.ignore_patterns("*.ipynb", ".ipynb_checkpoints", "__pycache__"))
+    data = ROOT / "src" / "unidyn" / "datasets"
+    shutil.copytree(data, tmp / data.relative_to(ROOT), ignore=shutil.ignore_patterns("*.py*"))
     return tmp
 
 

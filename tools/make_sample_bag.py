@@ -1,4 +1,4 @@
-"""Write examples/courier.mcap: a ROS 2 recording (MCAP) of a simulated robot, as
+"""Write src/unidyn/datasets/courier.mcap (unidyn.datasets.path("courier.mcap")): a ROS 2 recording (MCAP) of a simulated robot, as
 `ros2 bag record -s mcap /cmd_vel /odom` would store it, for identification
 examples.
 
@@ -12,7 +12,7 @@ stamped with the measurement time; it reaches the recorder 1-6 ms later. The
 recording loses 3 s (nothing recorded from 32 s to 35 s). Eqs. (1)-(2)
 are integrated by scipy's solve_ivp (DOP853) from one command to the next.
 
-    python tools/make_sample_bag.py            # writes examples/courier.mcap
+    python tools/make_sample_bag.py            # writes src/unidyn/datasets/courier.mcap
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ CMD_HZ, ODOM_HZ = 10.0, 30.0
 NOISE = 0.01
 LOST = (32.0, 35.0)           # s: nothing recorded
 EPOCH_NS = 1_732_000_000 * 10**9
-OUT = Path(__file__).resolve().parents[1] / "examples" / "courier.mcap"
+OUT = Path(__file__).resolve().parents[1] / "src" / "unidyn" / "datasets" / "courier.mcap"
 
 
 def simulate(seed=7):

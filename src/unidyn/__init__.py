@@ -66,7 +66,7 @@ def __getattr__(name):
 
 #: The package's parts, by layer (lowest first), loaded on first use as ``unidyn.<part>``.
 _SUBPACKAGES = ("model", "results", "blocks", "diagrams", "engine", "identification",
-                "sweeps", "teaching", "paper", "cli", "process")
+                "sweeps", "teaching", "paper", "cli", "process", "datasets")
 
 
 def __dir__():

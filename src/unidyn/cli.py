@@ -760,11 +760,11 @@ def _parser() -> argparse.ArgumentParser:
                        "the time stamps split a log. Writes theta.json, validation.json and "
                        "validation.png into --out.",
                        formatter_class=_Formatter, epilog=_examples(
-                           "unidyn identify examples/log.csv --out out/id",
-                           "unidyn identify examples/courier.mcap --out out/id-ros",
-                           "unidyn identify examples/courier.mcap --cmd /cmd_vel --odom /odom "
+                           "unidyn identify src/unidyn/datasets/log.csv --out out/id",
+                           "unidyn identify src/unidyn/datasets/courier.mcap --out out/id-ros",
+                           "unidyn identify src/unidyn/datasets/courier.mcap --cmd /cmd_vel --odom /odom "
                            "--cmd-timeout 0.5 --out out/id-topics",
-                           "unidyn identify examples/log.csv --delay auto --no-validate "
+                           "unidyn identify src/unidyn/datasets/log.csv --delay auto --no-validate "
                            "--out out/id-delay"))
     i.add_argument("log", nargs="+", metavar="LOG",
                    help="one or more logs of one robot: CSV files or ROS bags")

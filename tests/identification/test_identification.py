@@ -461,8 +461,8 @@ def test_plot_validation_is_headless(monkeypatch):
 def test_a_result_prints_in_under_twenty_lines_however_many_warnings():
     import dataclasses
     import warnings as w
-    from pathlib import Path
-    log = Path(__file__).resolve().parents[2] / "examples" / "log.csv"
+    import unidyn.datasets
+    log = unidyn.datasets.path("log.csv")
     with w.catch_warnings():
         w.simplefilter("ignore", ident.IdentificationWarning)
         res = ident.identify(str(log), validate=False)

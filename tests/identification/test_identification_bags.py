@@ -479,10 +479,11 @@ def test_run_written_as_a_bag_identifies_the_robot_that_ran(tmp_path):
 
 
 def test_the_sample_bag_identifies_its_robot():
-    """examples/courier.mcap (tools/make_sample_bag.py: theta 0.38, 0.22, 0.01, 1.04,
+    """unidyn.datasets' courier.mcap (tools/make_sample_bag.py: theta 0.38, 0.22, 0.01, 1.04,
     0.03, 1.06, commands at 10 Hz, odometry at 30 Hz, a 3 s hole): small, and
     theta1, theta2, theta4, theta6 within 3 % with intervals holding them."""
-    bag = Path(__file__).resolve().parents[2] / "examples" / "courier.mcap"
+    import unidyn.datasets
+    bag = unidyn.datasets.path("courier.mcap")
     assert bag.stat().st_size < 300_000
     truth = np.array([0.38, 0.22, 0.01, 1.04, 0.03, 1.06])
     log = ident.read_bag(bag)

@@ -18,13 +18,14 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, example, given, settings, strategies as st
 
+from unidyn import datasets
 from unidyn.identification.results import IDENTIFY_FILES
 from unidyn.results.result import RUN_FILES
 from unidyn.sweeps.sweep import SWEEP_FILES
 
 pytestmark = [pytest.mark.reliability, pytest.mark.slow]
 
-LOG = Path(__file__).resolve().parents[2] / "examples" / "log.csv"
+LOG = datasets.path("log.csv")
 SWEEP = '[base]\ncase = "kinematic"\nT = 0.3\nnoise = "off"\n[grid]\nkx = [1.0, 2.0]\n'
 RESULT_SAVE = ("import sys, unidyn; r = unidyn.run(unidyn.Scenario.paper(1, T=0.3), "
                "engine='batch'); r.save(sys.argv[1], overwrite=sys.argv[2] == '1')")
