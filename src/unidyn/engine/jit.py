@@ -47,31 +47,15 @@ if AVAILABLE:
     from numba.core import types
     from numba.extending import overload
 
-    from . import vecmath
-
     # inlined by LLVM (forceinline), not by numba (inline="always"), which types every
     # copy again: a minute of compiling instead of seconds
-    _OVERLOADED = (equations.select, equations.saturate, equations.sin, equations.cos,
-                   equations.tanh)
+    _OVERLOADED = (equations.select, equations.saturate)
     for _name in equations.__all__:
         _f = getattr(equations, _name)
         if (callable(_f) and getattr(_f, "__module__", None) == equations.__name__
                 and _f not in _OVERLOADED):
             register_jitable(forceinline=True)(_f)
     _INLINE = dict(jit_options=dict(forceinline=True))
-
-    def _elementary(function, vectorisable, ufunc):
-        """Compile function (equations.sin, ...) of a float64 as the vectorisable
-        intrinsic, of anything else (an array, a float32) as numpy's ufunc."""
-        @overload(function, **_INLINE)
-        def _compiled(x):
-            if x == types.float64:
-                return lambda x: vectorisable(x)
-            return lambda x: ufunc(x)
-
-    _elementary(equations.sin, vecmath.sin, np.sin)
-    _elementary(equations.cos, vecmath.cos, np.cos)
-    _elementary(equations.tanh, vecmath.tanh, np.tanh)
 
     @overload(equations.saturate, **_INLINE)
     def _saturate(x, limit):
@@ -89,9 +73,9 @@ if AVAILABLE:
         return lambda condition, a, b: np.where(condition, a, b)
 
 
-#: The package's files whose code the compiled functions run: the equations and
-#: elementary functions they inline, the overloads here, and the compiled functions.
-COMPILED_SOURCES = ("model/equations.py", "engine/vecmath.py", "engine/jit.py",
+#: The package's files whose code the compiled functions run: the equations they
+#: inline, the overloads here, and the compiled functions.
+COMPILED_SOURCES = ("model/equations.py", "engine/jit.py",
                     "engine/kernels.py", "identification/_simulate.py")
 #: Versions of the compiled code whose cache folders are kept (switching between a few
 #: versions, as between git branches, compiles none of them again).

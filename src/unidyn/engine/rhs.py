@@ -166,12 +166,6 @@ class ClosedLoop:
         return (self.pos_noise[:, j, 0], self.pos_noise[:, j, 1],
                 self.vel_noise[:, j, 0], self.vel_noise[:, j, 1])
 
-    def step_rate(self, t, X, k):
-        """The loop's state-dependent fastest rate (1/s) of every run at (t, X) in
-        interval k (:func:`unidyn.model.equations.loop_step_rate`)."""
-        return np.broadcast_to(equations.loop_step_rate(
-            t, X.T, self.reference(t), self.P.T, self._noise(k)), (self.B,))
-
     def rhs(self, t, X, k):
         """dX/dt, (B, 13), at time t in noise interval k
         (:func:`unidyn.model.equations.loop_derivative` on all runs at once). k must lie in
@@ -179,3 +173,21 @@ class ClosedLoop:
         dX = np.empty((NSTATE, X.shape[0]))
         equations.loop_derivative(t, X.T, self.reference(t), self.P.T, self._noise(k), dX)
         return dX.T
+
+    def converged(self, rtol: float = 1e-11, atol: float = 1e-13, method: str = "DOP853"):
+        """The runs' states at every sample t = k Ts, (B, steps + 1, 13), by scipy's
+        ``solve_ivp`` restarted at every sample (the noise held over each interval, a
+        speed limit hard at each sample): the solution the engines are checked
+        against (``tests/engine/test_accuracy.py``, ``benchmarks/engines.py``)."""
+        from scipy.integrate import solve_ivp
+        out = np.empty((self.B, self.steps + 1, NSTATE))
+        X = out[:, 0] = self.initial_state()
+        for k in range(self.steps):
+            self.next_noise_window(k)
+            sol = solve_ivp(lambda t, x: self.rhs(t, x.reshape(self.B, NSTATE), k).ravel(),
+                            (k * self.Ts, (k + 1) * self.Ts), X.ravel(), method=method,
+                            rtol=rtol, atol=atol)
+            X = sol.y[:, -1].reshape(self.B, NSTATE).copy()
+            X[:, 3:5] = np.clip(X[:, 3:5], -self.vmax, self.vmax)
+            out[:, k + 1] = X
+        return out

@@ -3,8 +3,8 @@
 The commands of a log are held from each time stamp to the next (as robot
 firmware applies them) or vary linearly between them, optionally delayed. Two
 independent integrators do this, both restarting wherever a command jumps or
-kinks: :func:`simulate_held`, the batch engine's RK4
-(:func:`unidyn.engine.kernels.rk4_stages`), compiled where numba is installed (the
+kinks: :func:`simulate_held`, classical RK4 with a fixed step (:func:`rk4_step`),
+compiled where numba is installed (the
 output-error fit of :func:`unidyn.identification.identify` and
 :func:`unidyn.identification.validate`), and :func:`simulate_stepwise`, scipy's
 DOP853 on the full state of Eqs. (1)-(2) (the held and linear logs of
@@ -19,12 +19,33 @@ import numpy as np
 
 from ..engine.jit import AVAILABLE as FAST
 from ..engine.jit import jit
-from ..engine.kernels import rk4_advance, rk4_stages
 from ..model.equations import robot_acceleration
 from ..model.unicycle import unicycle_deriv
 
 #: How the logged commands act between their time stamps.
 COMMAND_CONVENTIONS = ("held", "linear")
+
+
+# not cached itself: numba's cache index records a signature's types by their module
+@jit(inline=True, cache=False)
+def rk4_step(f, t, x, h, args, K, y):
+    """One classical Runge-Kutta (RK4) step of length h from (t, x) of
+    dx/dt = f(t, x, args), x updated in place (f writes its rates into its last
+    argument); K (4, n) and y (n,) are scratch."""
+    n = x.shape[0]
+    f(t, x, args, K[0])
+    for i in range(n):
+        y[i] = x[i] + 0.5 * h * K[0, i]
+    f(t + 0.5 * h, y, args, K[1])
+    for i in range(n):
+        y[i] = x[i] + 0.5 * h * K[1, i]
+    f(t + 0.5 * h, y, args, K[2])
+    for i in range(n):
+        y[i] = x[i] + h * K[2, i]
+    f(t + h, y, args, K[3])
+    c = h / 6.0
+    for i in range(n):
+        x[i] += c * (K[0, i] + 2.0 * K[1, i] + 2.0 * K[2, i] + K[3, i])
 
 
 @jit(inline=True)
@@ -82,8 +103,7 @@ def _sim_segments(theta, t, u_ref, w_ref, segments, v0, delay, linear, hmax, out
                     sw = (w_ref[j + 1] - w_ref[j]) / (t[j + 1] - t[j])
                 args = (th, u_ref[j], w_ref[j], su, sw, t[j] + delay)
                 for i in range(n):
-                    rk4_stages(robot_rates, cur + i * h, v, h, args, K, y)
-                    rk4_advance(v, h, K)
+                    rk4_step(robot_rates, cur + i * h, v, h, args, K, y)
                 cur = nxt
             out[k + 1, 0] = v[0]
             out[k + 1, 1] = v[1]
