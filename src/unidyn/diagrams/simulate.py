@@ -126,7 +126,7 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
         diverges, the solver stalls, the wall-clock limit); its ``result`` attribute
         holds the samples logged before the failure, with ``complete=False``
     :raises SimulationInterrupted: on Ctrl-C, with the samples logged before it
-    :warns unidyn.engine.batch.AccuracyWarning: for an adaptive run with adaptation gain
+    :warns unidyn._errors.AccuracyWarning: for an adaptive run with adaptation gain
         above :data:`HIGH_GAIN` at an ``rtol`` looser than about :data:`HIGH_GAIN_RTOL`
         (the result's ``message`` says so too, naming the fix)
     """
