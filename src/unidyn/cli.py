@@ -276,9 +276,9 @@ def _tolerances(args) -> dict:
 
 def _tolerance_arguments(p) -> None:
     p.add_argument("--rtol", type=float, help="relative tolerance of the integration, as "
-                   "solve_ivp's (default: the engine's, 1e-7 for the batch engine)")
+                   "solve_ivp's (default 1e-8, either engine)")
     p.add_argument("--atol", type=float, help="absolute tolerance of the integration "
-                   "(default: the engine's, 1e-9 for the batch engine)")
+                   "(default 1e-10, either engine)")
 
 
 def _run_staged(staging, sc, engine, out, animation, **options):

@@ -4,8 +4,9 @@ r"""The batch engine: many continuous-control scenarios integrated at once
 Each noise interval [k Ts, (k+1) Ts) of a run is integrated on its own, the noise held
 over it as in the bdsim diagram, by the Dormand-Prince 5(4) pair with step-size control
 (the method of ``solve_ivp``'s RK45, which bdsim restarts at every clock tick in the same
-way): a step is kept where every state's error estimate is within ``atol + rtol |x|``,
-and taken again shorter where not. Whatever makes a step inaccurate (a fast reference,
+way): a step is kept where its error estimate is within ``atol + rtol |x|`` (the
+root mean square over the states, as ``solve_ivp``'s), and taken again shorter where
+not. Whatever makes a step inaccurate (a fast reference,
 a high gain, a fast robot, a limit starting to act) shortens it; no rate of the loop has
 to be foreseen. Results are sampled at t = k Ts like :func:`unidyn.simulate`'s.
 
@@ -33,10 +34,11 @@ from .rhs import ClosedLoop
 
 __all__ = ["simulate_batch", "backend_for", "DEFAULT_RTOL", "DEFAULT_ATOL", "MAX_STEPS"]
 
-#: The tolerances of the error control, as ``solve_ivp``'s ``rtol`` and ``atol``: each
-#: step's error estimate of every state x is within atol + rtol |x|.
-DEFAULT_RTOL = 1e-7
-DEFAULT_ATOL = 1e-9
+#: The tolerances of the error control, as ``solve_ivp``'s ``rtol`` and ``atol`` (and
+#: the same defaults as :func:`unidyn.simulate`'s): each step's error estimate, relative
+#: to atol + rtol |x| for each state x, is at most 1 in the root mean square.
+DEFAULT_RTOL = 1e-8
+DEFAULT_ATOL = 1e-10
 #: What a complete result promises: its IAE within PROMISE (relative) and its
 #: theta_hat within PROMISE (absolute) of a converged solution. Each run is checked
 #: against a second one at CHECK_FACTOR times the tolerances, which is less accurate:

@@ -9,8 +9,8 @@ How a call runs, from the top:
   integrated from its start to its end (:func:`integrate_interval`), then the state is
   checked and logged;
 - :func:`integrate_interval` takes steps whose length error control chooses: a step
-  is kept where every state's error estimate is within ``atol + rtol |x|``, else taken
-  again shorter;
+  is kept where its error estimate is within ``atol + rtol |x|`` (the root mean square
+  over the states, as ``solve_ivp``'s), else taken again shorter;
 - :func:`dp_step` is one step of the pair, for any right-hand side ``f(t, x, args, out)``:
   the table of coefficients (:data:`A`, :data:`B`, :data:`C`, :data:`E`) is the
   method.
@@ -67,9 +67,9 @@ def dp_step(f, t, x, h, args, K, y, out, rtol, atol):
     writes its rates into its last argument). K[0] holds f(t, x) on entry; K[1..6]
     receive the other stages, K[6] = f(t + h, out) (the next step's first, where this
     one is kept); y is scratch of x's length. Writes the fifth-order solution into out
-    and returns the error estimate relative to the tolerance: the largest over the
-    states of |error| / (atol + rtol max(|x|, |out|)); the step is accurate enough
-    where it is at most 1."""
+    and returns the error estimate relative to the tolerance, as ``solve_ivp`` measures
+    it: the root mean square over the states of error / (atol + rtol max(|x|, |out|));
+    the step is accurate enough where it is at most 1."""
     n = x.shape[0]
     for s in range(1, 6):
         for i in range(n):
@@ -89,8 +89,8 @@ def dp_step(f, t, x, h, args, K, y, out, rtol, atol):
         acc = 0.0
         for j in range(7):
             acc += E[j] * K[j, i]
-        err = max(err, abs(h * acc) / (atol + rtol * max(abs(x[i]), abs(out[i]))))
-    return err
+        err += (h * acc / (atol + rtol * max(abs(x[i]), abs(out[i])))) ** 2
+    return math.sqrt(err / n)
 
 
 @jit(inline=True)
