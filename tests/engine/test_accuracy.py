@@ -27,6 +27,7 @@ SCENARIOS = {
                                              trajectory=Circle(radius=0.005, omega=100.0),
                                              noise=None, T=0.5),
     "paper 4 with noise": Scenario.paper(4, T=10.0, adapt_from=0.0),
+    "gamma 100 with limits": Scenario(gamma=[100.0] * 6, adapt_from=0.0, T=10.0, noise=None),
     "gamma 1000 with limits": Scenario(gamma=[1000.0] * 6, adapt_from=0.0, T=6.0, noise=None),
 }
 #: Those the defaults do not reach, which must say so.
