@@ -32,7 +32,7 @@ from ..model.scenario import ALWAYS_LOGGED, Scenario
 from ..results.result import Result
 from .rhs import ClosedLoop
 
-__all__ = ["simulate_batch", "backend_for", "DEFAULT_RTOL", "DEFAULT_ATOL", "MAX_STEPS"]
+__all__ = ["simulate_batch", "backend_for", "tolerances", "DEFAULT_RTOL", "DEFAULT_ATOL", "MAX_STEPS"]
 
 #: The tolerances of the error control, as ``solve_ivp``'s ``rtol`` and ``atol`` (and
 #: the same defaults as :func:`unidyn.simulate`'s): each step's error estimate, relative
@@ -79,6 +79,17 @@ def backend_for(scenarios, backend: str = "auto") -> str:
     if backend == "compiled" or (backend == "auto" and kernels.AVAILABLE and compilable):
         return "compiled"
     return "plain"
+
+
+def tolerances(rtol, atol) -> tuple:
+    """(rtol, atol) as floats, checked: rtol in [1e-13, 0.1], atol > 0.
+
+    :raises ValidationError: naming the one out of range"""
+    rtol, atol = positive("rtol", rtol), positive("atol", atol)
+    if not 1e-13 <= rtol <= 0.1:
+        raise ValidationError(f"rtol must lie in [1e-13, 0.1] (float64 resolves no finer); "
+                              f"got {rtol:g}")
+    return float(rtol), float(atol)
 
 
 def simulate_batch(scenarios, *, rtol: float = DEFAULT_RTOL, atol: float = DEFAULT_ATOL,
@@ -132,10 +143,7 @@ def simulate_batch(scenarios, *, rtol: float = DEFAULT_RTOL, atol: float = DEFAU
         if s.control != "continuous":
             raise ValidationError("the batch engine runs control='continuous' only; "
                                   "use unidyn.simulate (engine 'bdsim') for sampled control")
-    rtol, atol = positive("rtol", rtol), positive("atol", atol)
-    if not 1e-13 <= rtol <= 0.1:
-        raise ValidationError(f"rtol must lie in [1e-13, 0.1] (float64 resolves no finer); "
-                              f"got {rtol:g}")
+    rtol, atol = tolerances(rtol, atol)
     compiled = backend_for(scs, backend) == "compiled"
     from . import kernels
     from .jit import plain_copy

@@ -54,8 +54,8 @@ import numpy as np
 from .. import __version__
 from .cluster import connect_dask, run_on_dask
 from .._errors import Interrupted
-from .._validate import ValidationError, choice, integer, positive
-from ..engine.batch import DEFAULT_ATOL, DEFAULT_RTOL, simulate_batch
+from .._validate import ValidationError, choice, integer
+from ..engine.batch import DEFAULT_ATOL, DEFAULT_RTOL, simulate_batch, tolerances
 from .sweep_files import (ID_NAME, MAX_POINTS, METRICS, RECORD_NAME, cell, check_keys,
                           expand_range, finished_rows, is_number, plain, text, read_rows,
                           read_sweep_id, read_sweep_record, read_toml, rows_text,
@@ -123,8 +123,9 @@ class Sweep:
         if len(self.name) > MAX_NAME:
             raise ValidationError(f"name is {len(self.name)} characters long; at most "
                                   f"{MAX_NAME} are allowed (it titles the figures)")
-        s("rtol", positive("rtol", self.rtol))
-        s("atol", positive("atol", self.atol))
+        rtol, atol = tolerances(self.rtol, self.atol)
+        s("rtol", rtol)
+        s("atol", atol)
         s("base", check_keys("base", self.base))
         if not isinstance(self.grid, Mapping):
             raise ValidationError(f"grid must be a table of axis = [values], got {self.grid!r}")
