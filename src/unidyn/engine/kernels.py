@@ -257,8 +257,9 @@ def integrate_interval(t0, t1, X, h, args, call, K, y, Xn):
     """Integrate the loop of one run from (t0, X) to t1 with error-controlled steps, X
     updated in place, starting with a step of h (at most t1 - t0; 0: t1 - t0). A speed
     limit is hard: a step that would end beyond it ends on it.
-    Returns (the step proposed for what follows, steps kept, steps rejected, whether
-    the tolerance was met within ``call.max_steps`` steps)."""
+    Returns (the step proposed for what follows, steps kept, steps rejected, OK; or
+    STEP where the tolerance was not met within ``call.max_steps`` steps, NONFINITE
+    where the last error estimate was not a number: the loop left the model's range)."""
     p = args[0]
     span = t1 - t0
     if not h > 0.0:
@@ -289,7 +290,7 @@ def integrate_interval(t0, t1, X, h, args, call, K, y, Xn):
             for i in range(X.shape[0]):
                 X[i] = Xn[i]
             if last:
-                return proposal, kept, rejected, True
+                return proposal, kept, rejected, OK
             t = t + h
             if clipped:  # f at the step's end was evaluated beyond the limit
                 loop_rates(t, X, args, K[0])
@@ -304,7 +305,7 @@ def integrate_interval(t0, t1, X, h, args, call, K, y, Xn):
             h = h * step_factor(err) if err < math.inf else 0.5 * h  # NaN: halved
             proposal = h
         if kept + rejected >= call.max_steps or not h >= 1e-12 * span:
-            return proposal, kept, rejected, False
+            return proposal, kept, rejected, STEP if err < math.inf else NONFINITE
 
 
 @jit(entry="the batch engine")
@@ -338,12 +339,16 @@ def advance(runs, call, k0, k1, which):
                 status = check_state(X, runs.bounds[i])
             if status != OK:
                 break
-            h, kept, again, met = integrate_interval(k * Ts, (k + 1) * Ts, X, h, (p, noise),
-                                                     call, K, y, Xn)
+            h, kept, again, status = integrate_interval(k * Ts, (k + 1) * Ts, X, h, (p, noise),
+                                                        call, K, y, Xn)
             steps += kept
             rejected += again
             most = max(most, kept + again)
-            status = check_state(X, runs.bounds[i]) if met else STEP
+            if status == OK:
+                status = check_state(X, runs.bounds[i])
+            elif status == NONFINITE:
+                for q in range(NSTATE):
+                    X[q] = math.nan
             if status == STEP:
                 last = k
                 break
