@@ -320,7 +320,7 @@ def accuracy_scenarios():
             trajectory=FigureEight(ax=0.02, ay=0.02, wx=50.0, wy=25.0), **f8),
         "Khepera III, circle 5 mm at 100 rad/s, a = 2 cm, k = 1": Scenario(
             robot="khepera3", trajectory=Circle(radius=0.005, omega=100.0), a=0.02, kx=1.0,
-            ky=1.0, T=10.0, noise=None),
+            ky=1.0, T=2.0, noise=None),
         "adaptive, gamma = 1000, paper limits, T = 20 s": Scenario(
             gamma=[1000.0] * 6, adapt_from=0.0, T=20.0, noise=None),
         "adaptive, gamma = 100, paper limits, T = 20 s": Scenario(
@@ -336,8 +336,8 @@ def accuracy_scenarios():
             T=10.0, noise=None),
     }
     for name in robots.names():
-        out[f"adaptive, robot {name}, paper limits, T = 20 s"] = Scenario(
-            robot=name, case="adaptive", adapt_from=0.0, T=20.0, noise=None)
+        out[f"adaptive, robot {name}, paper limits, T = 10 s"] = Scenario(
+            robot=name, case="adaptive", adapt_from=0.0, T=10.0, noise=None)
     return out
 """
 ACCURACY_PROBE = ACCURACY_SCENARIOS + """
