@@ -1,21 +1,8 @@
-"""The batch engine's step rule, once: the Dormand-Prince 5(4) pair (the method of
-``solve_ivp``'s RK45 and of bdsim's default solver) with step-size control over the
-Fig. 2 loop, one run after another, restarted at every sample interval.
-
-How a call runs, from the top:
-
-- :func:`advance` takes runs, one after another, over sample intervals k0..k1-1 (the
-  engine calls it from a thread per core, each with its own runs); each interval is
-  integrated from its start to its end (:func:`integrate_interval`), then the state is
-  checked and logged;
-- :func:`integrate_interval` takes steps whose length error control chooses: a step
-  is kept where its error estimate is within ``atol + rtol |x|`` (the root mean square
-  over the states, as ``solve_ivp``'s), else taken again shorter;
-- :func:`dp_step` is one step of the pair, for any right-hand side ``f(t, x, args, out)``:
-  the table of coefficients (:data:`A`, :data:`B`, :data:`C`, :data:`E`) is the
-  method.
-
-numba compiles this module where it is installed (:mod:`unidyn.engine.jit`);
+"""The batch engine's step rule, once: the Dormand-Prince 5(4) pair with step-size
+control (:func:`dp_step`, its table :data:`A`, :data:`B`, :data:`C`, :data:`E`; the
+method of ``solve_ivp``'s RK45) over the Fig. 2 loop, restarted at every sample interval
+(:func:`integrate_interval`), one run after another (:func:`advance`, called from a
+thread per core). numba compiles this module where installed (:mod:`unidyn.engine.jit`);
 :func:`unidyn.engine.jit.plain_copy` runs the same source as plain Python.
 """
 
@@ -33,17 +20,16 @@ from .jit import AVAILABLE, jit
 if AVAILABLE:
     from numba.extending import overload
 
-__all__ = ["AVAILABLE", "compiled", "Runs", "Call", "LOG_COLUMNS", "LOG_SERIES",
+__all__ = ["AVAILABLE", "Runs", "Call", "LOG_COLUMNS", "LOG_SERIES",
            "log_layout", "reference", "loop_rates", "advance", "dp_step",
            "integrate_interval", "OK", "NONFINITE", "POSITION", "SPEED_U", "SPEED_W", "STEP"]
 
 NSTATE = len(eq.STATE)
 
 # ------------------------------------------------ Dormand-Prince 5(4), a table
-# J. R. Dormand, P. J. Prince, A family of embedded Runge-Kutta formulae, J. Comp.
-# Appl. Math. 6 (1980): stage s is evaluated at t + C[s] h from x + h sum_j A[s, j] K[j];
-# B gives the fifth-order solution, E (seven weights, the last on f at the step's end)
-# the difference between it and the embedded fourth-order one: the error estimate.
+# Dormand, Prince, J. Comp. Appl. Math. 6 (1980): stage s at t + C[s] h from
+# x + h sum_j A[s, j] K[j]; B: the fifth-order solution; E (the last weight on f at the
+# step's end): its difference from the embedded fourth-order one, the error estimate.
 C = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0])
 A = np.array([[0.0, 0.0, 0.0, 0.0, 0.0],
               [1 / 5, 0.0, 0.0, 0.0, 0.0],
@@ -53,23 +39,20 @@ A = np.array([[0.0, 0.0, 0.0, 0.0, 0.0],
               [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656]])
 B = np.array([35 / 384, 0.0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84])
 E = np.array([-71 / 57600, 0.0, 71 / 16695, -71 / 1920, 17253 / 339200, -22 / 525, 1 / 40])
-#: Step-size control, as scipy's: the next step is h * SAFETY * err^(-1/5), by a factor
-#: within [MIN_FACTOR, MAX_FACTOR].
+#: As scipy's: the next step is h SAFETY err^(-1/5), within [MIN_FACTOR, MAX_FACTOR] h.
 SAFETY, MIN_FACTOR, MAX_FACTOR = 0.9, 0.2, 10.0
 
 
-# not cached itself: numba's cache index records a signature's types by their module, and
-# a right-hand side defined in a script or a test would then break the index of every
-# other process that loads it (its callers are cached, with its code in them)
+# not cached itself: numba's cache index records a signature's types by their module, so
+# a right-hand side of a script would break the index for other processes (its callers
+# are cached, with its code in them)
 @jit(inline=True, cache=False)
 def dp_step(f, t, x, h, args, K, y, out, rtol, atol):
-    """One Dormand-Prince step of length h from (t, x) of dx/dt = f(t, x, args) (f
-    writes its rates into its last argument). K[0] holds f(t, x) on entry; K[1..6]
-    receive the other stages, K[6] = f(t + h, out) (the next step's first, where this
-    one is kept); y is scratch of x's length. Writes the fifth-order solution into out
-    and returns the error estimate relative to the tolerance, as ``solve_ivp`` measures
-    it: the root mean square over the states of error / (atol + rtol max(|x|, |out|));
-    the step is accurate enough where it is at most 1."""
+    """One Dormand-Prince step of length h from (t, x) of dx/dt = f(t, x, args) (f writes
+    into its last argument), the fifth-order solution into out. K[0] holds f(t, x) on
+    entry; K[1..6] get the other stages, K[6] = f(t + h, out); y is scratch. Returns the
+    error as ``solve_ivp`` measures it: the root mean square over the states of
+    error / (atol + rtol max(|x|, |out|)), at most 1 for a step accurate enough."""
     n = x.shape[0]
     for s in range(1, 6):
         for i in range(n):
@@ -102,9 +85,8 @@ def step_factor(err):
 
 
 # ------------------------------------------------------------- the Fig. 2 loop
-#: The references that are Python functions (:class:`~unidyn.model.trajectories.FunctionTrajectory`,
-#: trajectory code -1, their index in path1), set by the engine before it runs them: the
-#: plain copy of this module evaluates them; the compiled one runs only the built-in ones.
+#: The references that are Python functions (trajectory code -1, their index in path1),
+#: set by the engine: the plain copy evaluates them, the compiled one never meets them.
 PYTHON_REFERENCES = []
 
 
@@ -118,8 +100,7 @@ def python_reference(t, index):
 if AVAILABLE:
     @overload(python_reference)
     def _python_reference_compiled(t, index):
-        """Compiled code cannot call the Python function: NaN (never run, the engine
-        sends such runs to the plain copy)."""
+        """Compiled code cannot call the Python function: NaN (never run)."""
         return lambda t, index: (math.nan, math.nan, math.nan, math.nan, math.nan, math.nan)
 
 
@@ -150,10 +131,8 @@ def loop_rates(t, X, args, out):
 
 
 # -------------------------------------------------------------------- the log
-#: The columns of the log, in order: the states the result keeps (pose, robot
-#: velocity, theta_hat: the first 11 of :data:`unidyn.model.equations.STATE`; a kinematic
-#: robot, which has no velocity state, moves at its clipped command), then h_d,
-#: v_d and v_ref (after the speed limits).
+#: The log's columns: pose, velocity (a kinematic robot's: its clipped command),
+#: theta_hat (the first 11 states), h_d, v_d and v_ref (after the speed limits).
 LOG_COLUMNS = eq.STATE[:11] + ("x_d", "y_d", "u_d", "w_d", "u_ref", "w_ref")
 NLOG = len(LOG_COLUMNS)
 
@@ -170,9 +149,8 @@ LOG_SERIES = {"pose": _columns("x", "psi"), "velocity": _columns("u", "w"),
 
 
 def log_layout(series):
-    """The log of a run that keeps the named series (:data:`LOG_SERIES` keys): (the
-    columns of :data:`LOG_COLUMNS` it keeps, as an index array; where each kept series
-    lies in its rows)."""
+    """(the columns of :data:`LOG_COLUMNS` kept for the named series, as an index array;
+    where each kept series lies in a row)."""
     keep, where = [], {}
     for k, sl in LOG_SERIES.items():  # in the order of the columns
         if k in series:
@@ -184,51 +162,40 @@ def log_layout(series):
 
 @jit
 def log_row(t, X, p, noise, columns, row, out):
-    """The log row (:data:`LOG_COLUMNS`) at (t, X) into the scratch row, and its kept
-    columns into out (whatever out's floating dtype)."""
+    """The log row at (t, X) into the scratch row, its kept columns into out."""
     for i in range(11):
         row[i] = X[i]
     ref = reference(t, p)
     ud, wd, udd, wdd, G, u_ref, w_ref, um, wm = eq.loop_signals(X, ref, p, noise)
-    row[11] = ref[0]
-    row[12] = ref[1]
-    row[13] = ud
-    row[14] = wd
-    row[15] = eq.saturate(u_ref, p[P.speed_u])
-    row[16] = eq.saturate(w_ref, p[P.speed_w])
+    row[11], row[12], row[13], row[14] = ref[0], ref[1], ud, wd
+    row[15], row[16] = eq.saturate(u_ref, p[P.speed_u]), eq.saturate(w_ref, p[P.speed_w])
     if p[P.dynamic] == 0.0:  # a kinematic robot moves at its clipped command
-        row[S.u] = row[15]
-        row[S.w] = row[16]
+        row[S.u], row[S.w] = row[15], row[16]
     for j in range(columns.shape[0]):
         out[j] = row[columns[j]]
 
 
 # ------------------------------------------------------------------- the runs
-#: Why a run stopped (``status``): still running / complete, a non-finite state,
-#: |(x, y)|, |u| or |w| beyond its divergence bound, the tolerance not met within
-#: ``max_steps`` steps of an interval.
+#: Why a run stopped: running / complete, non-finite, |(x, y)|, |u| or |w| beyond its
+#: divergence bound, the tolerance not met within ``max_steps`` steps of an interval.
 OK, NONFINITE, POSITION, SPEED_U, SPEED_W, STEP = 0, 1, 2, 3, 4, 6
 
-#: The per-run arrays of a call (row i: run i): ``state`` (B, 13), updated;
-#: ``params``: rows of the parameter table (:data:`unidyn.model.equations.LOOP_PARAMETERS`);
-#: ``h`` (B,): the step error control proposes next (carried from one interval to the
-#: next, 0 before the first); ``noise_pos``, ``noise_vel`` (B, rows, 2): the held noise
-#: of intervals noise_first, noise_first + 1, ...; ``bounds`` (B, 3): divergence bounds
-#: on |(x, y)|, |u|, |w|; ``log_columns``: the columns of :data:`LOG_COLUMNS` kept;
-#: ``log`` (B, rows, columns); and what the engine fills: ``status`` (OK while running),
-#: ``last`` (last sample reached), ``steps`` (steps kept), ``rejected`` (steps taken
-#: again shorter), ``most`` (most steps an interval took).
+#: The per-run arrays of a call (row i: run i): ``state`` (B, 13); ``params`` (rows of
+#: :data:`unidyn.model.equations.LOOP_PARAMETERS`); ``h``, the next step (carried across
+#: intervals, 0 at first); ``noise_pos``, ``noise_vel`` (B, rows, 2), the held noise from
+#: interval noise_first on; ``bounds`` (B, 3) on |(x, y)|, |u|, |w|; ``log_columns`` kept
+#: of :data:`LOG_COLUMNS`; ``log`` (B, rows, columns); ``status``, ``last`` (sample
+#: reached), ``steps`` (kept) and ``rejected`` (taken again shorter).
 Runs = namedtuple("Runs", "state params h noise_pos noise_vel bounds log_columns log "
-                          "status last steps rejected most")
-#: The numbers of a call: sample interval ``Ts``; ``noise_first``, the interval of the
-#: noise arrays' row 0; ``log_every``; the tolerances ``rtol``, ``atol``; ``max_steps``,
-#: the most steps (kept or not) an interval may take.
+                          "status last steps rejected")
+#: A call's numbers: ``Ts``; ``noise_first`` (the noise arrays' row 0); ``log_every``;
+#: ``rtol``, ``atol``; ``max_steps`` (kept or not) an interval may take.
 Call = namedtuple("Call", "Ts noise_first log_every rtol atol max_steps")
 
 
 @jit(inline=True)
 def check_state(X, bound):
-    """The status of state X against bound = [|(x, y)|, |u|, |w|] bounds."""
+    """The status of state X against bounds on [|(x, y)|, |u|, |w|]."""
     for i in range(X.shape[0]):
         if not math.isfinite(X[i]):
             return NONFINITE
@@ -241,39 +208,20 @@ def check_state(X, bound):
     return OK
 
 
-@jit(inline=True)
-def log_index(k, L, stopped):
-    """Row of the log for sample k (every L-th sample, plus the sample a run stopped
-    at); -1 when sample k is not logged."""
-    if k % L == 0:
-        return k // L
-    if stopped:
-        return k // L + 1
-    return -1
-
-
 @jit
 def integrate_interval(t0, t1, X, h, args, call, K, y, Xn):
-    """Integrate the loop of one run from (t0, X) to t1 with error-controlled steps, X
-    updated in place, starting with a step of h (at most t1 - t0; 0: t1 - t0). A speed
-    limit is hard: a step that would end beyond it ends on it.
-    Returns (the step proposed for what follows, steps kept, steps rejected, OK; or
-    STEP where the tolerance was not met within ``call.max_steps`` steps, NONFINITE
-    where the last error estimate was not a number: the loop left the model's range)."""
-    p = args[0]
-    span = t1 - t0
-    if not h > 0.0:
-        h = span
+    """One run's loop from (t0, X) to t1 by error-controlled steps, X updated, the first
+    step h (0: t1 - t0); a step that would end beyond a speed limit ends on it. Returns
+    (the next step, steps kept, steps rejected, OK; or STEP: the tolerance not met in
+    ``call.max_steps`` steps; NONFINITE: the last error estimate not a number)."""
+    p, span = args[0], t1 - t0
+    h = h if h > 0.0 else span
     loop_rates(t0, X, args, K[0])
-    t = t0
-    kept = 0
-    rejected = 0
+    t, kept, rejected, proposal = t0, 0, 0, h
     again = False  # a step of this interval was taken again: grow no step after it
-    proposal = h
     while True:
         last = h >= t1 - t
-        if last:
-            h = t1 - t
+        h = t1 - t if last else h
         err = dp_step(loop_rates, t, X, h, args, K, y, Xn, call.rtol, call.atol)
         if err <= 1.0:  # kept (an error estimate that is NaN is not)
             kept += 1
@@ -282,11 +230,9 @@ def integrate_interval(t0, t1, X, h, args, call, K, y, Xn):
                 proposal = h * factor
             elif factor < 1.0:  # the interval's last step, cut to its end
                 proposal = min(proposal, h * factor)
-            u = eq.saturate(Xn[S.u], p[P.speed_u])
-            w = eq.saturate(Xn[S.w], p[P.speed_w])
+            u, w = eq.saturate(Xn[S.u], p[P.speed_u]), eq.saturate(Xn[S.w], p[P.speed_w])
             clipped = u != Xn[S.u] or w != Xn[S.w]
-            Xn[S.u] = u
-            Xn[S.w] = w
+            Xn[S.u], Xn[S.w] = u, w
             for i in range(X.shape[0]):
                 X[i] = Xn[i]
             if last:
@@ -311,25 +257,18 @@ def integrate_interval(t0, t1, X, h, args, call, K, y, Xn):
 @jit(entry="the batch engine")
 def advance(runs, call, k0, k1, which):
     """Advance the runs ``which`` (indices into :data:`Runs`) over sample intervals
-    k0..k1-1, with the numbers of :data:`Call` (sample 0 logged and checked first where
-    k0 = 0). Interval k's noise is held over it, the integration restarted at its
-    start (:func:`integrate_interval`), and the sample at its end is logged with it,
-    as the diagram logs it before the tick. A run whose interval cannot meet the
-    tolerance stops with status STEP."""
-    K = np.empty((7, NSTATE))
-    y = np.empty(NSTATE)
-    Xn = np.empty(NSTATE)
-    X = np.empty(NSTATE)
-    row = np.empty(NLOG)
-    Ts = call.Ts
+    k0..k1-1 (sample 0 logged and checked first where k0 = 0): interval k with its
+    noise held, integrated afresh (:func:`integrate_interval`), the sample at its end
+    logged with that noise, as the diagram logs it before the tick."""
+    K, y, Xn, X, row = (np.empty((7, NSTATE)), np.empty(NSTATE), np.empty(NSTATE),
+                        np.empty(NSTATE), np.empty(NLOG))
+    Ts, L = call.Ts, call.log_every
     for i in which:
         for q in range(NSTATE):  # (a loop: an array assignment compiles its error messages)
             X[q] = runs.state[i, q]
         p = runs.params[i]
         status, last, h = runs.status[i], runs.last[i], runs.h[i]
-        steps = 0
-        rejected = 0
-        most = runs.most[i]
+        steps = rejected = 0
         for k in range(k0, k1):
             r = k - call.noise_first
             noise = (runs.noise_pos[i, r, 0], runs.noise_pos[i, r, 1], runs.noise_vel[i, r, 0],
@@ -343,7 +282,6 @@ def advance(runs, call, k0, k1, which):
                                                         call, K, y, Xn)
             steps += kept
             rejected += again
-            most = max(most, kept + again)
             if status == OK:
                 status = check_state(X, runs.bounds[i])
             elif status == NONFINITE:
@@ -352,20 +290,14 @@ def advance(runs, call, k0, k1, which):
             if status == STEP:
                 last = k
                 break
-            index = log_index(k + 1, call.log_every, status != OK)
-            if index >= 0:
-                log_row((k + 1) * Ts, X, p, noise, runs.log_columns, row, runs.log[i, index])
+            if (k + 1) % L == 0 or status != OK:  # every L-th sample, and where a run stops
+                log_row((k + 1) * Ts, X, p, noise, runs.log_columns, row,
+                        runs.log[i, (k + 1) // L + ((k + 1) % L != 0)])
             last = k + 1
         # written back once: threads advancing neighbouring runs never share a cache
         # line in the loop above
         for q in range(NSTATE):
             runs.state[i, q] = X[q]
-        runs.status[i], runs.last[i], runs.h[i], runs.most[i] = status, last, h, most
+        runs.status[i], runs.last[i], runs.h[i] = status, last, h
         runs.steps[i] += steps
         runs.rejected[i] += rejected
-
-
-def compiled() -> bool:
-    """Whether the engine was compiled (or loaded) in this process or lies compiled in
-    the cache folder (:class:`unidyn.engine.jit.Compiled`)."""
-    return AVAILABLE and advance.compiled()
