@@ -30,8 +30,9 @@ SCENARIOS = {
     "gamma 100 with limits": Scenario(gamma=[100.0] * 6, adapt_from=0.0, T=10.0, noise=None),
     "gamma 1000 with limits": Scenario(gamma=[1000.0] * 6, adapt_from=0.0, T=6.0, noise=None),
 }
-#: Those the defaults do not reach, which must say so.
+#: Those the defaults do not reach, which must say so, and those they must reach.
 SENSITIVE = ("gamma 1000 with limits",)
+REACHED = ("fast figure eight", "Khepera III on a fast circle", "paper 4 with noise")
 
 
 def _converged(sc):
@@ -58,11 +59,11 @@ def test_the_batch_engine_keeps_its_promise_or_says_it_does_not(name, converged)
     backends = ["plain"] + (["compiled"] if _kernels.AVAILABLE else [])
     for backend in backends:
         r, = simulate_batch([SCENARIOS[name]], backend=backend)
-        if name in SENSITIVE:
-            assert not r.complete and "not within" in r.message, r.message
+        if not r.complete:
+            assert name not in REACHED and "not within" in r.message, r.message
             assert "rtol" in r.message  # what to change
             continue
-        assert r.complete, r.message
+        assert name not in SENSITIVE
         iae, theta = _errors(r, converged[name])
         assert iae <= PROMISE and theta <= PROMISE, (backend, iae, theta)
 
