@@ -380,8 +380,8 @@ def accuracy_table(against=None):
         t = np.arange(sc.steps + 1) * sc.Ts
         ref = np.array([np.ravel(loop.reference(tt)[:2]) for tt in t])
         iae = metrics(t, np.hypot(*(X[:, :2] - ref).T), X[:, 3:5])["iae"]
-        rows = [(f"batch, {label}", r["complete"], r["partial"], np.array(r["theta_hat"]),
-                 r["message"]) for label, r in runs.items()]
+        rows = [(f"batch, {label}", r[name]["complete"], r[name]["partial"],
+                 np.array(r[name]["theta_hat"]), r[name]["message"]) for label, r in runs.items()]
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             try:
