@@ -31,11 +31,14 @@ def test_compiled_and_plain_kernels_agree(noise):
     scs.append(Scenario.paper(1, T=30.0, noise=noise))
     a = simulate_batch(scs, backend="plain")
     b = simulate_batch(scs, backend="compiled")
+    # the same source, compiled or not, agrees to rounding; with noise a rounding apart
+    # can flip whether a step is kept, and the two then agree to the tolerance
+    tol = 1e-10 if noise is None else 1e-6
     for x, y in zip(a, b):
-        assert np.max(np.abs(x.pose - y.pose)) < 1e-9
-        assert np.max(np.abs(x.theta_hat - y.theta_hat)) < 1e-9
-        assert np.max(np.abs(x.v_ref - y.v_ref)) < 1e-9
-        assert abs(x.metrics["iae"] - y.metrics["iae"]) <= 1e-9 * x.metrics["iae"]
+        assert np.max(np.abs(x.pose - y.pose)) < tol
+        assert np.max(np.abs(x.theta_hat - y.theta_hat)) < tol
+        assert np.max(np.abs(x.v_ref - y.v_ref)) < 10 * tol
+        assert abs(x.metrics["iae"] - y.metrics["iae"]) <= tol * x.metrics["iae"]
 
 
 @pytest.mark.parametrize("k", [1.0, 10.0, 35.0])

@@ -91,7 +91,7 @@ def simulate_batch(scenarios, *, rtol: float = DEFAULT_RTOL, atol: float = DEFAU
     :param rtol: relative tolerance, as ``solve_ivp``'s and :func:`unidyn.simulate`'s
     :param atol: absolute tolerance (m, rad, m/s, rad/s and theta's units alike)
     :param backend: ``"compiled"``, ``"plain"`` or ``"auto"`` (:func:`backend_for`;
-        ``Result.backend`` says which ran; the two agree to rounding)
+        ``Result.backend`` says which ran; the two agree to the tolerance)
     :param progress: ``None`` (a tqdm bar on a terminal for long calls), ``False``,
         ``True``, or a callable ``f(done_samples, total_samples)``
 
