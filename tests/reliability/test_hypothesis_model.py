@@ -30,11 +30,7 @@ from unidyn.engine.batch import simulate_batch
 from unidyn.model.laws import LEAKAGE_FORMS
 from unidyn.model.scenario import CASES, PAPER_GAMMA, PAPER_SIGMA, Scenario
 
-# random scenarios can reach gains where the batch engine warns that it cannot vouch
-# for its accuracy (tests/reliability/test_divergence.py asserts that warning); the
-# tests here check finiteness, independence and limits, which hold either way
-pytestmark = [pytest.mark.reliability,
-              pytest.mark.filterwarnings("ignore::unidyn.engine.batch.AccuracyWarning")]
+pytestmark = pytest.mark.reliability
 
 #: hypothesis examples per property (the README quotes these numbers)
 MAX_EXAMPLES = {
