@@ -25,7 +25,7 @@ def test_an_adaptation_gain_too_high_for_the_tolerance_stops_or_says_so_naming_r
     """No rate of the update law is foreseen: error control shortens the steps until an
     interval needs more than MAX_STEPS, or the run's check disagrees; either way the
     run is not complete and names what to change."""
-    r, = simulate_batch([_gamma(gamma, T=1.0)])
+    r, = simulate_batch([_gamma(gamma, T=3.0)])
     assert not r.complete and "rtol" in r.message, r.message
 
 
