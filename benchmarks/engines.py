@@ -25,6 +25,13 @@ versions in turn, so that both are measured in one sitting.
 The README's job, ``examples/paper_section5.py`` (the four Section 5 runs through the
 bdsim diagram), timed N times (default 2), in turn with REV's.
 
+    python benchmarks/engines.py --accuracy [--against REV]
+
+Each engine's error at its defaults against a converged solution (scipy's DOP853 at
+rtol 1e-10, restarted at every sample) on scenarios no list of rates foresaw: fast
+references, high gains, gamma up to 1e4, every preset robot; the batch engine of this
+checkout and of REV, and the diagram.
+
     python benchmarks/engines.py --memory            # the memory table only
     python benchmarks/engines.py --memory --long     # also two 10^7-sample runs (4-6 min)
 """
@@ -47,7 +54,7 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 import unidyn  # noqa: E402
 from unidyn.diagrams import simulate as runner  # noqa: E402
 from unidyn.engine import kernels  # noqa: E402
-from unidyn.engine.batch import DEFAULT_SUBSTEPS, simulate_batch  # noqa: E402
+from unidyn.engine.batch import simulate_batch  # noqa: E402
 from unidyn.engine.rhs import ClosedLoop  # noqa: E402
 from unidyn.model.scenario import Scenario  # noqa: E402
 
@@ -177,7 +184,7 @@ def rhs_rows():
     def compiled(X, P, dX):
         for i in range(X.shape[0]):
             rates(0.5, X[i], (P[i], noise), dX)
-    dX = np.empty(14)
+    dX = np.empty(13)
     compiled(X[:2], P[:2], dX)
     t_c, _ = timed(lambda: compiled(X, P, dX), repeat=5)
     Xt, Pt, dXt = X.T.copy(), P.T.copy(), np.empty((13, B))
@@ -185,39 +192,9 @@ def rhs_rows():
     t_v, _ = timed(lambda: unidyn.model.equations.loop_derivative(0.5, Xt, ref, Pt, noise, dXt),
                    repeat=5)
     return [("one right-hand side, compiled, one run at a time (per run)", t_c / B,
-             f"{t_c / B * 1e9:.0f} ns; an RK4 step is 4 of them"),
+             f"{t_c / B * 1e9:.0f} ns; a Dormand-Prince step is 6 of them"),
             ("one right-hand side, numpy, 20,000 runs at once (per run)", t_v / B,
              f"{t_v / B * 1e9:.0f} ns")]
-
-
-def elementary_rows():
-    """ns per call of the compiled sin, cos and tanh (unidyn.engine.vecmath) and of the
-    maths library's (what numba makes of math.sin), over 4096 arguments."""
-    import math
-
-    import numba
-
-    from unidyn.engine import vecmath
-
-    def calls(f):
-        @numba.njit
-        def g(x, y, R):
-            for _ in range(R):
-                for i in range(x.size):
-                    y[i] += f(x[i])
-        return g
-
-    x, y = np.random.default_rng(0).uniform(-1, 1, 4096), np.zeros(4096)
-    rows = []
-    for name in ("sin", "cos", "tanh"):
-        ns = []
-        for f in (getattr(vecmath, name), getattr(math, name)):
-            g = calls(f)
-            g(x, y, 1)
-            ns.append(min(timed(lambda: g(x, y, 200))[0] for _ in range(5)) / (4096 * 200) * 1e9)
-        rows.append((f"{name}, compiled (unidyn.engine.vecmath)", ns[0] * 1e-9,
-                     f"{ns[0]:.1f} ns a call; the maths library's: {ns[1]:.1f} ns"))
-    return rows
 
 
 def memory_table(long=False):
@@ -312,6 +289,112 @@ def cold_table(against=None):
     for (what, label), (first, second) in rows.items():
         print(f"| {names[what]} | {label} | {first:.1f} | {second:.1f} | {first / second:.1f} "
               f"| {first - second:.1f} |")
+    # the bdsim route per run (this checkout's diagram, at its defaults) on two Fig. 11
+    # points, and how many times faster each version's warm sweep is per run
+    scs = fig11_scenarios()
+    sample = [scs[i] for i in (41, 202)]  # compensated at k = 5.5, adaptive at k = 25.5
+    t_bd, _ = timed(lambda: [unidyn.simulate(sc, progress=False) for sc in sample])
+    per_run = t_bd / len(sample)
+    print(f"\nbdsim route, Fig. 11 points ({len(sample)}, 250 s, with noise): {per_run:.1f} s "
+          f"per run; warm sweep per run against it: "
+          + ", ".join(f"{label} {per_run * len(scs) / second:.0f}x"
+                      for (what, label), (_, second) in rows.items() if what == "fig11"))
+
+
+ACCURACY_SCENARIOS = """
+import numpy as np
+from unidyn import Scenario
+from unidyn.model import robots
+from unidyn.model.trajectories import Circle, FigureEight
+from unidyn.model.unicycle import Limits
+
+
+def accuracy_scenarios():
+    \"\"\"The scenarios of the accuracy table, noise-free (public API only: each version
+    builds them).\"\"\"
+    f8 = dict(case="compensated", limits=Limits(), T=10.0, noise=None)
+    out = {
+        "compensated, figure eight 2 mm at 500/250 rad/s, no limits": Scenario(
+            trajectory=FigureEight(ax=0.002, ay=0.002, wx=500.0, wy=250.0), **f8),
+        "compensated, figure eight 2 cm at 50/25 rad/s, no limits": Scenario(
+            trajectory=FigureEight(ax=0.02, ay=0.02, wx=50.0, wy=25.0), **f8),
+        "Khepera III, circle 5 mm at 100 rad/s, a = 2 cm, k = 1": Scenario(
+            robot="khepera3", trajectory=Circle(radius=0.005, omega=100.0), a=0.02, kx=1.0,
+            ky=1.0, T=2.0, noise=None),
+        "adaptive, gamma = 1000, paper limits, T = 20 s": Scenario(
+            gamma=[1000.0] * 6, adapt_from=0.0, T=20.0, noise=None),
+        "adaptive, gamma = 100, paper limits, T = 20 s": Scenario(
+            gamma=[100.0] * 6, adapt_from=0.0, T=20.0, noise=None),
+        "adaptive, gamma = 1e4, paper limits, T = 10 s": Scenario(
+            gamma=[1e4] * 6, adapt_from=0.0, T=10.0, noise=None),
+        "compensated, k = 100, paper limits, T = 20 s": Scenario(
+            case="compensated", kx=100.0, ky=100.0, T=20.0, noise=None),
+        "adaptive, k = 30, paper limits, T = 20 s": Scenario(
+            case="adaptive", kx=30.0, ky=30.0, adapt_from=0.0, T=20.0, noise=None),
+        "compensated, circle 0.2 m at 5 rad/s, no limits, T = 10 s": Scenario(
+            case="compensated", trajectory=Circle(radius=0.2, omega=5.0), limits=Limits(),
+            T=10.0, noise=None),
+    }
+    for name in robots.names():
+        out[f"adaptive, robot {name}, paper limits, T = 10 s"] = Scenario(
+            robot=name, case="adaptive", adapt_from=0.0, T=10.0, noise=None)
+    return out
+"""
+ACCURACY_PROBE = ACCURACY_SCENARIOS + """
+import json, warnings
+from unidyn.engine.batch import simulate_batch
+warnings.simplefilter("ignore")
+out = {}
+for name, sc in accuracy_scenarios().items():
+    r, = simulate_batch([sc], progress=False)
+    out[name] = dict(complete=bool(r.complete), message=r.message, iae=r.metrics["iae"],
+                     partial=(r.partial_metrics or r.metrics)["iae"],
+                     theta_hat=np.asarray(r.theta_hat, dtype=float).tolist())
+print(json.dumps(out))
+"""
+
+
+def accuracy_table(against=None):
+    """Each engine's error at its defaults against a converged solution (scipy's DOP853
+    at rtol 1e-10 on the same equations, restarted at every sample): the batch engine of
+    this checkout and of REV, and the diagram of this checkout; IAE relative, theta_hat
+    absolute (the promise: 1e-4, or the result says it is not complete)."""
+    import json
+    import warnings
+
+    from unidyn.results.result import metrics
+    namespace = {}
+    exec(ACCURACY_SCENARIOS, namespace)
+    scs = namespace["accuracy_scenarios"]()
+    with tempfile.TemporaryDirectory() as tmp:
+        runs = {label: json.loads(_run(src, Path(tmp) / label.replace(" ", "-"),
+                                       ["-c", ACCURACY_PROBE])[1])
+                for label, src in _versions(against)}
+    print("\nerror at the defaults against a converged solution (DOP853, rtol 1e-10, "
+          "restarted at every sample); promise: 1e-4, or complete = false\n")
+    print("| scenario | engine | complete | IAE relative error | theta_hat error | message |")
+    print("|---|---|---|---:|---:|---|")
+    for name, sc in scs.items():
+        loop = ClosedLoop(sc)
+        X = loop.converged(rtol=1e-10, atol=1e-12)[0]
+        t = np.arange(sc.steps + 1) * sc.Ts
+        ref = np.array([np.ravel(loop.reference(tt)[:2]) for tt in t])
+        iae = metrics(t, np.hypot(*(X[:, :2] - ref).T), X[:, 3:5])["iae"]
+        rows = [(f"batch, {label}", r[name]["complete"], r[name]["partial"],
+                 np.array(r[name]["theta_hat"]), r[name]["message"]) for label, r in runs.items()]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                d = unidyn.simulate(sc, progress=False)
+                rows.append(("bdsim diagram", d.complete, (d.partial_metrics or d.metrics)["iae"],
+                             d.theta_hat, d.message))
+            except unidyn.SimulationError as err:
+                rows.append(("bdsim diagram", False, None, None, str(err)))
+        for engine, complete, r_iae, theta_hat, message in rows:
+            e_iae = "" if r_iae is None else f"{abs(r_iae - iae) / iae:.1e}"
+            e_th = ("" if theta_hat is None or len(theta_hat) != len(X)
+                    else f"{np.max(np.abs(theta_hat - X[:, 5:11])):.1e}")
+            print(f"| {name} | {engine} | {complete} | {e_iae} | {e_th} | {message[:90]} |")
 
 
 def section5_table(against=None, repeat=2):
@@ -363,20 +446,20 @@ def engines_table(quick=False):
                 t, res = timed(lambda: simulate_batch(cases, backend="compiled", progress=False))
                 times.append(t)
             t_run = float(np.median(times))
-            steps = sum(r.rk4_steps for r in res)  # finer intervals and split steps included
+            steps = sum(r.steps + r.rejected for r in res)  # the result's, not its check's
             ns = t_run / steps * 1e9 * min(os.cpu_count() or 1, len(cases))
             rows.append((f"Fig. 11 sweep ({len(cases)} runs x 250 s{label}), batch engine, "
                          f"compiled, median of 5", t_run,
-                         f"{steps / 1e6:.1f} M RK4 steps ({DEFAULT_SUBSTEPS} to "
-                         f"{max(r.substeps for r in res)} per 0.1 s, up to "
-                         f"{max(r.substeps_max for r in res)} in intervals taken finer; "
-                         f"{sum(r.split_steps for r in res) / 1e6:.2f} M splits at a change of "
-                         f"the limits): {ns:.0f} ns per step per core, {os.cpu_count()} threads"))
+                         f"{steps / 1e6:.1f} M Dormand-Prince steps in the results "
+                         f"({steps / (len(cases) * 2500):.1f} per 0.1 s sample, and about "
+                         f"0.6 times as many in their checks); "
+                         f"{sum(not r.complete for r in res)} runs not within the promise; "
+                         f"{ns:.0f} ns per result step per core, {os.cpu_count()} threads"))
             if label:
                 quiet_res = res
             else:
                 batch_res, t_sweep = res, t_run
-        rows += rhs_rows() + elementary_rows()
+        rows += rhs_rows()
     sample = np.unique(np.linspace(0, len(scs) - 1, 4 if quick else 12).round().astype(int))
     t_sample, diag_res = timed(lambda: [unidyn.simulate(scs[i]) for i in sample])
     per_point = t_sample / len(sample)
@@ -408,15 +491,16 @@ def engines_table(quick=False):
               f"noise): IAE relative difference median {np.median(errs):.1e}, max {max(errs):.1e}; "
               f"position difference max {max(pos):.1e} m")
     if quiet_res is not None:
-        fine = simulate_batch(fig11_scenarios(noise=False), substeps=200, backend="compiled",
-                              progress=False)
+        fine = simulate_batch(fig11_scenarios(noise=False), rtol=1e-11, atol=1e-13,
+                              backend="compiled", progress=False)
         rel = np.array([abs(a.metrics["iae"] - b.metrics["iae"]) / b.metrics["iae"]
+                        if a.complete and b.complete else np.nan
                         for a, b in zip(quiet_res, fine)]).reshape(-1, 4)
-        print("noise-free Fig. 11 sweep at the default step vs 200 steps per sample: IAE "
-              "relative difference, largest over the 70 gains, by case: "
+        print("noise-free Fig. 11 sweep at the defaults vs rtol 1e-11: IAE relative "
+              "difference, largest over the 70 gains, by case: "
               + ", ".join(f"{c} {v:.1e}" for c, v in zip(
                   ("uncompensated", "compensated 0.9", "adaptive", "compensated exact"),
-                  rel.max(axis=0))))
+                  np.nanmax(rel, axis=0))))
 
 
 def main(argv=None):
@@ -425,8 +509,10 @@ def main(argv=None):
     p.add_argument("--cold", action="store_true",
                    help="only first and second results with an empty compiler cache")
     p.add_argument("--section5", action="store_true", help="only the README's job")
+    p.add_argument("--accuracy", action="store_true",
+                   help="only each engine's error against converged solutions")
     p.add_argument("--against", metavar="REV",
-                   help="with --cold or --section5: also git revision REV, in turn")
+                   help="with --cold, --section5 or --accuracy: also git revision REV, in turn")
     p.add_argument("--repeat", type=int, default=2, help="runs of each version (--section5)")
     p.add_argument("--memory", action="store_true", help="only the memory table")
     p.add_argument("--long", action="store_true",
@@ -436,6 +522,8 @@ def main(argv=None):
         cold_table(args.against)
     elif args.section5:
         section5_table(args.against, args.repeat)
+    elif args.accuracy:
+        accuracy_table(args.against)
     elif args.memory:
         memory_table(args.long)
     else:

@@ -236,7 +236,8 @@ def _cmd_run(args) -> int:
     staging = staged_output(out, kind="run", names=RUN_FILES, overwrite=args.overwrite,
                             what="run results")
     try:
-        stage, result, wall, replaced = _run_staged(staging, sc, engine, out, animation)
+        stage, result, wall, replaced = _run_staged(staging, sc, engine, out, animation,
+                                                    **_tolerances(args))
     except Interrupted:  # interrupted, the computed part written: it says where
         raise
     except KeyboardInterrupt:
@@ -261,7 +262,19 @@ def _write_bag(result, bag) -> None:
     print(f"written    {bag} (/cmd_vel, /odom, /reference)")
 
 
-def _run_staged(staging, sc, engine, out, animation):
+def _tolerances(args) -> dict:
+    """--rtol and --atol, where given: the same tolerances for either engine."""
+    return {k: getattr(args, k) for k in ("rtol", "atol") if getattr(args, k) is not None}
+
+
+def _tolerance_arguments(p) -> None:
+    p.add_argument("--rtol", type=float, help="relative tolerance of the integration, as "
+                   "solve_ivp's (default 1e-8, either engine)")
+    p.add_argument("--atol", type=float, help="absolute tolerance of the integration "
+                   "(default 1e-10, either engine)")
+
+
+def _run_staged(staging, sc, engine, out, animation, **options):
     with staging as stage:
         replaced = ", ".join(stage.held)
         if replaced:
@@ -271,7 +284,7 @@ def _run_staged(staging, sc, engine, out, animation):
         from .engines import run
         interrupted = False
         try:
-            result = run(sc, engine)
+            result = run(sc, engine, **options)
         except SimulationError as err:
             if err.result is None:
                 raise _RunFailed(f"the run failed before its first sample: {err}; "
@@ -370,7 +383,7 @@ def _cmd_sweep(args) -> int:
         gains = _parse_gains(args.gains) if args.gains is not None else None
         spec = paper_fig11(T=250.0 if args.T is None else args.T, gains=gains,
                            noise=None if args.no_noise else PAPER_NOISE,
-                           **({} if args.substeps is None else {"substeps": args.substeps}))
+                           **_tolerances(args))
     else:
         spec = sw.Sweep.from_toml(args.sweep)
         changes = {}
@@ -381,9 +394,9 @@ def _cmd_sweep(args) -> int:
         try:
             if changes:
                 spec = spec.with_base(**changes)
-            if args.substeps is not None:
+            if _tolerances(args):
                 import dataclasses
-                spec = dataclasses.replace(spec, substeps=args.substeps)
+                spec = dataclasses.replace(spec, **_tolerances(args))
         except ValidationError as err:
             raise ValidationError(f"{args.sweep}: {err}") from None
     from .results.folders import output_folder
@@ -693,6 +706,7 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--engine", choices=("auto", "bdsim", "batch"),
                    help="auto (default): the batch engine for continuous control, the bdsim "
                         "diagram for sampled control; bdsim: always the diagram")
+    _tolerance_arguments(r)
     r.add_argument("--overwrite", action="store_true", help="replace results already in DIR")
     r.add_argument("--animate", action="store_true", help="also write DIR/animation.gif")
     r.add_argument("--bag", metavar="FILE.mcap",
@@ -720,8 +734,7 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("--out", required=True, metavar="DIR", help="output folder")
     s.add_argument("--engine", choices=("batch", "bdsim"), default="batch")
     s.add_argument("--chunk-size", type=int, metavar="N", help="points per chunk")
-    s.add_argument("--substeps", type=int, metavar="N",
-                   help="RK4 steps per sample interval of the batch engine (default 10)")
+    _tolerance_arguments(s)
     s.add_argument("--dask", metavar="ADDRESS",
                    help="run the chunks on Dask: 'local' (worker processes on this machine) "
                         "or a scheduler address (tcp://host:8786)")

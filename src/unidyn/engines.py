@@ -6,8 +6,10 @@ Two engines integrate the same equations (:mod:`unidyn.model.equations`):
 - ``"bdsim"``: the Fig. 2 diagram of bdsim blocks, integrated by scipy's ``solve_ivp``
   with an adaptive step (:func:`unidyn.simulate`); it runs every scenario, sampled
   control included;
-- ``"batch"``: the batch engine, fixed-step RK4 over many runs at once
-  (:func:`unidyn.simulate_batch`); continuous control only, and far faster.
+- ``"batch"``: the batch engine, the same kind of adaptive step over many runs at once,
+  compiled (:func:`unidyn.simulate_batch`); continuous control only, and far faster.
+
+Both take ``rtol`` and ``atol`` with the same meaning (``solve_ivp``'s).
 
 ``"auto"`` picks the batch engine for continuous control and the diagram for sampled
 control; :attr:`Result.engine <unidyn.Result>` says which ran.
@@ -42,7 +44,7 @@ def run(scenario: Scenario, engine: str = "auto", **options):
 
     :param engine: ``"auto"``, ``"batch"`` or ``"bdsim"`` (:func:`choose`)
     :param options: passed to the engine's function: :func:`unidyn.simulate_batch`
-        (``substeps``, ``backend``, ``progress``) or :func:`unidyn.simulate` (``rtol``,
+        (``rtol``, ``atol``, ``backend``, ``progress``) or :func:`unidyn.simulate` (``rtol``,
         ``atol``, ``method``, ``timeout``, ``progress``, the diagram's block factories)
     :return: :class:`~unidyn.Result` (its ``engine`` says which ran)
     """

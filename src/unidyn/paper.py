@@ -20,7 +20,7 @@ import numpy as np
 
 from .results import figstyle
 from ._validate import ValidationError
-from .engine.batch import DEFAULT_SUBSTEPS
+from .engine.batch import DEFAULT_ATOL, DEFAULT_RTOL
 from .sweeps.sweep_files import read_metrics
 from .model.noise import PAPER_NOISE
 from .sweeps.sweep import Sweep
@@ -102,7 +102,7 @@ FIG11_CASES = {
 
 
 def paper_fig11(T: float = 250.0, gains=None, noise=PAPER_NOISE, *, base=None,
-                substeps: int = DEFAULT_SUBSTEPS) -> Sweep:
+                rtol: float = DEFAULT_RTOL, atol: float = DEFAULT_ATOL) -> Sweep:
     """The sweep of the paper's Fig. 11: IAE over ``T`` for kx = ky in ``gains``
     (default 0.5, 1.0, ..., 35: 70 values), four variants:
 
@@ -132,7 +132,7 @@ def paper_fig11(T: float = 250.0, gains=None, noise=PAPER_NOISE, *, base=None,
         {"label": "d", "case": "compensated", "theta_hat_scale": 1.0},
     )
     return Sweep(base=b, grid={"kxy": gains}, variants=variants,
-                 name="Fig. 11 (IAE against kx = ky)", substeps=substeps)
+                 name="Fig. 11 (IAE against kx = ky)", rtol=rtol, atol=atol)
 
 
 @dataclass(frozen=True)

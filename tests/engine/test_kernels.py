@@ -1,7 +1,7 @@
 """The batch engine's kernels (unidyn.engine.kernels) against an independent implementation
 of the same right-hand side: the closed loop of unidyn.engine.rhs, all runs at once as
-arrays with the reference from the trajectory objects; and its RK4 against what the
-classical method gives by construction."""
+arrays with the reference from the trajectory objects; and its Dormand-Prince step
+against what the method gives by construction."""
 
 import numpy as np
 import pytest
@@ -52,55 +52,54 @@ def _linear(t, x, A, out):
             out[i] += A[i, j] * x[j]
 
 
-def _cubic(t, x, args, out):
-    """dx/dt = 3 t^2 (x = t^3), for each entry."""
-    for i in range(x.size):
-        out[i] = 3.0 * t * t
-
-
 def _py(f):
     return getattr(f, "py_func", f)
 
 
-# RK4 as plain Python with Python right-hand sides; compiled with compiled ones
-RK4 = [pytest.param((_py(_kernels.rk4_stages), _py(_kernels.rk4_advance),
-                     _py(_kernels.rk4_dense), _linear, _cubic), id="python")]
+# the step as plain Python with a Python right-hand side; compiled with a compiled one
+DP = [pytest.param((_py(_kernels.dp_step), _linear), id="python")]
 if _kernels.AVAILABLE:
     import numba
-    RK4.append(pytest.param((_kernels.rk4_stages, _kernels.rk4_advance, _kernels.rk4_dense,
-                             numba.njit(_linear), numba.njit(_cubic)), id="compiled"))
+    DP.append(pytest.param((_kernels.dp_step, numba.njit(_linear)), id="compiled"))
 
 
-@pytest.mark.parametrize("rk4", RK4)
-def test_an_rk4_step_is_the_fourth_order_taylor_polynomial_of_a_linear_system(rk4):
-    """For dx/dt = A x one classical RK4 step is exactly (I + hA + (hA)^2/2 + (hA)^3/6
-    + (hA)^4/24) x: on seeded random A, x and h."""
-    stages, advance, _, linear, _ = rk4
+def _step(dp, linear, A, x, h):
+    n = x.size
+    K, y, out = np.empty((7, n)), np.empty(n), np.empty(n)
+    K[0] = A @ x
+    err = dp(linear, 0.0, x, h, A, K, y, out, 0.0, 1.0)  # atol 1: the error itself
+    return out, err, K
+
+
+@pytest.mark.parametrize("dp", DP)
+def test_a_dormand_prince_step_is_the_method_s_polynomial_of_a_linear_system(dp):
+    """For dx/dt = A x one step of the fifth-order Dormand-Prince method is R(hA) x with
+    its stability polynomial R(z) = 1 + z + z^2/2 + z^3/6 + z^4/24 + z^5/120 + z^6/600
+    (Hairer, Norsett, Wanner, Solving ODEs I, Sec. II.5): on seeded random A, x and h;
+    and the last stage is f at the step's end (the next step's first)."""
+    step, linear = dp
     rng = np.random.default_rng(3)
     for _ in range(20):
         n = int(rng.integers(1, 6))
         A, x, h = rng.normal(size=(n, n)), rng.normal(size=n), float(rng.uniform(0.01, 0.5))
-        K, y = np.empty((4, n + 1)), np.empty(n)  # the stages may have rows longer than x
-        stages(linear, 0.0, x, h, A, K, y)
-        got = x.copy()
-        advance(got, h, K)
-        hA = h * A
-        taylor = np.eye(n) + hA + hA @ hA / 2 + hA @ hA @ hA / 6 + hA @ hA @ hA @ hA / 24
-        np.testing.assert_allclose(got, taylor @ x, rtol=1e-13, atol=1e-13)
+        out, _, K = _step(step, linear, A, x, h)
+        z, R, term = h * A, np.eye(n), np.eye(n)
+        for j in range(1, 6):
+            term = term @ z / j
+            R = R + term
+        R = R + np.linalg.matrix_power(z, 6) / 600
+        np.testing.assert_allclose(out, R @ x, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(K[6], A @ out, rtol=1e-12, atol=1e-12)
 
 
-@pytest.mark.parametrize("rk4", RK4)
-def test_the_continuous_extension_is_exact_for_a_cubic_and_meets_the_step_at_its_ends(rk4):
-    """RK4's continuous extension is third order: exact along x = t^3, the state at
-    theta = 0 and 1 the step's start and end."""
-    stages, advance, dense, _, cubic = rk4
-    t0, h, x = 0.7, 0.3, np.array([0.7 ** 3, 0.7 ** 3])
-    K, y, out = np.empty((4, 2)), np.empty(2), np.empty(2)
-    stages(cubic, t0, x, h, 0.0, K, y)
-    for theta in np.linspace(0.0, 1.0, 11):
-        dense(x, h, K, theta, out)
-        np.testing.assert_allclose(out, (t0 + theta * h) ** 3, rtol=1e-14)
-    end = x.copy()
-    advance(end, h, K)
-    dense(x, h, K, 1.0, out)
-    np.testing.assert_allclose(out, end, rtol=1e-15)
+@pytest.mark.parametrize("dp", DP)
+def test_the_error_estimate_is_of_fifth_order(dp):
+    """The embedded estimate is the local error of a fourth-order method: O(h^5), so
+    halving h divides it by about 32, on seeded random linear systems."""
+    step, linear = dp
+    rng = np.random.default_rng(5)
+    for _ in range(10):
+        n = int(rng.integers(2, 6))
+        A, x = rng.normal(size=(n, n)), rng.normal(size=n)
+        errs = [_step(step, linear, A, x, h)[1] for h in (0.02, 0.01)]
+        assert 28 < errs[0] / errs[1] < 36

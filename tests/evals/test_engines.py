@@ -29,34 +29,34 @@ def test_compiled_and_plain_kernels_agree(noise):
         pytest.skip("numba not installed")
     scs = [s for k in (0.5, 4.0) for s in _fig11_cases(k, T=30.0, noise=noise)]
     scs.append(Scenario.paper(1, T=30.0, noise=noise))
-    a = simulate_batch(scs, substeps=5, backend="plain")
-    b = simulate_batch(scs, substeps=5, backend="compiled")
+    a = simulate_batch(scs, backend="plain")
+    b = simulate_batch(scs, backend="compiled")
+    # the same source, compiled or not, agrees to rounding; with noise a rounding apart
+    # can flip whether a step is kept, and the two then agree to the tolerance
+    tol = 1e-10 if noise is None else 1e-6
     for x, y in zip(a, b):
-        assert np.max(np.abs(x.pose - y.pose)) < 1e-10
-        assert np.max(np.abs(x.theta_hat - y.theta_hat)) < 1e-10
-        assert np.max(np.abs(x.v_ref - y.v_ref)) < 1e-10
-        assert abs(x.metrics["iae"] - y.metrics["iae"]) <= 1e-10 * x.metrics["iae"]
+        assert np.max(np.abs(x.pose - y.pose)) < tol
+        assert np.max(np.abs(x.theta_hat - y.theta_hat)) < tol
+        assert np.max(np.abs(x.v_ref - y.v_ref)) < 10 * tol
+        assert abs(x.metrics["iae"] - y.metrics["iae"]) <= tol * x.metrics["iae"]
 
 
 @pytest.mark.parametrize("k", [1.0, 10.0, 35.0])
 def test_batch_engine_agrees_with_the_bdsim_diagram_without_noise(k):
-    # every case of the Fig. 11 grid (and the kinematic robot) at a few gains;
-    # T = 30 s keeps the accurate bdsim reference affordable in CI
-    # and at the default step, with the steps across a change of the acceleration
-    # limits split (before that: up to 1e-4 of the IAE off on the Fig. 11 grid)
+    # every case of the Fig. 11 grid (and the kinematic robot) at a few gains, tight and
+    # at the defaults; T = 30 s keeps the accurate bdsim reference affordable in CI
     scs = _fig11_cases(k, T=30.0) + [Scenario(case="kinematic", T=30.0, kx=k, ky=k, noise=None)]
-    batch = simulate_batch(scs, substeps=200)
+    batch = simulate_batch(scs, rtol=1e-10, atol=1e-12)
     default = simulate_batch(scs)
     for sc, rb, r in zip(scs, batch, default):
         rd = unidyn.simulate(sc, rtol=1e-11, atol=1e-13)
         assert rb.complete and rd.complete and r.complete
         assert np.max(np.abs(rb.pose[:, :2] - rd.pose[:, :2])) < 1e-6, sc.case
         assert abs(rb.metrics["iae"] - rd.metrics["iae"]) <= 1e-6 * rd.metrics["iae"], sc.case
-        assert np.max(np.abs(r.pose[:, :2] - rd.pose[:, :2])) < 1e-6, sc.case
-        # the kinematic robot's error falls to 1e-9 m: its IAE is a tiny number, 3.6e-6
-        # off at k = 35 (not part of Fig. 11)
-        tol = 1e-5 if sc.case == "kinematic" else 1e-6
-        assert abs(r.metrics["iae"] - rd.metrics["iae"]) <= tol * rd.metrics["iae"], sc.case
+        # at the defaults (rtol 1e-8, as the diagram's) the IAE is within 3e-6 of the
+        # converged diagram's at k = 35, closer at lower gains: well within the promise
+        assert np.max(np.abs(r.pose[:, :2] - rd.pose[:, :2])) < 2e-6, sc.case
+        assert abs(r.metrics["iae"] - rd.metrics["iae"]) <= 1e-5 * rd.metrics["iae"], sc.case
 
 
 def test_same_seed_gives_the_same_noise_in_both_engines():
@@ -92,30 +92,32 @@ def test_noisy_runs_agree_between_engines_at_the_papers_gains(n):
     # with noise the loop is smooth inside each 0.1 s interval (the noise is
     # held), so both engines agree to the integration error
     sc = Scenario.paper(n, T=20.0, adapt_from=0.0)
-    rb = simulate_batch([sc], substeps=100)[0]
+    rb = simulate_batch([sc], rtol=1e-10, atol=1e-12)[0]
     rd = unidyn.simulate(sc, rtol=1e-11, atol=1e-13)
     assert np.max(np.abs(rb.pose[:, :2] - rd.pose[:, :2])) < 1e-6
     assert np.max(np.abs(rb.theta_hat - rd.theta_hat)) < 1e-6
 
 
-def test_switching_adaptation_on_mid_run_is_a_first_order_event_for_fixed_steps():
-    # Switching the update on at t = adapt_from makes the right-hand side jump.
-    # bdsim's adaptive solver resolves the jump; a fixed RK4 step that touches it
-    # carries an error proportional to the step, so the agreement improves
-    # linearly with substeps (documented in unidyn.engine.batch).
-    sc = Scenario.paper(4, T=10.0, adapt_from=5.0, noise=None)
-    rd = unidyn.simulate(sc, rtol=1e-12, atol=1e-14)
-    errs = [np.max(np.abs(simulate_batch([sc], substeps=m)[0].pose[:, :2] - rd.pose[:, :2]))
-            for m in (100, 200)]
-    assert errs[0] < 1e-5
-    assert 1.6 < errs[0] / errs[1] < 2.4
+def test_switching_adaptation_on_mid_run_is_resolved_at_the_defaults():
+    # Switching the update on at t = adapt_from makes the right-hand side jump; at a
+    # sample the engine restarts there, and between samples its error control shortens
+    # the step that meets it
+    for adapt_from in (5.0, 5.05):
+        sc = Scenario.paper(4, T=10.0, adapt_from=adapt_from, noise=None)
+        rd = unidyn.simulate(sc, rtol=1e-12, atol=1e-14)
+        r, = simulate_batch([sc])
+        assert r.complete, r.message
+        assert np.max(np.abs(r.pose[:, :2] - rd.pose[:, :2])) < 1e-6
+        assert np.max(np.abs(r.theta_hat - rd.theta_hat)) < 1e-5
 
 
 def test_batch_rejects_sampled_control_and_bad_arguments():
     with pytest.raises(unidyn.ValidationError, match="continuous"):
         simulate_batch([Scenario(control="sampled", T=1.0)])
-    with pytest.raises(unidyn.ValidationError, match="substeps"):
-        simulate_batch([Scenario(T=1.0)], substeps=0)
+    with pytest.raises(unidyn.ValidationError, match="rtol"):
+        simulate_batch([Scenario(T=1.0)], rtol=0.0)
+    with pytest.raises(unidyn.ValidationError, match="rtol"):
+        simulate_batch([Scenario(T=1.0)], rtol=1e-16)
     with pytest.raises(unidyn.ValidationError, match="backend"):
         simulate_batch([Scenario(T=1.0)], backend="gpu")
     assert simulate_batch([]) == []

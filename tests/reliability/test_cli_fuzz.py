@@ -394,7 +394,7 @@ sweep_tables = st.fixed_dictionaries({}, optional={
                                  st.one_of(st.text(max_size=3), sweep_value), max_size=3),
                  max_size=2),
         scalars),
-    "substeps": st.one_of(st.integers(-2, 20), numbers, st.text(max_size=3)),
+    "rtol": st.one_of(st.integers(-2, 20), numbers, st.text(max_size=3)),
     "extra": toml_values,
 })
 
@@ -449,7 +449,7 @@ def test_a_valid_random_sweep_runs(capsys, tmp_path):
     pytest.param(f"[grid]\nkxy = [{_huge()}]\n", id="grid.kxy=[10**400]"),
     pytest.param(f"[grid]\nkxy = {{start = 1, stop = {_huge()}, step = 1}}\n",
                  id="range stop=10**400"),
-    pytest.param(f"substeps = {_huge(30)}\n[grid]\nkxy = [1]\n", id="substeps=10**30"),
+    pytest.param(f"rtol = {_huge(30)}\n[grid]\nkxy = [1]\n", id="rtol=10**30"),
     pytest.param("[grid]\nkxy = [1e308]\n", id="grid.kxy=[1e308]"),
     pytest.param("[base]\nTs = 1e-300\n[grid]\nkxy = [1]\n", id="base.Ts=1e-300"),
     pytest.param("[grid]\nkxy = {start = 1, stop = 2, step = 1e-300}\n", id="range step=1e-300"),

@@ -26,15 +26,11 @@ import unidyn
 from unidyn import Limits, NoiseSpec, RobotParameters
 from unidyn.engine import kernels as _kernels
 from unidyn.model import unicycle as model, robots, trajectories
-from unidyn.engine.batch import simulate_batch, stable_substeps
+from unidyn.engine.batch import simulate_batch
 from unidyn.model.laws import LEAKAGE_FORMS
 from unidyn.model.scenario import CASES, PAPER_GAMMA, PAPER_SIGMA, Scenario
 
-# random scenarios can reach gains where the batch engine warns that it cannot vouch
-# for its accuracy (tests/reliability/test_divergence.py asserts that warning); the
-# tests here check finiteness, independence and limits, which hold either way
-pytestmark = [pytest.mark.reliability,
-              pytest.mark.filterwarnings("ignore::unidyn.engine.batch.AccuracyWarning")]
+pytestmark = pytest.mark.reliability
 
 #: hypothesis examples per property (the README quotes these numbers)
 MAX_EXAMPLES = {
@@ -46,7 +42,6 @@ MAX_EXAMPLES = {
     "scenario_runs_are_finite_and_reproducible": 120,
     "batch_runs_are_independent": 40,
     "speed_limits_hold_in_batch_runs": 120,
-    "speed_overshoot_is_within_one_rk4_step": 120,
 }
 #: examples each property ran to the end (passed) in this session
 EXAMPLES = {name: 0 for name in MAX_EXAMPLES}
@@ -299,28 +294,27 @@ def _same(r1, r2):
         a, b = getattr(r1, k), getattr(r2, k)
         assert a.shape == b.shape and a.tobytes() == b.tobytes(), k
     assert r1.metrics == r2.metrics
-    assert (r1.complete, r1.message, r1.substeps) == (r2.complete, r2.message, r2.substeps)
+    assert (r1.complete, r1.message, r1.steps) == (r2.complete, r2.message, r2.steps)
 
 
 @_settings("scenario_runs_are_finite_and_reproducible")
 @given(sc=scenarios())
 def test_scenario_runs_are_finite_and_reproducible(sc):
     r = simulate_batch([sc])[0]
-    assert r.complete, r.message
+    # every sample computed; complete, or saying why its accuracy is not the promised one
+    assert r.complete or "not within" in r.message, r.message
     assert len(r.t) == sc.steps + 1
     for k in _ARRAYS:
         assert np.all(np.isfinite(getattr(r, k))), k
     assert np.all(r.error >= 0)
-    assert all(math.isfinite(v) for v in r.metrics.values()), r.metrics
-    assert r.metrics["iae"] >= 0 and r.metrics["ise"] >= 0 and r.metrics["energy"] >= 0
+    m = r.metrics if r.complete else r.partial_metrics
+    assert all(math.isfinite(v) for v in m.values()), m
+    assert m["iae"] >= 0 and m["ise"] >= 0 and m["energy"] >= 0
     if sc.case in ("kinematic", "uncompensated", "compensated"):
         np.testing.assert_array_equal(r.theta_hat, np.broadcast_to(sc.theta_hat_initial,
                                                                    r.theta_hat.shape))
-    assert r.substeps == stable_substeps(sc, 10)
-    # the same scenario gives the same bits (on the same backend: "auto" runs a process's
-    # first steps as plain Python, whose sin and cos may differ from the compiled ones in
-    # the last bit)
-    _same(r, simulate_batch([sc], backend=r.backend)[0])
+    # the same scenario gives the same bits
+    _same(r, simulate_batch([sc])[0])
     _ran("scenario_runs_are_finite_and_reproducible")
 
 
@@ -339,7 +333,7 @@ def test_batch_runs_are_independent(sc, others, position):
 
 
 #: found by this property: the batch engine once let |u| pass speed_max by ~4e-5 m/s
-#: (one RK4 step starting just inside the limit); steps now end on the limit
+#: (one step starting just inside the limit); steps now end on the limit
 SPEED_OVERSHOOT = Scenario(
     case="compensated", kx=20.0, ky=20.0, lx=1.0, ly=1.0, x0=(0.0, -1.0, 0.0), noise=None,
     T=3.0, limits=Limits(speed_max=0.75, steer_max=1.745, accel_max=3.0, angular_accel_max=1.745))
@@ -349,41 +343,13 @@ SPEED_OVERSHOOT = Scenario(
 @given(sc=scenarios())
 @example(sc=SPEED_OVERSHOOT)
 def test_speed_limits_hold_in_batch_runs(sc):
-    """|u| <= speed_max and |w| <= steer_max at every sample, every case."""
+    """|u| <= speed_max and |w| <= steer_max at every sample, every case: a step that
+    would end beyond a speed limit ends on it."""
     r = simulate_batch([sc])[0]
-    assert r.complete, r.message
-    assert np.all(np.abs(r.velocity[:, 0]) <= sc.limits.speed_max + 1e-9)
-    assert np.all(np.abs(r.velocity[:, 1]) <= sc.limits.steer_max + 1e-9)
+    assert r.complete or "not within" in r.message, r.message
+    assert np.all(np.abs(r.velocity[:, 0]) <= sc.limits.speed_max)
+    assert np.all(np.abs(r.velocity[:, 1]) <= sc.limits.steer_max)
     _ran("speed_limits_hold_in_batch_runs")
-
-
-def _max_rate(sc: Scenario) -> np.ndarray:
-    """A bound on |u'|, |w'| inside the limits: the acceleration limit, or Eq. (2) with
-    |u|, |w| a little beyond the speed limits and clipped commands."""
-    t1, t2, t3, t4, t5, t6 = sc.robot.theta
-    u, w = 1.1 * sc.limits.speed
-    du = (abs(t3) * w * w + t4 * u + sc.limits.speed_max) / t1
-    dw = (abs(t5) * u * w + t6 * w + sc.limits.steer_max) / t2
-    return np.minimum(sc.limits.accel, [du, dw])
-
-
-@_settings("speed_overshoot_is_within_one_rk4_step")
-@given(sc=scenarios())
-@example(sc=SPEED_OVERSHOOT)
-def test_speed_overshoot_is_within_one_rk4_step(sc):
-    """Whatever the batch engine lets past a speed limit is bounded by what one RK4
-    step can add (2.5 h max|v'| for a limit enforced in the derivative): no drift
-    beyond the limits, no gross violation."""
-    r = simulate_batch([sc])[0]
-    assert r.complete, r.message
-    if sc.case == "kinematic":  # v = clipped commands: exact
-        assert np.all(np.abs(r.velocity) <= sc.limits.speed)
-        _ran("speed_overshoot_is_within_one_rk4_step")
-        return
-    h = sc.Ts / r.substeps
-    bound = sc.limits.speed + 3.0 * h * _max_rate(sc)
-    assert np.all(np.abs(r.velocity) <= bound)
-    _ran("speed_overshoot_is_within_one_rk4_step")
 
 
 def test_zz_report_example_counts(capsys):

@@ -61,7 +61,7 @@ def test_grid_expansion_order_and_special_axes():
     assert q.robot.name == "p3dx" and q.theta_hat0 is None
     np.testing.assert_allclose(q.theta_hat_initial, robots.get("p3dx").theta / 1.5)
     assert s.columns == ["index", "variant", "kxy", "seed", "case", "iae", "ise", "itae",
-                         "itse", "energy", "error_final", "complete"]
+                         "itse", "energy", "error_final", "complete", "message"]
     # the same spec gives the same points, and round-trips through plain data
     assert Sweep.from_dict(json.loads(json.dumps(s.to_dict()))) == s
 
@@ -82,12 +82,12 @@ def test_case_axis_is_one_column():
 
 def test_sweep_from_toml(tmp_path):
     f = tmp_path / "s.toml"
-    f.write_text('name = "t"\nsubsteps = 5\n[base]\ncase = "compensated"\nT = 1\nnoise = "off"\n'
+    f.write_text('name = "t"\nrtol = 1e-6\n[base]\ncase = "compensated"\nT = 1\nnoise = "off"\n'
                  '[grid]\nkxy = {start = 0.5, stop = 1.5, step = 0.5}\n'
                  'theta_hat_scale = [0.9, 1.0]\n[[variants]]\nlabel = "a"\n'
                  '[[variants]]\nlabel = "b"\nku = 2.0\n')
     s = Sweep.from_toml(f)
-    assert len(s) == 12 and s.substeps == 5 and s.name == "t"
+    assert len(s) == 12 and s.rtol == 1e-6 and s.name == "t"
     assert s.points()[-1].scenario.ku == 2.0 and s.points()[0].scenario.noise is None
 
 
@@ -342,7 +342,7 @@ def test_a_different_sweep_in_the_same_folder_is_refused(tmp_path):
 def test_sweep_id_is_the_definition_not_the_engine_or_columns():
     a, b = small_sweep(), small_sweep()
     assert sw.sweep_id(a) == sw.sweep_id(b) and sw.sweep_id(a).startswith("sha256:")
-    changed = [a.with_base(T=2.0), small_sweep(substeps=5), a.with_base(robot="p3dx"),
+    changed = [a.with_base(T=2.0), small_sweep(rtol=1e-6), a.with_base(robot="p3dx"),
                a.with_base(log_dtype="float32")]
     ids = {sw.sweep_id(s) for s in changed} | {sw.sweep_id(a)}
     assert len(ids) == 5  # same columns, different sweeps
@@ -460,12 +460,12 @@ def test_incomplete_points_have_empty_metrics(tmp_path):
     bad = Scenario.paper(3, T=4.0, noise=None,
                          trajectory=FunctionTrajectory(nan_after_2s, acceleration=f8.acceleration))
     good = Scenario.paper(3, T=4.0, noise=None)
-    rows = sw._run_chunk([(0, {"k": 1}, bad), (1, {"k": 2}, good)], "batch", 10)
-    columns = ["index", "k", "case", *files.METRICS, "complete"]
+    rows = sw._run_chunk([(0, {"k": 1}, bad), (1, {"k": 2}, good)], "batch", 1e-8, 1e-10)
+    columns = ["index", "k", "case", *files.METRICS, "complete", "message"]
     path = tmp_path / "metrics.csv"
     path.write_text(rows_text(columns, rows))
     lines = path.read_text().splitlines()
-    assert lines[1] == "0,1,compensated,,,,,,,false"  # no partial metrics, ever
+    assert lines[1].startswith("0,1,compensated,,,,,,,false,")  # no partial metrics, ever
     back = read_metrics(path)
     assert back[0]["complete"] is False and all(back[0][m] is None for m in files.METRICS)
     ref = simulate_batch([good])[0].metrics  # the compiled engine alone; numpy beside `bad`
@@ -657,7 +657,7 @@ def test_cli_sweep_file_resume_and_no_resume(tmp_path, capsys):
     assert len(rows) == 3 and all(math.isfinite(r["iae"]) for r in rows)
     with open(out / "metrics.csv", newline="") as fh:
         assert next(csv.reader(fh)) == ["index", "kxy", "case", "iae", "ise", "itae",
-                                        "itse", "energy", "error_final", "complete"]
+                                        "itse", "energy", "error_final", "complete", "message"]
 
 
 @pytest.mark.filterwarnings("ignore::RuntimeWarning")
@@ -671,7 +671,7 @@ def test_cli_sweep_marks_an_incomplete_point_and_counts_it(tmp_path, capsys):
     assert code == 1 and "1 point(s) did not complete: 1" in err
     assert "incomplete 1 of 2 point(s) did not complete" in out
     lines = csv_rows(tmp_path / "o")
-    assert lines[2].endswith(",compensated,,,,,,,false")  # empty metrics, never partial ones
+    assert ",compensated,,,,,,,false," in lines[2]  # empty metrics, never partial ones
     rows = read_metrics(tmp_path / "o")
     assert rows[0]["complete"] is True and rows[0]["iae"] > 0
     assert rows[1]["complete"] is False and rows[1]["iae"] is None
@@ -683,3 +683,18 @@ def test_cli_sweep_marks_an_incomplete_point_and_counts_it(tmp_path, capsys):
 def test_sweep_names_are_there():
     """Every name unidyn.sweeps.sweep lists is defined there."""
     assert [n for n in sw.__all__ if not hasattr(sw, n)] == []
+
+
+def test_a_point_not_within_the_promised_accuracy_says_so_in_metrics_csv(tmp_path):
+    """A batch run that its check finds not within 1e-4 of a converged solution (here
+    adaptation at gamma 1000 with the paper's limits) is a row with complete = false,
+    empty metrics and the reason, next to a point that is complete."""
+    s = Sweep(base={"case": "adaptive", "adapt_from": 0.0, "T": 6.0, "noise": "off"},
+              grid={"gamma": [[1.0] * 6, [1000.0] * 6]}, name="gains")
+    run_sweep(s, tmp_path, progress=False)
+    rows = read_metrics(tmp_path / "metrics.csv")
+    assert [r["complete"] for r in rows] == [True, False]
+    assert rows[0]["message"] == "" and rows[0]["iae"] is not None
+    assert rows[1]["iae"] is None
+    assert "not within 0.0001 of a converged solution" in rows[1]["message"]
+    assert "rtol" in rows[1]["message"]

@@ -170,7 +170,7 @@ def test_fig2_loop_agrees_with_batch_engine(n, changes, tol):
     sc = unidyn.Scenario.paper(n, noise=None, T=30.0, **changes)
     resp = iosys.simulate_fig2(sc)
     out = dict(zip(resp.output_labels, resp.outputs))
-    (b,) = unidyn.simulate_batch([sc], substeps=200, progress=False)
+    (b,) = unidyn.simulate_batch([sc], rtol=1e-10, atol=1e-12, progress=False)
     np.testing.assert_allclose(resp.time, b.t, atol=1e-12)
     dist = np.hypot(out["x"] - b.pose[:, 0], out["y"] - b.pose[:, 1])
     assert dist.max() < tol, dist.max()
@@ -207,7 +207,7 @@ def test_fig2_loop_agrees_with_batch_engine_paper_case_4_full():
     """The paper's whole simulation 4 (200 s, update switched on at 100 s), noise-free."""
     sc = unidyn.Scenario.paper(4, noise=None)
     out = dict(zip(*(lambda r: (r.output_labels, r.outputs))(iosys.simulate_fig2(sc))))
-    (b,) = unidyn.simulate_batch([sc], substeps=200, progress=False)
+    (b,) = unidyn.simulate_batch([sc], rtol=1e-10, atol=1e-12, progress=False)
     assert np.hypot(out["x"] - b.pose[:, 0], out["y"] - b.pose[:, 1]).max() < 1e-5
 
 

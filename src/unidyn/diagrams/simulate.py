@@ -97,11 +97,11 @@ def _unvouched(sc, rtol):
     gamma = max(sc.gamma)
     if sc.case != "adaptive" or gamma <= HIGH_GAIN or rtol <= HIGH_GAIN_RTOL:
         return ""
-    return (f"complete, but its accuracy is not vouched for: at adaptation gain gamma up to "
-            f"{gamma:g} (above {HIGH_GAIN:g}) with rtol {rtol:g}, the solver steps across the "
-            f"kinks where the acceleration limits clip and theta_hat drifts from a converged "
-            f"solution; run it with unidyn.simulate(..., rtol={HIGH_GAIN_RTOL:g}, atol=1e-13) "
-            f"(scenario {sc.name or sc.case})")
+    return (f"every sample computed, but its accuracy is not vouched for: at adaptation "
+            f"gain gamma up to {gamma:g} (above {HIGH_GAIN:g}) with rtol {rtol:g}, the solver "
+            f"steps across the kinks where the acceleration limits clip and theta_hat drifts "
+            f"from a converged solution; run it with unidyn.simulate(..., "
+            f"rtol={HIGH_GAIN_RTOL:g}, atol=1e-13) (scenario {sc.name or sc.case})")
 
 
 def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DEFAULT_ATOL,
@@ -126,9 +126,9 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
         diverges, the solver stalls, the wall-clock limit); its ``result`` attribute
         holds the samples logged before the failure, with ``complete=False``
     :raises SimulationInterrupted: on Ctrl-C, with the samples logged before it
-    :warns unidyn.engine.batch.AccuracyWarning: for an adaptive run with adaptation gain
-        above :data:`HIGH_GAIN` at an ``rtol`` looser than about :data:`HIGH_GAIN_RTOL`
-        (the result's ``message`` says so too, naming the fix)
+    :warns unidyn._errors.AccuracyWarning: for an adaptive run with adaptation gain
+        above :data:`HIGH_GAIN` at an ``rtol`` looser than about :data:`HIGH_GAIN_RTOL`;
+        the result is then ``complete=False``, its ``message`` naming the fix
     """
     if not isinstance(scenario, Scenario):
         raise ValidationError(f"scenario must be a unidyn.Scenario, got {type(scenario).__name__}")
@@ -233,7 +233,7 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
                     reference=c(signals["reference"]), v_d=kept("v_d", signals["v_d"]),
                     v_ref=kept("v_ref", signals["v_ref"]),
                     theta_hat=kept("theta_hat", theta_hat), engine="bdsim",
-                    complete=failure is None, message=failure or unvouched,
+                    complete=failure is None and not unvouched, message=failure or unvouched,
                     backend=f"solve_ivp {method}")
     if interrupted:
         raise SimulationInterrupted(failure, result)

@@ -1,210 +1,103 @@
 r"""The batch engine: many continuous-control scenarios integrated at once
-(:func:`simulate_batch`; the guide ``docs/guides/batch-engine.md`` explains the method).
+(:func:`simulate_batch`; ``docs/guides/batch-engine.md`` explains the method).
 
-Each noise interval [k Ts, (k+1) Ts) of a run is integrated with ``substeps`` classical
-Runge-Kutta (RK4) steps of the Fig. 2 loop, the noise held over it as in the bdsim
-diagram, and results are sampled at t = k Ts like :func:`unidyn.simulate`'s. The step is
-short enough for the loop's fastest rate (:func:`stable_substeps`); an interval where a
-compensated run's loop is faster at its start (:func:`unidyn.model.equations.loop_step_rate`)
-is taken with finer steps; a step across a change of the limits is split where the
-change is, located to Ts / :data:`SPLIT_PARTS`; a speed limit is hard. Switching
-adaptation on at ``adapt_from`` (a jump) carries an error proportional to the step.
-
-This module chooses the steps and reads the results; the step rule is
-:mod:`unidyn.engine.kernels`, compiled by numba where installed or run as plain Python
-(:data:`READY_STEPS`); the runs' parameters, noise and initial state come from
-:class:`unidyn.engine.rhs.ClosedLoop`. ``tests/evals/`` checks the engine against the
-bdsim diagram and a converged ``solve_ivp`` solution.
+Each noise interval [k Ts, (k+1) Ts) of a run is integrated on its own, the noise held
+over it as in the bdsim diagram, by the Dormand-Prince 5(4) pair with step-size control
+(:mod:`unidyn.engine.kernels`, compiled or plain: :func:`backend_for`): whatever makes a
+step inaccurate shortens it, so no rate of the loop has to be foreseen. Each run is
+checked against a second one at looser tolerances (:data:`PROMISE`). The runs'
+parameters, noise and initial state come from :class:`unidyn.engine.rhs.ClosedLoop`.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import os
-import warnings
 from concurrent.futures import ThreadPoolExecutor, wait
 
 import numpy as np
 
 from .._errors import SimulationInterrupted
-from .._errors import AccuracyWarning
-from .._validate import ValidationError, integer
-from .rhs import ClosedLoop
-from ..model.equations import SWITCH_TOL, TRAJECTORY_KINDS
+from .._validate import ValidationError, positive
+from ..model.equations import TRAJECTORY_KINDS
+from ..model.scenario import ALWAYS_LOGGED, Scenario
 from ..results.result import Result
-from ..model.scenario import ALWAYS_LOGGED, HIGH_GAIN, Scenario
+from .rhs import ClosedLoop
 
-__all__ = ["simulate_batch", "DEFAULT_SUBSTEPS", "AccuracyWarning"]
+__all__ = ["simulate_batch", "backend_for", "tolerances", "DEFAULT_RTOL", "DEFAULT_ATOL", "MAX_STEPS"]
 
-#: RK4 steps per sample interval Ts: a 10 ms step at Ts = 0.1 s (``python
-#: benchmarks/engines.py`` prints the noise-free Fig. 11 IAE against 200 steps per sample).
-DEFAULT_SUBSTEPS = 10
+#: The tolerances, as ``solve_ivp``'s (and :func:`unidyn.simulate`'s defaults).
+DEFAULT_RTOL = 1e-8
+DEFAULT_ATOL = 1e-10
+#: A complete result's IAE is within PROMISE (relative), its theta_hat within PROMISE,
+#: of its check: the run at CHECK_FACTOR times the tolerances, less accurate, whose
+#: difference bounds the result's error; else it is ``complete=False``, saying so.
+PROMISE = 1e-4
+CHECK_FACTOR = 10.0
+#: The most steps (kept or not) a sample interval may take before its run stops.
+MAX_STEPS = 10_000
 BACKENDS = ("auto", "compiled", "plain")
-
-#: RK4 is stable for real eigenvalues lambda with |lambda h| < 2.78, and accurate
-#: to about 1e-5 per unit time at |lambda h| = 0.5; the step is kept below
-#: STEP_RATE_LIMIT / (fastest rate of the loop fixed by the scenario).
-STEP_RATE_LIMIT = 0.5
-#: The loop's rates that move with its state are checked at the start of every
-#: sample interval of a compensated run: where |rate h| exceeds STEP_RATE_CHECK
-#: (inside RK4's stability region: 2.78 on the real axis, 2.83 on the imaginary),
-#: that interval is integrated with steps short enough for |rate h| <= STEP_RATE_REFINED.
-STEP_RATE_CHECK = 2.0
-STEP_RATE_REFINED = 1.0
-#: A step across a change of the limits (on the robot's accelerations or its command) is
-#: split where the change is, located to a part of at most Ts / SPLIT_PARTS
-#: (:func:`unidyn.engine.kernels.split_depth`).
-SPLIT_PARTS = 160
+#: Samples (runs x intervals) between updates of the progress bar, compiled and plain
+#: (a fraction of a second; compiled, Ctrl-C is handled between them).
+SLICE_SAMPLES = {True: 50_000, False: 200}
+#: Show a progress bar (on a terminal) when a call holds at least this many samples.
+PROGRESS_SAMPLES = 1_000_000
 
 
-def _regressor_scale(sc: Scenario) -> np.ndarray:
-    r"""Typical magnitudes (2, 6) of the entries of the regressor G of Eq. (14)
-    along the run, from the reference's speed and acceleration, the controller's
-    saturations and the speed limits.
-
-    With \|nu\| <= \|h_d'\| + l (Eq. 10): \|u_d\| <= U, \|w_d\| <= U/a; the
-    robot's speeds are at most the limits (or U, U/a without limits); v_d' is
-    bounded through the exact derivative of Eq. (10) (or by U/tau for the filter)."""
-    _, V, Acc = sc.reference_scale
-    U = V + max(sc.lx, sc.ly)
-    Ud, Wd = U, U / sc.a
-    vmax, wmax = sc.limits.speed
-    Vu = vmax if np.isfinite(vmax) else Ud
-    Vw = wmax if np.isfinite(wmax) else Wd
-    if sc.derivative == "filter":
-        udd, wdd = Ud / sc.tau, Wd / sc.tau
-    else:
-        nd = Acc + max(sc.kx, sc.ky) * (V + Vu + sc.a * Vw)
-        udd = Vw * U + nd
-        wdd = udd / sc.a
-    s1, s2 = udd + sc.lu, wdd + sc.lw
-    return np.array([[s1, 0.0, Wd * Vw, Ud, 0.0, 0.0],
-                     [0.0, s2, Ud * Vw + Vu * Wd, 0.0, Vu * Wd, Wd]])
+def backend_for(scenarios, backend: str = "auto") -> str:
+    """``"compiled"`` or ``"plain"``, from the call alone (the same call, the same bits):
+    ``backend="auto"`` is compiled where numba is installed and every trajectory is a
+    built-in one; ``"compiled"`` where it cannot be raises ValidationError."""
+    from . import kernels  # numba loads with the kernels
+    if backend not in BACKENDS:
+        raise ValidationError(f"backend must be one of {', '.join(BACKENDS)}; got {backend!r}")
+    compilable = all(getattr(s.trajectory, "kind", None) in TRAJECTORY_KINDS for s in scenarios)
+    if backend == "compiled" and not kernels.AVAILABLE:
+        raise ValidationError("backend='compiled' needs numba (pip install unidyn[fast])")
+    if backend == "compiled" and not compilable:
+        raise ValidationError("backend='compiled' runs the figure_eight, circle and line "
+                              "trajectories only; use backend='plain' for a FunctionTrajectory")
+    if backend == "compiled" or (backend == "auto" and kernels.AVAILABLE and compilable):
+        return "compiled"
+    return "plain"
 
 
-def fastest_rate(sc: Scenario) -> tuple[float, str]:
-    """The fastest rate (1/s) in the loop of ``sc`` and what it comes from.
-
-    The candidates are the robot's velocity loops (theta4/theta1, theta6/theta2,
-    Eq. 2, with the speed-dependent term of F at the speed limit), the designed
-    error dynamics of the kinematic controller (kx, ky) and of the compensator
-    (ku, kw), the derivative filter (1/tau) and, for the adaptive case, the update
-    law in closed loop with the robot (:func:`unidyn.model.equations.update_law_rate`,
-    Eqs. 18/20: sqrt(q), from the regressor G at its typical magnitudes,
-    :func:`_regressor_scale`) and the leakage rate gamma_j sigma_j (Eq. 20).
-
-    These are rates of the scenario; the loop's rate also moves with its state (the
-    velocity loop the compensator closes scales with theta_hat / theta), which the
-    engine checks at every sample (:func:`unidyn.model.equations.loop_step_rate`).
-    """
-    th = sc.robot.theta
-    vmax = sc.limits.speed_max if np.isfinite(sc.limits.speed_max) else 1.0
-    f22 = th[5] + abs(th[4] - th[2]) * vmax
-    rates = {f"robot time constant theta1/theta4 = {th[0] / th[3]:.3g} s": th[3] / th[0],
-             f"robot time constant theta2/theta6 = {th[1] / f22:.3g} s": f22 / th[1],
-             f"kinematic gains kx, ky = {sc.kx:g}, {sc.ky:g} 1/s": max(sc.kx, sc.ky)}
-    if sc.case in ("compensated", "adaptive"):
-        # with exact compensation the velocity error decays at ku, kw plus H^-1 F
-        rates[f"compensator gains ku, kw = {sc.ku:g}, {sc.kw:g} 1/s"] = max(sc.ku, sc.kw)
-        if sc.derivative == "filter":
-            rates[f"derivative filter tau = {sc.tau:g} s"] = 1.0 / sc.tau
-    # the update runs from adapt_from (less SWITCH_TOL) on, the step's end t = T included
-    if sc.case == "adaptive" and sc.adapt_from - SWITCH_TOL <= sc.T:
-        gamma, sigma = np.array(sc.gamma), np.array(sc.sigma)
-        with np.errstate(over="ignore", invalid="ignore"):  # a huge gain: inf, refused below
-            G = _regressor_scale(sc)
-            q = float(np.sum(gamma * (G[0] ** 2 / abs(th[0]) + G[1] ** 2 / abs(th[1]))))
-        # the regressor's scale: name what it grows with (v_d' of Eq. 10, Eq. 14)
-        _, V, Acc = sc.reference_scale
-        rates[f"update law with the robot, Eqs. 18/20: adaptation gain gamma = "
-              f"{_short(sc.gamma)}, regressor from the reference (speed {V:.3g} m/s, "
-              f"acceleration {Acc:.3g} m/s²), kx, ky = {sc.kx:g}, {sc.ky:g}, "
-              f"lx, ly = {sc.lx:g}, {sc.ly:g} and a = {sc.a:g}"] = float(np.sqrt(q))
-        leak = {"paper": gamma * sigma, "fx44850": sigma, "none": 0.0 * sigma}[sc.leakage]
-        rates[f"leakage gamma*sigma = {float(np.max(leak)):.3g} 1/s (Eq. 20)"] = float(np.max(leak))
-    what = max(rates, key=rates.get)
-    return rates[what], what
+def tolerances(rtol, atol) -> tuple:
+    """(rtol, atol) as floats; ValidationError unless rtol is in [1e-13, 0.1], atol > 0."""
+    rtol, atol = positive("rtol", rtol), positive("atol", atol)
+    if not 1e-13 <= rtol <= 0.1:
+        raise ValidationError(f"rtol must lie in [1e-13, 0.1] (float64 resolves no finer); "
+                              f"got {rtol:g}")
+    return float(rtol), float(atol)
 
 
-def _short(v) -> str:
-    return "[" + ", ".join(f"{x:g}" for x in v) + "]"
-
-
-#: A process runs the plain copy of the kernels (no compiling) until it has taken this
-#: many RK4 steps in all, unless the compiled kernels are in numba's cache already: a
-#: first small result does not wait for the compiler, and a process that makes many
-#: calls compiles once (saying so on a terminal) and is compiled from then on. (A 200 s
-#: run at 0.1 s and 10 steps per sample is 20,000 steps.)
-READY_STEPS = 100_000
-_plain_steps = [0]  # the RK4 steps this process ran with the plain copy
-#: The most RK4 steps per sample interval the engine takes before it refuses.
-MAX_SUBSTEPS = 10_000
-
-
-def stable_substeps(sc: Scenario, substeps: int) -> int:
-    """``substeps``, raised where needed so that the RK4 step Ts/substeps stays
-    below STEP_RATE_LIMIT / :func:`fastest_rate` (a fast robot such as the
-    Khepera III needs a shorter step than the Pioneer, and so does a high gain).
-
-    :raises ValidationError: if that needs more than :data:`MAX_SUBSTEPS` steps per
-        sample; the message names the time constant responsible
-    """
-    rate, what = fastest_rate(sc)
-    need = sc.Ts * rate / STEP_RATE_LIMIT
-    if not np.isfinite(need) or need > MAX_SUBSTEPS:
-        raise ValidationError(
-            f"{sc.name or sc.case}: the batch engine would need more than {MAX_SUBSTEPS} RK4 "
-            f"steps per {sc.Ts:g} s sample for the fastest rate of this loop ({what}); use a "
-            f"shorter Ts, or unidyn.simulate (the bdsim diagram, adaptive step)")
-    m = int(np.ceil(need - 1e-9))
-    return int(substeps) if m <= substeps else min(m, MAX_SUBSTEPS)
-
-
-#: RK4 steps the engine takes per thread between updates of the progress bar, compiled
-#: and as plain Python (a fraction of a second each); compiled, the interpreter handles
-#: Ctrl-C between them. Intervals taken with finer steps are not foreseen: a slice where
-#: many are takes longer (Ctrl-C waits for it).
-SLICE_STEPS = {True: 200_000, False: 2_000}
-#: Show a progress bar (on a terminal) when a call takes at least this many RK4 steps.
-PROGRESS_STEPS = 5_000_000
-
-
-def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str = "auto",
-                   progress=None) -> list:
+def simulate_batch(scenarios, *, rtol: float = DEFAULT_RTOL, atol: float = DEFAULT_ATOL,
+                   backend: str = "auto", progress=None) -> list:
     """Simulate many scenarios at once; returns one :class:`~unidyn.Result` per scenario,
     in order.
 
-    Scenarios are grouped by (T, Ts, log_every, log_dtype, log_series) and each group is
-    integrated in one call of the kernels; every run's numbers are independent of
-    which other runs share its call (bit for bit). Only continuous control is
-    supported here (sampled control runs through :func:`unidyn.simulate`).
+    Scenarios are grouped by (T, Ts, log_every, log_dtype, log_series), each group in
+    one call of the kernels; a run's numbers do not depend on which runs share its call
+    or on what the process ran before (bit for bit). Continuous control only.
 
-    A run that diverges (a non-finite state, or a position or speed beyond
-    :meth:`~unidyn.Scenario.divergence_bounds`) stops there and is returned with
-    ``complete=False``, the samples up to the failure, and a message naming the
-    cause; the other runs continue.
+    A run that diverges (non-finite, or beyond :meth:`~unidyn.Scenario.divergence_bounds`)
+    or whose error cannot be held within the tolerances in :data:`MAX_STEPS` steps of a
+    sample interval stops there, ``complete=False``, with the samples up to the failure
+    and a message naming the cause and what to change; the other runs continue. A run
+    that differs from its check (the same run at :data:`CHECK_FACTOR` times the
+    tolerances) by more than :data:`PROMISE` in IAE (relative) or theta_hat is returned
+    whole but ``complete=False``, its message giving the differences.
 
-    :param scenarios: a sequence of :class:`~unidyn.Scenario`
-    :param substeps: RK4 steps per sample interval, integer >= 1; raised where a run's
-        fastest rate needs a shorter step (:func:`stable_substeps`; ``Result.substeps``),
-        and for each interval where a compensated run's loop is faster at its start
-        than that step resolves (|rate h| > STEP_RATE_CHECK: ceil(Ts rate /
-        STEP_RATE_REFINED) steps; the most is ``Result.substeps_max``). A step across a
-        change of the limits is split there (``Result.split_steps``; the module's
-        docstring)
-    :param backend: ``"compiled"`` (the kernels compiled by numba: needs numba and the
-        built-in trajectories), ``"plain"`` (the same kernels run by Python: no compiling,
-        any trajectory, slower per step), or ``"auto"`` (compiled where it can be, except
-        while a process has taken fewer than :data:`READY_STEPS` steps and the compiled
-        kernels are not in the cache yet; ``Result.backend`` says which ran). Both
-        agree to rounding (the compiled sin and cos, :mod:`unidyn.engine.vecmath`, are
-        NaN beyond 1e8 rad, a heading after 16 million turns, where the run then stops
-        as non-finite)
-    :param progress: ``None`` (default: a tqdm progress bar on stderr for long calls,
-        only when stderr is a terminal), ``False`` (none), ``True`` (always a bar), or a
-        callable ``f(done_samples, total_samples)``
-    The results of one call share the engine's log: each result's series are views of
-    one array holding every run of its group (no copy), so keeping one result keeps
-    that array; ``np.array(r.pose)`` and the like copy what is to outlive the rest.
+    :param rtol: relative tolerance, as ``solve_ivp``'s and :func:`unidyn.simulate`'s
+    :param atol: absolute tolerance (m, rad, m/s, rad/s and theta's units alike)
+    :param backend: ``"compiled"``, ``"plain"`` or ``"auto"`` (:func:`backend_for`;
+        ``Result.backend`` says which ran; the two agree to the tolerance)
+    :param progress: ``None`` (a tqdm bar on a terminal for long calls), ``False``,
+        ``True``, or a callable ``f(done_samples, total_samples)``
+
+    A call's results share one log array per group (views, no copy): ``np.array(r.pose)``
+    copies what is to outlive the rest. ``Result.steps`` counts the steps a run kept,
+    ``Result.rejected`` those taken again shorter.
 
     :raises SimulationInterrupted: on Ctrl-C (a KeyboardInterrupt); its ``results``
         hold one entry per scenario: the computed part, marked incomplete (``None``
@@ -215,46 +108,40 @@ def simulate_batch(scenarios, *, substeps: int = DEFAULT_SUBSTEPS, backend: str 
         return []
     for s in scs:
         if not isinstance(s, Scenario):
-            raise ValidationError(f"scenarios must be unidyn.Scenario objects, got {type(s).__name__}")
+            raise ValidationError(f"scenarios must be unidyn.Scenario objects, got "
+                                  f"{type(s).__name__}")
         if s.control != "continuous":
             raise ValidationError("the batch engine runs control='continuous' only; "
                                   "use unidyn.simulate (engine 'bdsim') for sampled control")
-    substeps = integer("substeps", substeps, 1, MAX_SUBSTEPS)
-    if backend not in BACKENDS:
-        raise ValidationError(f"backend must be one of {', '.join(BACKENDS)}; got {backend!r}")
-    from . import kernels  # numba loads with the kernels
+    rtol, atol = tolerances(rtol, atol)
+    label = backend_for(scs, backend)
+    compiled = label == "compiled"
+    from . import kernels
     from .jit import plain_copy
-    compilable = all(getattr(s.trajectory, "kind", None) in TRAJECTORY_KINDS for s in scs)
-    if backend == "compiled" and not kernels.AVAILABLE:
-        raise ValidationError("backend='compiled' needs numba (pip install unidyn[fast])")
-    if backend == "compiled" and not compilable:
-        raise ValidationError("backend='compiled' runs the figure_eight, circle and line "
-                              "trajectories only; use backend='plain' for a FunctionTrajectory")
-    m_all = [stable_substeps(s, int(substeps)) for s in scs]  # refuses before any work
-    steps = sum(s.steps * m for s, m in zip(scs, m_all))
-    compiled = kernels.AVAILABLE and compilable and (backend == "compiled" or (
-        backend == "auto"
-        and (kernels.compiled() or _plain_steps[0] + steps > READY_STEPS)))
-    if not compiled:
-        _plain_steps[0] += steps
-    engine = kernels if compiled or not kernels.AVAILABLE else plain_copy(kernels)
+    engine = kernels if compiled else plain_copy(kernels)
     groups = {}
     for i, s in enumerate(scs):
         groups.setdefault((s.T, s.Ts, s.log_every, s.log_dtype, s.log_series), []).append(i)
-    bar = _Progress(progress, steps, sum(scs[g[0]].steps for g in groups.values()))
+    bar = _Progress(progress, sum(s.steps for s in scs),
+                    2 * sum(scs[g[0]].steps for g in groups.values()))
     results = [None] * len(scs)
     interrupted = False
     try:
         for idx in groups.values():
-            loop = ClosedLoop([scs[i] for i in idx])
-            runs = _runs(engine, loop, np.array([m_all[i] for i in idx], dtype=np.int64))
-            try:
-                _integrate(engine, loop, runs, compiled, bar)
-            except KeyboardInterrupt:
-                interrupted = True
-            for i, r in zip(idx, _results(engine, loop, runs, int(substeps),
-                                          "compiled" if compiled else "plain")):
-                results[i] = r
+            passes = []
+            for factor in (1.0, CHECK_FACTOR):  # the result, then its check
+                loop = ClosedLoop([scs[i] for i in idx])
+                runs, tol = _runs(engine, loop), (rtol * factor, atol * factor)
+                try:
+                    _integrate(engine, loop, runs, tol, compiled, bar)
+                except KeyboardInterrupt:
+                    interrupted = True
+                passes.append(_results(engine, loop, runs, *tol, label))
+                if interrupted:
+                    break
+            for n, i in enumerate(idx):
+                r = passes[0][n]
+                results[i] = r if interrupted else _checked(r, passes[1][n], rtol)
             if interrupted:
                 break
     finally:
@@ -274,7 +161,7 @@ class _Progress:
         self.f, self.bar, self.done, self.total = None, None, 0, total
         if callable(progress) and not isinstance(progress, bool):
             self.f = progress
-        elif progress is True or (progress is None and work >= PROGRESS_STEPS):
+        elif progress is True or (progress is None and work >= PROGRESS_SAMPLES):
             import sys
 
             from tqdm import tqdm
@@ -294,52 +181,43 @@ class _Progress:
             self.bar.close()
 
 
-def _runs(kernels, loop: ClosedLoop, m):
-    """The per-run arrays (:data:`unidyn.engine.kernels.Runs`) of the runs of ``loop``,
-    with m RK4 steps per interval, ready for the first sample."""
+def _runs(kernels, loop: ClosedLoop):
+    """The arrays of ``loop``'s runs (:data:`unidyn.engine.kernels.Runs`), at t = 0."""
     B, sc0 = loop.B, loop.scenarios[0]
     columns, _ = kernels.log_layout(ALWAYS_LOGGED + sc0.log_series)  # the series asked for
     rows = loop.steps // sc0.log_every + 2  # every log_every-th sample, and a run's last
-    # the fastest state-dependent rate each run's step resolves; checked where the
-    # compensator closes the robot's velocity loop (equations.loop_step_rate)
-    checked = np.array([sc.case in ("compensated", "adaptive") for sc in loop.scenarios])
+    count = lambda: np.zeros(B, dtype=np.int64)  # noqa: E731
     return kernels.Runs(
-        state=loop.initial_state(), params=loop.P, steps=m, noise_pos=loop.pos_noise,
+        state=loop.initial_state(), params=loop.P, h=np.zeros(B), noise_pos=loop.pos_noise,
         noise_vel=loop.vel_noise, bounds=np.array([sc.divergence_bounds() for sc in loop.scenarios]),
-        rate_max=np.where(checked, STEP_RATE_CHECK * m / loop.Ts, np.inf), log_columns=columns,
-        log=np.full((B, rows, len(columns)), np.nan, dtype=sc0.log_dtype),
-        status=np.zeros(B, dtype=np.int64), last=np.zeros(B, dtype=np.int64),
-        fastest=np.zeros(B), most_steps=m.copy(), rk4_steps=np.zeros(B, dtype=np.int64),
-        splits=np.zeros(B, dtype=np.int64))
+        log_columns=columns, log=np.full((B, rows, len(columns)), np.nan, dtype=sc0.log_dtype),
+        status=count(), last=count(), steps=count(), rejected=count())
 
 
-def _integrate(kernels, loop: ClosedLoop, runs, compiled: bool, bar):
-    """Advance ``runs`` through ``kernels`` (the compiled module or its plain copy,
-    :func:`unidyn.engine.jit.plain_copy`) in slices of sample intervals. Compiled, a
-    thread per core advances its share of the runs (compiled code releases the GIL);
-    Ctrl-C then waits for the slice to end, so every run's log stays whole."""
+def _integrate(kernels, loop: ClosedLoop, runs, tol, compiled: bool, bar):
+    """Advance ``runs`` through ``kernels`` (compiled, or its plain copy) in slices of
+    sample intervals; compiled, a thread per core takes its share of the runs (the GIL
+    released), and Ctrl-C waits for the slice to end, so every run's log stays whole."""
     n = loop.steps
     kernels.PYTHON_REFERENCES[:] = loop.trajectories  # the plain copy's, for FunctionTrajectory
     threads = min(loop.B, os.cpu_count() or 1) if compiled else 1
-    # the costliest first, dealt in turn: each thread's share costs about the same
-    order = np.argsort(-runs.steps, kind="stable")
+    order = np.arange(loop.B)
     shares = [np.ascontiguousarray(order[j::threads]) for j in range(threads)]
-    S = max(1, SLICE_STEPS[compiled] * threads // int(runs.steps.sum()))
+    S = max(1, SLICE_SAMPLES[compiled] // loop.B)
     k = 0
     with ThreadPoolExecutor(threads) as pool:
         while True:
             loop.next_noise_window(k)
             k1 = min(n, k + S, loop.noise_end)
             runs = runs._replace(noise_pos=loop.pos_noise, noise_vel=loop.vel_noise)
-            call = kernels.Call(float(loop.Ts), loop.noise_k0, loop.scenarios[0].log_every,
-                                STEP_RATE_REFINED, MAX_SUBSTEPS, SPLIT_PARTS)
-            # a run that diverges overflows, and is stopped by its check: as compiled code
-            # does, plain Python goes on with inf and NaN, without numpy's warnings
+            c = kernels.Call(float(loop.Ts), loop.noise_k0, loop.scenarios[0].log_every,
+                             float(tol[0]), float(tol[1]), MAX_STEPS)
+            # as compiled code, plain Python goes on with inf and NaN until a check stops it
             with np.errstate(all="ignore"):
                 if threads == 1:
-                    kernels.advance(runs, call, k, k1, order)
+                    kernels.advance(runs, c, k, k1, order)
                 else:
-                    slices = [pool.submit(kernels.advance, runs, call, k, k1, s) for s in shares]
+                    slices = [pool.submit(kernels.advance, runs, c, k, k1, s) for s in shares]
                     try:
                         for f in slices:
                             f.result()
@@ -352,49 +230,45 @@ def _integrate(kernels, loop: ClosedLoop, runs, compiled: bool, bar):
 
 
 _CAUSE = {
-    1: "non-finite state (diverged, or the loop is too stiff for the RK4 step; "
-       "unidyn.simulate with method='LSODA' can tell which)",
-    2: "diverged: the position |(x, y)| = {v:.3g} m is beyond {b:.3g} m "
-       "(1e6 times the reference's size)",
-    3: "diverged: |u| = {v:.3g} m/s is beyond {b:.3g} m/s (1e6 times the speed limit, "
-       "or the speed the controller asks for)",
-    4: "diverged: |w| = {v:.3g} rad/s is beyond {b:.3g} rad/s (1e6 times the steering "
-       "limit, or the turn rate the controller asks for)",
-    6: "too stiff for the batch engine: the loop reached a rate of {v:.3g} 1/s ({what}), "
-       "beyond what " + f"{MAX_SUBSTEPS:,}" + " RK4 steps per sample resolve; use a shorter "
-       "Ts, or unidyn.simulate (the bdsim diagram, adaptive step)",
+    1: "non-finite state (diverged)",
+    2: "diverged: the position |(x, y)| = {v:.3g} m is beyond {b:.3g} m (1e6 times the "
+       "reference's size)",
+    3: "diverged: |u| = {v:.3g} m/s is beyond {b:.3g} m/s (1e6 times its limit or command)",
+    4: "diverged: |w| = {v:.3g} rad/s is beyond {b:.3g} rad/s (1e6 times its limit or command)",
+    6: "the error could not be held within rtol = {rtol:g}, atol = {atol:g} in "
+       + f"{MAX_STEPS:,}" + " steps of the sample interval from here (a loop too stiff for "
+       "an explicit method, or diverging); use a looser rtol and atol, a shorter Ts, or "
+       "unidyn.simulate(..., method='Radau') (the diagram with a stiff solver)",
 }
 
 
-def _unvouched(sc: Scenario, m_max: int, asked: int) -> str:
-    """Why the engine cannot vouch for a complete run's accuracy, or "". Above
-    :data:`unidyn.model.scenario.HIGH_GAIN` the update law drives the robot across its
-    speed and acceleration limits so often that RK4, each crossing located to Ts /
-    SPLIT_PARTS, drifts from a converged solution (Scenario(gamma=[g] * 6, adapt_from=0,
-    T=20, noise=None), theta_hat off by 1.1e-5 at g = 100, 4e-5 at 300, 1.1e-3 at 1000;
-    tests/evals/test_high_gain.py)."""
-    lim = sc.limits
-    limited = any(np.isfinite(v) for v in (*lim.speed, *lim.accel))
-    # a step the caller chose is as accurate as that step, as documented under
-    # ``substeps``; only steps the engine had to shorten on its own (stiffness) leave the
-    # caller unaware of it
-    if (m_max <= asked or not limited or sc.case != "adaptive"
-            or max(sc.gamma) <= HIGH_GAIN):
-        return ""
-    text = (f"complete, but its accuracy is not vouched for: with adaptation gain gamma up to "
-            f"{max(sc.gamma):g} (above {HIGH_GAIN:g}) the loop crosses its speed and "
-            f"acceleration limits so often that the engine's steps ({m_max} per {sc.Ts:g} s "
-            f"sample) drift from a converged solution; lower gamma or the controller gains, "
-            f"or run it through unidyn.simulate (the bdsim diagram) with a tight rtol "
-            f"(scenario {sc.name or sc.case})")
-    warnings.warn(text, AccuracyWarning, stacklevel=5)  # at the caller of simulate_batch
-    return text
+def _checked(r: Result, check: Result, rtol: float) -> Result:
+    """r, or r marked incomplete where its check (the same run at :data:`CHECK_FACTOR`
+    times the tolerances) differs from it by more than :data:`PROMISE`."""
+    if not r.complete:
+        return r
+    label = r.scenario.name or r.scenario.case
+    if not check.complete:
+        why = f"its check at rtol = {CHECK_FACTOR * rtol:g} stopped: {check.message}"
+    else:
+        a, b = r.metrics["iae"], check.metrics["iae"]
+        iae = abs(a - b) / abs(a) if a else abs(a - b)
+        theta = (float(np.max(np.abs(r.theta_hat - check.theta_hat), initial=0.0))
+                 if r.theta_hat is not None else 0.0)
+        if iae <= PROMISE and theta <= PROMISE:
+            return r
+        why = (f"at rtol = {rtol:g} and {CHECK_FACTOR * rtol:g} its IAE differs by {iae:.1e} "
+               f"(relative) and theta_hat by {theta:.1e}")
+    message = (f"every sample computed, but not within {PROMISE:g} of a converged solution: "
+               f"{why}; a tighter rtol and atol may reach it (a loop sensitive to its initial "
+               f"state, as an adaptive one at high gains can be, reaches it at no tolerance) "
+               f"(scenario {label})")
+    return dataclasses.replace(r, complete=False, message=message)
 
 
-def _results(kernels, loop: ClosedLoop, runs, asked: int, backend: str) -> list:
-    """One Result per run. A run that stopped keeps the samples up to its stop (a
-    non-finite last sample is dropped; a run too stiff to go on keeps its samples logged
-    before that) and is marked incomplete."""
+def _results(kernels, loop: ClosedLoop, runs, rtol: float, atol: float, backend: str) -> list:
+    """One Result per run; a run that stopped keeps its samples up to the stop (not a
+    non-finite one, nor the end of an interval that failed) and is incomplete."""
     L = loop.scenarios[0].log_every
     _, layout = kernels.log_layout(ALWAYS_LOGGED + loop.scenarios[0].log_series)
     out = []
@@ -405,8 +279,7 @@ def _results(kernels, loop: ClosedLoop, runs, asked: int, backend: str) -> list:
         if status not in (kernels.OK, kernels.STEP) and last % L != 0:  # the sample it stopped at
             nrow += 1
             t = np.r_[t, last * loop.Ts]
-        # the result's arrays are views of the log (no copy)
-        log = runs.log[i, :nrow]
+        log = runs.log[i, :nrow]  # views of the log (no copy)
         if status == kernels.NONFINITE:  # drop the non-finite sample
             log, t = log[:-1], t[:-1]
         # every sample computed: complete, even if Ctrl-C came after the last
@@ -414,25 +287,18 @@ def _results(kernels, loop: ClosedLoop, runs, asked: int, backend: str) -> list:
         label = sc.name or sc.case
         t_stop = last * loop.Ts
         if complete:
-            message = _unvouched(sc, int(runs.most_steps[i]), asked)
+            message = ""
         elif status == kernels.OK:
             message = f"interrupted at t = {t_stop:.6g} s (scenario {label})"
         else:
             last_row = runs.log[i, nrow - 1].astype(float)
             (x, y, _), (u, w) = last_row[layout["pose"]], last_row[layout["velocity"]]
-            v = {2: np.hypot(x, y) if nrow else np.nan, 3: abs(u), 4: abs(w),
-                 6: runs.fastest[i]}.get(status, 0.0)
-            estimate = (f" with theta_hat = {_short(last_row[layout['theta_hat']])}"
-                        if "theta_hat" in layout else "")
-            what = ("the velocity loop as the compensator closes it" + estimate
-                    + (f", or the update law with adaptation gain gamma = {_short(sc.gamma)}"
-                       if sc.case == "adaptive" else ""))
-            cause = _CAUSE[status].format(v=v, b=runs.bounds[i, status - 2] if 1 < status < 5 else 0.0,
-                                          what=what)
+            v = {2: np.hypot(x, y) if nrow else np.nan, 3: abs(u), 4: abs(w)}.get(status, 0.0)
+            b = runs.bounds[i, status - 2] if 1 < status < 5 else 0.0
+            cause = _CAUSE[status].format(v=v, b=b, rtol=rtol, atol=atol)
             message = f"{cause} at t = {t_stop:.6g} s (scenario {label})"
         series = {k: log[:, layout[k]] if k in layout else None for k in kernels.LOG_SERIES}
         out.append(Result(scenario=sc, t=t, **series, engine="batch", complete=complete,
-                          message=message, backend=backend, substeps=int(runs.steps[i]),
-                          substeps_max=int(runs.most_steps[i]), rk4_steps=int(runs.rk4_steps[i]),
-                          split_steps=int(runs.splits[i])))
+                          message=message, backend=backend, steps=int(runs.steps[i]),
+                          rejected=int(runs.rejected[i])))
     return out

@@ -1,23 +1,14 @@
 """numba, where installed: :func:`jit` compiles a function that calls the paper's
-equations (:mod:`unidyn.model.equations`); without numba (``pip install unidyn[fast]``),
-or where not wanted (:func:`plain_copy`), the same function runs as plain Python.
+equations (:mod:`unidyn.model.equations`, each registered with numba's
+``register_jitable`` and inlined by LLVM: the engines compile the equations the rest of
+the library runs); without numba, or in :func:`plain_copy`, it runs as plain Python.
 
-Every public function of :mod:`unidyn.model.equations` is registered with numba's
-``register_jitable``: it stays the plain function for Python callers and is compiled
-into its compiled callers, inlined by LLVM (numba's documented ``forceinline``), so the
-engines compile the equations the rest of the library runs, not a copy of them.
-
-**The on-disk cache.** numba (``cache=True``) keys a cached function on its own source
-file, not on the files of the functions it inlines (a documented limitation): a kernel
-cached beside ``kernels.py`` would keep running an edited :mod:`unidyn.model.equations`.
-So the package caches its compiled functions in a folder per version of the compiled
-sources (:data:`COMPILED_SOURCES`, hashed into :data:`STAMP`),
-``<cache>/unidyn-numba/<STAMP>``, ``<cache>`` being ``NUMBA_CACHE_DIR`` if set, else the
-user's cache folder; numba is pointed there through ``NUMBA_CACHE_DIR`` while the
-package's functions are declared. numba writes its cache without a lock between
-processes (numba issues #4807, #10128), so the first call of each compiled entry point
-in a process, where numba loads or compiles it, holds a ``filelock`` lock of that folder
-(:class:`Compiled`): processes that start together load what the first one wrote.
+numba keys its on-disk cache on a function's own file, not on the files it inlines
+(a documented limitation), so the package caches in a folder per version of the
+compiled sources (:data:`STAMP`), ``<cache>/unidyn-numba/<STAMP>``, pointing numba there
+through ``NUMBA_CACHE_DIR`` while the functions are declared. numba writes its cache
+without a lock between processes (numba issues #4807, #10128), so the first call of an
+entry point in a process holds a ``filelock`` lock of that folder (:class:`Compiled`).
 """
 
 from __future__ import annotations
@@ -47,12 +38,8 @@ if AVAILABLE:
     from numba.core import types
     from numba.extending import overload
 
-    from . import vecmath
-
-    # inlined by LLVM (forceinline), not by numba (inline="always"), which types every
-    # copy again: a minute of compiling instead of seconds
-    _OVERLOADED = (equations.select, equations.saturate, equations.sin, equations.cos,
-                   equations.tanh)
+    # inlined by LLVM (forceinline), not by numba (inline="always": a minute of typing)
+    _OVERLOADED = (equations.select, equations.saturate)
     for _name in equations.__all__:
         _f = getattr(equations, _name)
         if (callable(_f) and getattr(_f, "__module__", None) == equations.__name__
@@ -60,38 +47,23 @@ if AVAILABLE:
             register_jitable(forceinline=True)(_f)
     _INLINE = dict(jit_options=dict(forceinline=True))
 
-    def _elementary(function, vectorisable, ufunc):
-        """Compile function (equations.sin, ...) of a float64 as the vectorisable
-        intrinsic, of anything else (an array, a float32) as numpy's ufunc."""
-        @overload(function, **_INLINE)
-        def _compiled(x):
-            if x == types.float64:
-                return lambda x: vectorisable(x)
-            return lambda x: ufunc(x)
-
-    _elementary(equations.sin, vecmath.sin, np.sin)
-    _elementary(equations.cos, vecmath.cos, np.cos)
-    _elementary(equations.tanh, vecmath.tanh, np.tanh)
-
     @overload(equations.saturate, **_INLINE)
     def _saturate(x, limit):
-        """equations.saturate compiled: numpy's NaN-keeping minimum and maximum (its
-        Python form takes a shortcut for one value)."""
+        """equations.saturate compiled: numpy's NaN-keeping minimum and maximum."""
         return lambda x, limit: np.minimum(np.maximum(x, -limit), limit)
 
     @overload(equations.select, **_INLINE)
     def _select(condition, a, b):
-        """equations.select compiled: a branch on scalars (np.where would allocate a 0-d
-        array per call), np.where on arrays."""
+        """equations.select compiled: a branch on scalars, np.where on arrays."""
         if (isinstance(condition, types.Boolean) and isinstance(a, types.Number)
                 and isinstance(b, types.Number)):
             return lambda condition, a, b: a if condition else b
         return lambda condition, a, b: np.where(condition, a, b)
 
 
-#: The package's files whose code the compiled functions run: the equations and
-#: elementary functions they inline, the overloads here, and the compiled functions.
-COMPILED_SOURCES = ("model/equations.py", "engine/vecmath.py", "engine/jit.py",
+#: The package's files whose code the compiled functions run: the equations they
+#: inline, the overloads here, and the compiled functions.
+COMPILED_SOURCES = ("model/equations.py", "engine/jit.py",
                     "engine/kernels.py", "identification/_simulate.py")
 #: Versions of the compiled code whose cache folders are kept (switching between a few
 #: versions, as between git branches, compiles none of them again).
@@ -189,14 +161,13 @@ def _kind(a):
 
 
 class Compiled:
-    """A compiled entry point (called from Python): the dispatcher, whose first call per
-    argument types in this process (where numba loads or compiles and caches it) holds
-    a ``filelock`` lock of the cache folder. A call that compiles (no marker of an
-    earlier compile in the folder) first says so on a terminal (:data:`NOTICE`)."""
+    """A compiled entry point: its first call per argument types in a process (where numba
+    loads or compiles it) holds a ``filelock`` lock of the cache folder, and one that
+    compiles (no marker of an earlier compile) says so on a terminal (:data:`NOTICE`)."""
 
     def __init__(self, dispatcher, name, what):
         self.dispatcher, self.name, self.what = dispatcher, name, what
-        self.ready, self.cached = set(), None
+        self.ready = set()
         self.__doc__ = dispatcher.__doc__
 
     def __call__(self, *args):
@@ -215,26 +186,12 @@ class Compiled:
         self.ready.add(key)
         return out
 
-    def compiled(self) -> bool:
-        """Whether this process called it already, or a process had compiled it into the
-        cache folder (a marker of its first call there) when this process first asked."""
-        if self.ready:
-            return True
-        if self.cached is None:  # looked at once per process: a process keeps one engine
-            self.cached = CACHE_FOLDER is not None and any(CACHE_FOLDER.glob(f"{self.name}-*.ready"))
-        return self.cached
-
 
 def jit(f=None, *, inline: bool = False, entry: str = "", cache: bool = True):
-    """``numba.njit(cache=True, nogil=True)`` of f; f itself without numba.
-
-    ``inline=True``: f is inlined into its compiled callers (numba's ``forceinline``,
-    as the equations are); ``entry``: f is called from Python (:class:`Compiled`); what
-    it is, for the notice of its compile (``"the batch engine"``); ``cache=False``: not
-    cached on disk (its callers are, with its code in them). ``nogil``: threads run
-    compiled functions side by side.
-    Division by zero gives inf or NaN as in numpy (``error_model="numpy"``), which the
-    engines' checks for non-finite states then report."""
+    """``numba.njit(cache=True, nogil=True, error_model="numpy")`` of f (division by zero
+    gives inf or NaN); f itself without numba. ``inline``: inlined into its compiled
+    callers (``forceinline``); ``entry``: called from Python (:class:`Compiled`), what it
+    is for the compile notice; ``cache=False``: not cached (its callers are)."""
     def wrap(g):
         if not AVAILABLE or _loading_plain:
             return g
@@ -253,11 +210,9 @@ _loading_plain = []
 
 
 def plain_copy(module):
-    """``module`` (whose functions :func:`jit` compiles) loaded once more as a module of
-    its own, ``<name>_plain``, whose functions are the same source run by Python, not
-    compiled. It answers at once where the compiled one would first have to be
-    compiled, and runs what compiled code cannot call (a reference that is a Python
-    function)."""
+    """``module`` loaded once more as ``<name>_plain``, its functions the same source run
+    by Python, not compiled: it runs what compiled code cannot call (a reference that is
+    a Python function), and needs no compiling."""
     name = module.__name__ + "_plain"
     if name in sys.modules:
         return sys.modules[name]

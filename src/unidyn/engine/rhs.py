@@ -1,16 +1,13 @@
-r"""The closed loop of Fig. 2 as one pure right-hand side, batched over scenarios.
+r"""The closed loop of Fig. 2 as one pure right-hand side, batched over scenarios:
+:func:`unidyn.model.equations.loop_derivative` on all runs at once with numpy, what
+``solve_ivp`` integrates for the converged references the engines are checked against
+(:meth:`ClosedLoop.converged`); also the batch engine's parameter table, noise and
+initial state. Continuous control only.
 
-The loop that the bdsim diagram of :func:`unidyn.diagrams.build_fig2` wires block by
-block, here as one function of time and state,
-:func:`unidyn.model.equations.loop_derivative` on all runs at once with numpy: what
-``solve_ivp`` integrates for the converged references that the diagram and the batch
-engine are tested against. It also gives the batch engine its runs' parameter table
-(:meth:`ClosedLoop.parameter_table`), noise and initial state. Continuous control only.
-
-The state of a run (13 values): ``x, y, psi, u, w`` (the robot; u and w unused for a
-kinematic robot), ``theta_hat1..6`` (the estimate), ``z_u, z_w`` (the derivative
-filter's, with ``vd_dot="filter"``). The noise is held over each interval [k Ts, (k+1)
-Ts): the k-th draw of the seeded generators the diagram's noise blocks use.
+The state of a run (13 values): ``x, y, psi, u, w`` (u, w unused for a kinematic robot),
+``theta_hat1..6``, ``z_u, z_w`` (the derivative filter's, with ``vd_dot="filter"``). The
+noise is held over each interval [k Ts, (k+1) Ts): the k-th draw of the seeded generators
+the diagram's noise blocks use.
 """
 
 from __future__ import annotations
@@ -25,8 +22,7 @@ from ..model.scenario import Scenario
 __all__ = ["ClosedLoop", "NSTATE"]
 
 NSTATE = len(equations.STATE)
-#: Noise values (rows x runs) drawn per window: 2 x 16 MB of held noise in memory
-#: however long the run (drawing it whole took 32 bytes per sample and run).
+#: Noise values (rows x runs) drawn per window: 2 x 16 MB however long the run.
 NOISE_WINDOW_VALUES = 1_000_000
 
 
@@ -56,38 +52,31 @@ class ClosedLoop:
         B = self.B = len(scs)
         self.P = self.parameter_table()
         self.vmax = self.P[:, [P.speed_u, P.speed_w]]
-        # trajectories: evaluate each distinct one once
-        self._traj = {}
-        self.traj_index = np.empty(B, dtype=int)
-        for i, s in enumerate(scs):
-            key = repr(s.trajectory) if not hasattr(s.trajectory, "f") else id(s.trajectory)
-            if key not in self._traj:
-                self._traj[key] = (len(self._traj), s.trajectory)
-            self.traj_index[i] = self._traj[key][0]
-        self.trajectories = [tr for _, tr in sorted(self._traj.values(), key=lambda p: p[0])]
+        # each distinct trajectory evaluated once (a Python function: by identity)
+        keys = [id(s.trajectory) if hasattr(s.trajectory, "f") else repr(s.trajectory)
+                for s in scs]
+        first = {}
+        self.traj_index = np.array([first.setdefault(k, len(first)) for k in keys], dtype=int)
+        self.trajectories = [scs[keys.index(k)].trajectory for k in first]
         # a reference that is a Python function: its index among them, for the engine
         python = self.P[:, P.trajectory] < 0
         self.P[python, P.path1] = self.traj_index[python]
-        # noise, held per interval: a window of rows at a time (noise_window)
-        self._noise_sources = []
-        for s in scs:
-            pos = vel = None
-            if s.noise is not None:
-                pos_seed, vel_seed = noise_seeds(s.noise.seed)
-                pos = HeldNoise(pos_seed, s.noise.position_std)
-                if s.case != "kinematic":  # a kinematic robot has no velocities to measure
-                    vel = HeldNoise(vel_seed, s.noise.velocity_std)
-            self._noise_sources.append((pos, vel))
+        # noise, held per interval, drawn a window of rows at a time (noise_window); a
+        # kinematic robot has no velocities to measure
+        seeds = [None if s.noise is None else noise_seeds(s.noise.seed) for s in scs]
+        self._noise_sources = [(None, None) if q is None else (
+            HeldNoise(q[0], s.noise.position_std),
+            None if s.case == "kinematic" else HeldNoise(q[1], s.noise.velocity_std))
+            for s, q in zip(scs, seeds)]
         self.noise_k0 = self.noise_end = 0
         self.pos_noise = self.vel_noise = np.zeros((B, 0, 2))
         self.noise_window(0, NOISE_WINDOW_VALUES // B)
 
     def noise_window(self, k0: int, rows: int):
-        """Draw the held noise of sample intervals k0 .. k0 + rows - 1 (at most up to
-        the last interval) into ``pos_noise`` and ``vel_noise``, (B, rows, 2), whose
-        row 0 is interval ``noise_k0`` = k0. Windows follow each other (k0 is the end
-        of the previous one): each run's generators go on where they stopped, so the
-        values are those of one draw of the whole run (:func:`unidyn.model.noise.held_sequence`)."""
+        """Draw the held noise of intervals k0 .. k0 + rows - 1 (at most to the last) into
+        ``pos_noise``, ``vel_noise`` (B, rows, 2), row 0 interval ``noise_k0`` = k0.
+        Windows follow each other, each run's generators going on where they stopped:
+        the values of one draw of the whole run (:func:`unidyn.model.noise.held_sequence`)."""
         if k0 != self.noise_end:
             raise ValueError(f"noise windows follow each other: the next starts at interval "
                              f"{self.noise_end}, not {k0}")
@@ -103,12 +92,10 @@ class ClosedLoop:
         self.noise_k0, self.noise_end = k0, k0 + rows
 
     def next_noise_window(self, k: int):
-        """At interval k = the end of the current window, draw the next one (of the same
-        size); otherwise nothing: the window already holds k."""
+        """At interval k = the end of the current window, draw the next one."""
         if k == self.noise_end:
             self.noise_window(k, self.pos_noise.shape[1])
 
-    # ------------------------------------------------------------------ #
     def initial_state(self) -> np.ndarray:
         X = np.zeros((self.B, NSTATE))
         for i, s in enumerate(self.scenarios):
@@ -166,12 +153,6 @@ class ClosedLoop:
         return (self.pos_noise[:, j, 0], self.pos_noise[:, j, 1],
                 self.vel_noise[:, j, 0], self.vel_noise[:, j, 1])
 
-    def step_rate(self, t, X, k):
-        """The loop's state-dependent fastest rate (1/s) of every run at (t, X) in
-        interval k (:func:`unidyn.model.equations.loop_step_rate`)."""
-        return np.broadcast_to(equations.loop_step_rate(
-            t, X.T, self.reference(t), self.P.T, self._noise(k)), (self.B,))
-
     def rhs(self, t, X, k):
         """dX/dt, (B, 13), at time t in noise interval k
         (:func:`unidyn.model.equations.loop_derivative` on all runs at once). k must lie in
@@ -179,3 +160,21 @@ class ClosedLoop:
         dX = np.empty((NSTATE, X.shape[0]))
         equations.loop_derivative(t, X.T, self.reference(t), self.P.T, self._noise(k), dX)
         return dX.T
+
+    def converged(self, rtol: float = 1e-11, atol: float = 1e-13, method: str = "DOP853"):
+        """The runs' states at every sample t = k Ts, (B, steps + 1, 13), by scipy's
+        ``solve_ivp`` restarted at every sample (the noise held over each interval, a
+        speed limit hard at each sample): the solution the engines are checked
+        against (``tests/engine/test_accuracy.py``, ``benchmarks/engines.py``)."""
+        from scipy.integrate import solve_ivp
+        out = np.empty((self.B, self.steps + 1, NSTATE))
+        X = out[:, 0] = self.initial_state()
+        for k in range(self.steps):
+            self.next_noise_window(k)
+            sol = solve_ivp(lambda t, x: self.rhs(t, x.reshape(self.B, NSTATE), k).ravel(),
+                            (k * self.Ts, (k + 1) * self.Ts), X.ravel(), method=method,
+                            rtol=rtol, atol=atol)
+            X = sol.y[:, -1].reshape(self.B, NSTATE).copy()
+            X[:, 3:5] = np.clip(X[:, 3:5], -self.vmax, self.vmax)
+            out[:, k + 1] = X
+        return out

@@ -1,14 +1,10 @@
-"""Eq. (2) integrated over a log with its commands as the robot applied them.
-
-The commands of a log are held from each time stamp to the next (as robot
-firmware applies them) or vary linearly between them, optionally delayed. Two
-independent integrators do this, both restarting wherever a command jumps or
-kinks: :func:`simulate_held`, the batch engine's RK4
-(:func:`unidyn.engine.kernels.rk4_stages`), compiled where numba is installed (the
-output-error fit of :func:`unidyn.identification.identify` and
-:func:`unidyn.identification.validate`), and :func:`simulate_stepwise`, scipy's
-DOP853 on the full state of Eqs. (1)-(2) (the held and linear logs of
-:func:`unidyn.identification.simulate_log`, and validation with limits).
+"""Eq. (2) integrated over a log with its commands as the robot applied them: held
+from each time stamp to the next (as firmware applies them) or linear between them,
+optionally delayed. Two independent integrators restart wherever a command jumps or
+kinks: :func:`simulate_held`, RK4 with a fixed step (:func:`rk4_step`), compiled where
+numba is installed (the output-error fit of :func:`unidyn.identification.identify` and
+:func:`unidyn.identification.validate`), and :func:`simulate_stepwise`, scipy's DOP853
+on Eqs. (1)-(2) (:func:`unidyn.identification.simulate_log`, validation with limits).
 """
 
 from __future__ import annotations
@@ -19,12 +15,33 @@ import numpy as np
 
 from ..engine.jit import AVAILABLE as FAST
 from ..engine.jit import jit
-from ..engine.kernels import rk4_advance, rk4_stages
 from ..model.equations import robot_acceleration
 from ..model.unicycle import unicycle_deriv
 
 #: How the logged commands act between their time stamps.
 COMMAND_CONVENTIONS = ("held", "linear")
+
+
+# not cached itself: numba's cache index records a signature's types by their module
+@jit(inline=True, cache=False)
+def rk4_step(f, t, x, h, args, K, y):
+    """One classical Runge-Kutta (RK4) step of length h from (t, x) of
+    dx/dt = f(t, x, args), x updated in place (f writes its rates into its last
+    argument); K (4, n) and y (n,) are scratch."""
+    n = x.shape[0]
+    f(t, x, args, K[0])
+    for i in range(n):
+        y[i] = x[i] + 0.5 * h * K[0, i]
+    f(t + 0.5 * h, y, args, K[1])
+    for i in range(n):
+        y[i] = x[i] + 0.5 * h * K[1, i]
+    f(t + 0.5 * h, y, args, K[2])
+    for i in range(n):
+        y[i] = x[i] + h * K[2, i]
+    f(t + h, y, args, K[3])
+    c = h / 6.0
+    for i in range(n):
+        x[i] += c * (K[0, i] + 2.0 * K[1, i] + 2.0 * K[2, i] + K[3, i])
 
 
 @jit(inline=True)
@@ -37,17 +54,12 @@ def robot_rates(t, v, args, out):
 
 
 def _sim_segments(theta, t, u_ref, w_ref, segments, v0, delay, linear, hmax, out):
-    """Integrate Eq. (2) over each segment [segments[s, 0], segments[s, 1]) of a log
-    (rows of the log's arrays), from the velocities v0[s], with the logged commands
-    held from their time stamp to the next (``linear`` false) or interpolated linearly
-    between them, delayed by ``delay`` seconds; writes the velocities at the time
-    stamps into out (N, 2).
-
-    RK4 with steps of at most ``hmax`` seconds; every instant at which the (delayed)
-    command jumps or kinks is a step boundary, so the integration never crosses a
-    discontinuity and keeps its fourth order. Before a segment's first time stamp
-    (plus the delay) its first command is in force.
-    """
+    """Eq. (2) over each segment [segments[s, 0], segments[s, 1]) of a log (rows), from
+    the velocities v0[s], the logged commands held to the next stamp (or linear between
+    them, ``linear``), delayed by ``delay`` s; the velocities at the stamps into out
+    (N, 2). RK4 steps of at most ``hmax`` s, every instant where the delayed command jumps
+    or kinks a step boundary (no step crosses one: fourth order). Before a segment's
+    first stamp (plus the delay) its first command is in force."""
     th = (theta[0], theta[1], theta[2], theta[3], theta[4], theta[5])
     v = np.empty(2)
     K = np.empty((4, 2))
@@ -82,8 +94,7 @@ def _sim_segments(theta, t, u_ref, w_ref, segments, v0, delay, linear, hmax, out
                     sw = (w_ref[j + 1] - w_ref[j]) / (t[j + 1] - t[j])
                 args = (th, u_ref[j], w_ref[j], su, sw, t[j] + delay)
                 for i in range(n):
-                    rk4_stages(robot_rates, cur + i * h, v, h, args, K, y)
-                    rk4_advance(v, h, K)
+                    rk4_step(robot_rates, cur + i * h, v, h, args, K, y)
                 cur = nxt
             out[k + 1, 0] = v[0]
             out[k + 1, 1] = v[1]
@@ -95,13 +106,10 @@ _sim_compiled = jit(_sim_segments, entry="the log simulator of identification")
 
 
 def step_length(theta, dt) -> float:
-    """The longest RK4 step: a tenth of the faster time constant (local error
-    about (h / tau)^5 / 120 = 1e-7 of the velocity), at most the median
-    sample interval ``dt`` and at least ``dt / 20`` (a time constant under a
-    twentieth of a sample settles within the sample and is not resolved by
-    the log, and the fit explores none shorter; RK4 is stable up to
-    h / tau = 2.78, and the steady state under a held command is exact
-    whatever the step)."""
+    """The longest RK4 step: a tenth of the faster time constant (local error about
+    (h / tau)^5 / 120 = 1e-7), within [dt / 20, dt] for the median sample interval dt (a
+    time constant under dt / 20 settles within a sample, unresolved by the log; RK4 is
+    stable to h / tau = 2.78, and exact in the steady state of a held command)."""
     th = np.asarray(theta, dtype=float)
     tau = min(th[0] / th[3], th[1] / th[5]) if th[3] > 0 and th[5] > 0 else th[0]
     if not tau > 0 or not math.isfinite(tau):
@@ -111,11 +119,10 @@ def step_length(theta, dt) -> float:
 
 def simulate_held(theta, t, u_ref, w_ref, segs, v0, delay=0.0, linear=False, hmax=None,
                   out=None):
-    """Velocities (N, 2) of Eq. (2) over the pieces ``segs`` [(start, stop)] of a
-    log, each from its initial [u, w] in ``v0`` (one row per piece), with the
-    commands held (or ``linear``) and delayed by ``delay`` s; RK4 steps of at
-    most ``hmax`` s (default :func:`step_length`), see :func:`_sim_segments`.
-    Rows outside the pieces are left as they are (NaN in a new ``out``)."""
+    """Velocities (N, 2) of Eq. (2) over the pieces ``segs`` [(start, stop)] of a log,
+    each from its [u, w] in ``v0``, the commands held (or ``linear``), delayed by
+    ``delay`` s; RK4 steps of at most ``hmax`` s (:func:`step_length`; see
+    :func:`_sim_segments`). Rows outside the pieces are left (NaN in a new ``out``)."""
     theta = np.ascontiguousarray(theta, dtype=float)
     segments = np.array(segs, dtype=np.int64).reshape(-1, 2)
     if hmax is None:

@@ -19,9 +19,8 @@ tuples of components, so no function allocates an array of its own;
 them into the array shapes of their public interfaces.
 
 What this module may use, so that numba compiles it: arithmetic, comparisons,
-``np.minimum/maximum/sqrt``, :func:`sin`, :func:`cos`, :func:`tanh` (numpy's; in compiled
-code the vectorisable ones of :mod:`unidyn.engine.vecmath`, within 3 units in the last
-place of numpy's), :func:`select` (not ``np.where``, which allocates an array per
+``np.minimum/maximum/sqrt``, :func:`sin`, :func:`cos`, :func:`tanh` (numpy's, which
+numba compiles to the maths library's), :func:`select` (not ``np.where``, which allocates an array per
 call in compiled code), indexing, loops of fixed length, and calls to functions of
 this module; no Python branch on a value (it may be an array).
 """
@@ -36,9 +35,7 @@ __all__ = ["select", "sin", "cos", "tanh", "point_velocity_components", "robot_a
            "dynamics_regressor", "saturate", "limited_acceleration", "kinematic_law",
            "kinematic_law_rate", "compensation_regressor", "compensation", "update_rate",
            "figure_eight", "circle", "line", "loop_signals", "loop_rates",
-           "loop_rates_and_limits", "loop_derivative", "update_rates", "loop_acceleration", "velocity_loop_rate", "update_law_rate",
-           "loop_step_rate", "limit_state", "STATE", "S",
-           "LOOP_PARAMETERS", "P", "TRAJECTORY_KINDS", "SWITCH_TOL"]
+           "loop_derivative", "update_rates", "STATE", "S", "LOOP_PARAMETERS", "P", "TRAJECTORY_KINDS", "SWITCH_TOL"]
 
 #: Adaptation is on for t >= adapt_from - SWITCH_TOL (s): the switch then falls on
 #: the same side of a solver stage that lands on adapt_from up to rounding, in
@@ -55,18 +52,17 @@ def select(condition, a, b):
 
 
 def sin(x):
-    """``np.sin``; in compiled code, :func:`unidyn.engine.vecmath.sin`, which the compiler
-    vectorises (no call into the maths library)."""
+    """``np.sin``."""
     return np.sin(x)
 
 
 def cos(x):
-    """``np.cos``; in compiled code, :func:`unidyn.engine.vecmath.cos`."""
+    """``np.cos``."""
     return np.cos(x)
 
 
 def tanh(x):
-    """``np.tanh``; in compiled code, :func:`unidyn.engine.vecmath.tanh`."""
+    """``np.tanh``."""
     return np.tanh(x)
 
 
@@ -122,26 +118,6 @@ def limited_acceleration(u, w, du, dw, speed_u, speed_w, accel_u, accel_w):
     du = select(((u >= speed_u) & (du > 0.0)) | ((u <= -speed_u) & (du < 0.0)), 0.0, du)
     dw = select(((w >= speed_w) & (dw > 0.0)) | ((w <= -speed_w) & (dw < 0.0)), 0.0, dw)
     return du, dw
-
-
-def limit_state(du, dw, accel_u, accel_w, u_ref=0.0, w_ref=0.0, speed_u=np.inf,
-                speed_w=np.inf):
-    """Which limits act: on the robot's accelerations (du, dw) as :func:`loop_rates`
-    returns them (after :func:`limited_acceleration`), for each velocity 1 or -1 at
-    the acceleration limit (+ or -), 2 held at a speed limit (an acceleration of
-    exactly 0), 0 free; and on the command (u_ref, w_ref) before it is clipped to
-    the speed limits, for each 1 or 2 beyond the limit (+ or -), 0 within. As one
-    number, code_u + 4 code_w + 16 (command_u + 3 command_w).
-
-    Where it changes, the right-hand side has a kink (a limit starts or stops
-    clipping the accelerations or the command) or a jump (a speed limit is reached):
-    an RK4 step across that point is only first or second order accurate, so the
-    batch engine splits such a step (the stages of one step disagree on this state)."""
-    cu = select(du >= accel_u, 1.0, select(du <= -accel_u, -1.0, select(du == 0.0, 2.0, 0.0)))
-    cw = select(dw >= accel_w, 1.0, select(dw <= -accel_w, -1.0, select(dw == 0.0, 2.0, 0.0)))
-    qu = select(u_ref > speed_u, 1.0, select(u_ref < -speed_u, 2.0, 0.0))
-    qw = select(w_ref > speed_w, 1.0, select(w_ref < -speed_w, 2.0, 0.0))
-    return cu + 4.0 * cw + 16.0 * (qu + 3.0 * qw)
 
 
 # --------------------------------------------------------------------- controllers
@@ -318,14 +294,7 @@ def loop_signals(X, ref, p, noise):
 
 
 def loop_rates(t, X, ref, p, noise):
-    r"""dX/dt of the Fig. 2 loop, as a tuple of the 13 rates in the order of :data:`S`
-    (:func:`loop_rates_and_limits` without the limits' state)."""
-    return loop_rates_and_limits(t, X, ref, p, noise)[0]
-
-
-def loop_rates_and_limits(t, X, ref, p, noise):
-    r"""dX/dt of the Fig. 2 loop, as a tuple of the 13 rates in the order of :data:`S`,
-    and which limits act there (:func:`limit_state`).
+    r"""dX/dt of the Fig. 2 loop, as a tuple of the 13 rates in the order of :data:`S`.
 
     The commands are clipped to the speed limits; the robot follows Eqs. (1)-(2)
     with the acceleration limits (:func:`limited_acceleration`), or Eq. (1) with
@@ -355,12 +324,10 @@ def loop_rates_and_limits(t, X, ref, p, noise):
     filtered = p[P.filtered] != 0.0
     du = select(dynamic, du, 0.0)
     dw = select(dynamic, dw, 0.0)
-    return ((dx, dy, w_move, du, dw,
-             select(on, r[0], 0.0), select(on, r[1], 0.0), select(on, r[2], 0.0),
-             select(on, r[3], 0.0), select(on, r[4], 0.0), select(on, r[5], 0.0),
-             select(filtered, udd, 0.0), select(filtered, wdd, 0.0)),
-            limit_state(du, dw, p[P.accel_u], p[P.accel_w], u_ref, w_ref, p[P.speed_u],
-                        p[P.speed_w]))
+    return (dx, dy, w_move, du, dw,
+            select(on, r[0], 0.0), select(on, r[1], 0.0), select(on, r[2], 0.0),
+            select(on, r[3], 0.0), select(on, r[4], 0.0), select(on, r[5], 0.0),
+            select(filtered, udd, 0.0), select(filtered, wdd, 0.0))
 
 
 def update_rates(G, u_tilde, w_tilde, p, X):
@@ -375,87 +342,8 @@ def update_rates(G, u_tilde, w_tilde, p, X):
         update_rate(G[5], G[11], u_tilde, w_tilde, p[P.gamma6], p[P.leak6], X[S.theta_hat6]))
 
 
-def loop_acceleration(X, du, dw, ref, p, noise):
-    """(u', w') of Eq. (2) under the loop's command clipped to the speed limits, with
-    the acceleration limits, at the state X with (u, w) moved by (du, dw); and the
-    regressor G of Eq. (14) there. (Not the stop at a speed limit: that is a jump,
-    where a difference quotient means nothing.)"""
-    Xm = (X[0], X[1], X[2], X[3] + du, X[4] + dw, X[5], X[6], X[7], X[8], X[9], X[10],
-          X[11], X[12])
-    s = loop_signals(Xm, ref, p, noise)
-    au, aw = robot_acceleration(Xm[S.u], Xm[S.w], saturate(s[5], p[P.speed_u]),
-                                saturate(s[6], p[P.speed_w]), p[P.theta1], p[P.theta2],
-                                p[P.theta3], p[P.theta4], p[P.theta5], p[P.theta6])
-    return saturate(au, p[P.accel_u]), saturate(aw, p[P.accel_w]), s[4]
-
-
-def velocity_loop_rate(X, ref, p, noise):
-    r"""The fastest rate (1/s) of the robot's velocity loop as the controller closes it
-    at state X, and the regressor G of Eq. (14) there: the spectral radius of
-    :math:`\partial(\dot u, \dot\omega)/\partial(u, \omega)` of Eq. (2) under the
-    loop's command (v_d, or :math:`G\hat\theta` of Eq. 14 with v_d' from Eq. 10's
-    exact rate or the filter), with the speed and acceleration limits
-    (:func:`loop_acceleration`), by forward differences. Arguments as
-    :func:`loop_signals`.
-
-    With compensation and no limit active it is about :math:`(\hat\theta_1/\theta_1)
-    k_u` and :math:`(\hat\theta_2/\theta_2) k_\omega` plus Eq. (10)'s gains through
-    v_d': it grows with the estimate, which the update law (Eqs. 18/20) can drift far
-    from theta under noise, so it depends on the state, not on the scenario alone.
-    Where a limit clips the command or the acceleration, the loop is open and the rate
-    is that of the robot alone."""
-    eu = 1e-6 * (1.0 + abs(X[S.u]))
-    ew = 1e-6 * (1.0 + abs(X[S.w]))
-    a0, b0, G = loop_acceleration(X, 0.0, 0.0, ref, p, noise)
-    a1, b1, _ = loop_acceleration(X, eu, 0.0, ref, p, noise)
-    a2, b2, _ = loop_acceleration(X, 0.0, ew, ref, p, noise)
-    j11, j21 = (a1 - a0) / eu, (b1 - b0) / eu
-    j12, j22 = (a2 - a0) / ew, (b2 - b0) / ew
-    half = 0.5 * (j11 + j22)
-    det = j11 * j22 - j12 * j21
-    disc = half * half - det
-    # real eigenvalues half +- sqrt(disc), or a complex pair of modulus sqrt(det)
-    return (select(disc >= 0.0, abs(half) + np.sqrt(np.maximum(disc, 0.0)),
-                   np.sqrt(np.maximum(det, 0.0))), G)
-
-
-def update_law_rate(G, p):
-    r"""The rate (1/s) of the update law, Eqs. (18)/(20), in closed loop with the
-    robot, at regressor G (the 12 entries of Eq. 14, row by row).
-
-    Linearised, :math:`\dot{\hat\theta} = -\Gamma G^T v + \dots` and, by Eq. (2)
-    with :math:`v_{ref} = G\hat\theta` (Eq. 14), :math:`H\dot v = G\hat\theta - F v`,
-    so the pair :math:`(\hat\theta, v)` has the Jacobian
-    :math:`\begin{bmatrix} -\Gamma\Sigma & -\Gamma G^T \\ H^{-1}G & -H^{-1}F
-    \end{bmatrix}`; for each velocity channel its eigenvalues solve
-    :math:`\lambda^2 + f\lambda + q = 0`, of magnitude at most :math:`\max(f, \sqrt q)`
-    with f the velocity loop's rate (:func:`velocity_loop_rate`) and
-    :math:`q = \sum_j \gamma_j (G_{0j}^2/\theta_1 + G_{1j}^2/\theta_2)`. Returns
-    :math:`\sqrt q`."""
-    q0 = p[P.gamma1] * (G[0] * G[0])
-    q1 = p[P.gamma1] * (G[6] * G[6])
-    for j in range(1, 6):
-        q0 = q0 + p[P.gamma1 + j] * (G[j] * G[j])
-        q1 = q1 + p[P.gamma1 + j] * (G[6 + j] * G[6 + j])
-    return np.sqrt(q0 / p[P.theta1] + q1 / p[P.theta2])
-
-
-def loop_step_rate(t, X, ref, p, noise):
-    """The fastest rate (1/s) of the loop that depends on its state: the velocity loop
-    as the compensator closes it (:func:`velocity_loop_rate`) and, once adaptation is
-    on, the update law with the robot (:func:`update_law_rate`). Arguments as
-    :func:`loop_rates`. The batch engine checks it at every sample of a compensated
-    run against the RK4 step."""
-    rate, G = velocity_loop_rate(X, ref, p, noise)
-    on = t >= p[P.adapt_from] - SWITCH_TOL
-    return np.maximum(rate, select(on, update_law_rate(G, p), 0.0))
-
-
 def loop_derivative(t, X, ref, p, noise, dX):
-    """:func:`loop_rates` written into dX (indexed by :data:`S`); where dX has one
-    row more, the limits' state (:func:`limit_state`) into that row."""
-    d, code = loop_rates_and_limits(t, X, ref, p, noise)
+    """:func:`loop_rates` written into dX (indexed by :data:`S`)."""
+    d = loop_rates(t, X, ref, p, noise)
     for i in range(len(STATE)):
         dX[i] = d[i]
-    if len(dX) > len(STATE):
-        dX[len(STATE)] = code

@@ -115,19 +115,13 @@ class Result:
     :ivar message: why the run stopped early ("" for a complete run)
     :ivar engine: ``"bdsim"`` (the diagram) or ``"batch"``
     :ivar backend: what actually integrated the run: ``"solve_ivp RK45"`` (or the
-        solver method used) for the diagram, ``"compiled"`` or ``"numpy"``
+        solver method used) for the diagram, ``"compiled"`` or ``"plain"``
         for the batch engine
     :ivar log_every: samples are logged every ``log_every`` steps of ``Ts``
-    :ivar substeps: the batch engine's RK4 steps per sample interval (``None`` for the
-        diagram)
-    :ivar substeps_max: the most RK4 steps one interval took: more than ``substeps``
-        where the loop was faster than that step resolves (a compensated run whose
-        estimate has drifted; see :func:`unidyn.simulate_batch`)
-    :ivar rk4_steps: the RK4 steps the batch engine took over the whole run
-    :ivar split_steps: how many times the batch engine split a step where it crossed a
-        change of the limits (a limit starting or stopping to clip the robot's
-        accelerations or its command, a speed limit reached: a kink or a jump of the right-hand side; see
-        :func:`unidyn.simulate_batch`)
+    :ivar steps: the steps the batch engine kept over the whole run (its error control
+        chooses them; ``None`` for the diagram)
+    :ivar rejected: the steps the batch engine took again shorter, their error beyond
+        the tolerance
     """
 
     scenario: object
@@ -141,10 +135,8 @@ class Result:
     engine: str = "bdsim"
     complete: bool = True
     message: str = ""
-    substeps: int | None = None
-    substeps_max: int | None = None
-    rk4_steps: int | None = None
-    split_steps: int | None = None
+    steps: int | None = None
+    rejected: int | None = None
     backend: str = ""
     error: np.ndarray = field(init=False)
     metrics: dict = field(init=False)
@@ -200,9 +192,8 @@ class Result:
             "unidyn_version": __version__,
             "engine": self.engine,
             "backend": self.backend,
-            "substeps": self.substeps,
-            "substeps_max": self.substeps_max,
-            "split_steps": self.split_steps,
+            "steps": self.steps,
+            "rejected": self.rejected,
             "complete": self.complete,
             "message": self.message,
             "scenario": json_ready(sc.to_dict()),  # no limit: null

@@ -56,7 +56,7 @@ from .. import __version__
 from .cluster import connect_dask, run_on_dask
 from .._errors import Interrupted
 from .._validate import ValidationError, choice, flag, integer
-from ..engine.batch import DEFAULT_SUBSTEPS, MAX_SUBSTEPS, simulate_batch
+from ..engine.batch import DEFAULT_ATOL, DEFAULT_RTOL, simulate_batch, tolerances
 from .sweep_files import (ID_NAME, MAX_POINTS, METRICS, RECORD_NAME, cell, check_keys,
                           expand_range, finished_rows, is_number, plain, text, read_rows,
                           read_sweep_id, read_sweep_record, read_toml, rows_text,
@@ -76,7 +76,7 @@ DEFAULT_CHUNK = {"batch": 40, "bdsim": 1}
 #: The longest sweep name accepted (it titles the figures and names every point).
 MAX_NAME = 200
 
-_TOP_KEYS = ("name", "base", "grid", "variants", "substeps")
+_TOP_KEYS = ("name", "base", "grid", "variants", "rtol", "atol")
 
 
 # -------------------------------------------------------------------------- Sweep
@@ -106,14 +106,16 @@ class Sweep:
     :param variants: tables of overrides, each with a unique ``label``; every
         variant is crossed with the grid (an axis called ``variant``, varying slowest)
     :param name: a label
-    :param substeps: RK4 steps per sample interval of the batch engine, integer >= 1
+    :param rtol: relative tolerance of the batch engine (:func:`unidyn.simulate_batch`)
+    :param atol: absolute tolerance of the batch engine
     """
 
     base: dict = field(default_factory=dict)
     grid: dict = field(default_factory=dict)
     variants: tuple = ()
     name: str = ""
-    substeps: int = DEFAULT_SUBSTEPS
+    rtol: float = DEFAULT_RTOL
+    atol: float = DEFAULT_ATOL
 
     def __post_init__(self):
         s = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
@@ -122,8 +124,9 @@ class Sweep:
         if len(self.name) > MAX_NAME:
             raise ValidationError(f"name is {len(self.name)} characters long; at most "
                                   f"{MAX_NAME} are allowed (it titles the figures)")
-        integer("substeps", self.substeps, 1, MAX_SUBSTEPS)
-        s("substeps", int(self.substeps))
+        rtol, atol = tolerances(self.rtol, self.atol)
+        s("rtol", rtol)
+        s("atol", atol)
         s("base", check_keys("base", self.base))
         if not isinstance(self.grid, Mapping):
             raise ValidationError(f"grid must be a table of axis = [values], got {self.grid!r}")
@@ -191,7 +194,7 @@ class Sweep:
     def columns(self) -> list:
         """The columns of metrics.csv."""
         return (["index"] + self.axes + ([] if "case" in self.axes else ["case"])
-                + list(METRICS) + ["complete"])
+                + list(METRICS) + ["complete", "message"])
 
     def __len__(self) -> int:
         return len(self.points())
@@ -238,7 +241,7 @@ class Sweep:
                "grid": {k: list(v) for k, v in self.grid.items()}}
         if self.variants:
             out["variants"] = [dict(v) for v in self.variants]
-        out["substeps"] = self.substeps
+        out["rtol"], out["atol"] = self.rtol, self.atol
         return out
 
     @classmethod
@@ -287,20 +290,20 @@ class SweepRun:
     replaced: tuple = ()
 
 
-def _row(index, params, case, metrics, complete) -> dict:
+def _row(index, params, case, metrics, complete, message="") -> dict:
     """One row of metrics.csv. A point that did not complete has empty (``None``)
-    metrics: the metrics of a partial run are not a result."""
+    metrics: the metrics of a partial run are not a result; ``message`` says why."""
     complete = bool(complete)
     return {"index": index, **params, "case": case,
             **{m: (_metric(metrics[m]) if complete else None) for m in METRICS},
-            "complete": complete}
+            "complete": complete, "message": message}
 
 
 def _metric(v):
     return None if v is None else float(v)
 
 
-def _run_chunk(points, engine: str, substeps: int) -> list:
+def _run_chunk(points, engine: str, rtol: float, atol: float) -> list:
     """Simulate a list of (index, params, scenario); return their metrics rows.
 
     Runs wherever it is called (here or on a Dask worker) and returns only the
@@ -313,15 +316,15 @@ def _run_chunk(points, engine: str, substeps: int) -> list:
             continue
         try:
             r = simulate(sc)
-            rows[j] = _row(index, params, sc.case, r.metrics, r.complete)
+            rows[j] = _row(index, params, sc.case, r.metrics, r.complete, r.message)
         except (RuntimeError, ArithmeticError) as err:
             print(f"unidyn: warning: sweep point {index} failed: {err}", file=sys.stderr)
-            rows[j] = _row(index, params, sc.case, {m: None for m in METRICS}, False)
+            rows[j] = _row(index, params, sc.case, {m: None for m in METRICS}, False, str(err))
     if batch:
-        results = simulate_batch([points[j][2] for j in batch], substeps=substeps)
+        results = simulate_batch([points[j][2] for j in batch], rtol=rtol, atol=atol)
         for j, r in zip(batch, results):
             index, params, sc = points[j]
-            rows[j] = _row(index, params, sc.case, r.metrics, r.complete)
+            rows[j] = _row(index, params, sc.case, r.metrics, r.complete, r.message)
     return rows
 
 
@@ -353,7 +356,7 @@ SWEEP_FILES = ("metrics.csv", RECORD_NAME, ID_NAME, "metrics.png", "claims.md", 
 
 
 def sweep_id(sweep: Sweep) -> str:
-    """A hash of a sweep's full definition (its base, grid, variants, name and substeps,
+    """A hash of a sweep's full definition (its base, grid, variants, name and tolerances,
     and the first point's complete scenario, so changed defaults count), the same
     whatever the engine: ``"sha256:..."``."""
     import hashlib
@@ -594,10 +597,10 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
 
         if client is None:
             for chunk in chunks:
-                take(_run_chunk(chunk, engine, sweep.substeps))
+                take(_run_chunk(chunk, engine, sweep.rtol, sweep.atol))
         elif chunks:
             run_on_dask(client, _run_chunk, chunks, take, engine=engine,
-                        substeps=sweep.substeps)
+                        rtol=sweep.rtol, atol=sweep.atol)
     except BaseException as err:
         if not done and not new_rows:  # nothing finished: leave nothing behind
             for name in written:

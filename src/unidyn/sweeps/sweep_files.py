@@ -236,7 +236,7 @@ def scenario_from_layers(layers, name: str = ""):
 
 #: Columns of metrics.csv that hold text as written (a variant's label, the case):
 #: never read as a number or JSON, so a label "007" or "null" stays itself.
-TEXT_COLUMNS = ("variant", "case")
+TEXT_COLUMNS = ("variant", "case", "message")
 
 
 def text(v) -> str:
