@@ -443,7 +443,12 @@ def test_plot_validation_is_headless(monkeypatch):
     rep = ident.validate(res, {k: holdout[k][:1000] for k in ("t", "u_ref", "w_ref", "u", "w")})
     axes = ident.plot_validation(rep)
     assert len(axes) == 4 and len(axes[0].lines) == len(axes[2].lines) == 2
-    assert "fit" in axes[0].get_legend().get_texts()[1].get_text()
+    fig = axes[0].figure
+    assert [t.get_text() for t in fig.legends[0].get_texts()] == [
+        "measured", "simulated, \u03b8 = identified"]
+    assert axes[0].get_title(loc="right") == f"u: fit {rep.fit['u']:.1f} % (NRMSE)"
+    fig.canvas.draw()  # the panels keep most of the figure's width (no legend beside them)
+    assert axes[0].get_window_extent().width > 0.75 * fig.bbox.width
     # the measured trace is drawn over the simulated one
     measured, simulated = axes[0].lines
     assert measured.get_zorder() > simulated.get_zorder()

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..model import robots
 from .._validate import ValidationError, choice, nonnegative, positive, vector
-from ..results.figstyle import label, legend, size, styled, ylim_from_data
+from ..results.figstyle import label, size, styled, ylim_from_data
 from ..model.unicycle import NO_LIMITS, Limits
 from ._simulate import COMMAND_CONVENTIONS, simulate_held, simulate_stepwise
 from .logs import load_log, segments
@@ -137,11 +137,11 @@ def plot_validation(report: ValidationReport, ax=None):
         measured, simulated = getattr(report, k), getattr(report, f"{k}_sim")
         a.plot(tb, broken(measured), lw=0.6, color="0.15", zorder=3, label="measured")
         a.plot(tb, broken(simulated), lw=1.6, color="C0", alpha=0.8, zorder=2,
-               label=f"simulated, \u03b8 = {report.theta.name or 'identified'} "
-                     f"(fit {report.fit[k]:.1f} %)")
+               label=f"simulated, \u03b8 = {report.theta.name or 'identified'}")
+        a.set_title(f"{sym}: fit {report.fit[k]:.1f} % (NRMSE)", loc="right", fontsize=7,
+                    pad=2)
         a.set_ylabel(label(sym, unit))
         ylim_from_data(a)
-        legend(a)
         if step == 2:
             r = ax[ax.index(a) + 1]
             r.axhline(0.0, lw=0.6, color="0.5")
@@ -149,4 +149,7 @@ def plot_validation(report: ValidationReport, ax=None):
                    lw=0.6, color="C3")
             r.set_ylabel(label(f"{sym} res.", unit))
     ax[-1].set_xlabel(label("t", "s"))
+    # one legend for the panels, under them: the data keep the figure's width
+    ax[0].figure.legend(*ax[0].get_legend_handles_labels(), loc="outside lower center",
+                        ncol=2, frameon=False)
     return ax
