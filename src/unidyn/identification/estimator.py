@@ -846,12 +846,7 @@ def _jitter_widening(D, segs, oe, theta, stderr, linear, dt_med, jitter):
         fk = _oe_fit({**D, "t": tk}, segs, theta, oe["sig"], linear, oe["delay"], False,
                      dt_med, v0=oe["v0"], covariance=False)
         reps.append(fk["theta"])
-    reps = np.array(reps)
-    shift = reps.mean(axis=0) - theta
-    wide = np.sqrt(stderr ** 2 + shift ** 2 + reps.var(axis=0, ddof=1))
-    wide = np.where(np.isfinite(stderr), wide, stderr)
-    grown = [f"{_NAMES[i]} x{wide[i] / stderr[i]:.2g}" for i in range(6)
-             if stderr[i] > 0 and wide[i] > 1.1 * stderr[i]]
+    wide, grown = _widened(np.array(reps), theta, stderr)
     note = (f"the time stamps jitter by about {1e3 * jitter:.3g} ms (std; "
             f"{100 * jitter / dt_med:.2g} % of the {dt_med:.4g} s step), as when a logger stamps "
             f"samples when it writes them: timing errors bias theta. The intervals allow for "
@@ -859,6 +854,18 @@ def _jitter_widening(D, segs, oe, theta, stderr, linear, dt_med, jitter):
             + (f"widened: {', '.join(grown)})" if grown else "barely changed)")
             + "; stamp the samples when they are taken if you can")
     return wide, note
+
+
+def _widened(reps, theta, stderr):
+    """Standard errors with the shift and the scatter of refitted estimates ``reps``
+    (one row a refit) added, and the parameters whose error grew by over 10 %, as
+    text (``"theta1 x1.5"``)."""
+    shift = reps.mean(axis=0) - theta
+    wide = np.sqrt(stderr ** 2 + shift ** 2 + reps.var(axis=0, ddof=1))
+    wide = np.where(np.isfinite(stderr), wide, stderr)
+    grown = [f"{_NAMES[i]} x{wide[i] / stderr[i]:.2g}" for i in range(6)
+             if stderr[i] > 0 and wide[i] > 1.1 * stderr[i]]
+    return wide, grown
 
 
 def _row_commands(recorded, theta, lags=None):
@@ -899,12 +906,7 @@ def _lag_widening(lg, oe, theta, stderr):
         fk = _oe_fit(D, lg.segs, theta, oe["sig"], False, 0.0, False, lg.dt_med,
                      v0=oe["v0"], covariance=False, progress=lg.tick)
         reps.append(fk["theta"])
-    reps = np.array(reps)
-    shift = reps.mean(axis=0) - theta
-    wide = np.sqrt(stderr ** 2 + shift ** 2 + reps.var(axis=0, ddof=1))
-    wide = np.where(np.isfinite(stderr), wide, stderr)
-    grown = [f"{_NAMES[i]} x{wide[i] / stderr[i]:.2g}" for i in range(6)
-             if stderr[i] > 0 and wide[i] > 1.1 * stderr[i]]
+    wide, grown = _widened(np.array(reps), theta, stderr)
     note = (f"the commands carry no stamps: their times are when the recorder received "
             f"them, up to {1e3 * RECORDER_LAG:g} ms after the robot applied them. The "
             f"intervals allow for it (refitted {_JITTER_REPS} times with the commands that "
