@@ -25,7 +25,7 @@ import re
 import tomllib
 
 import pytest
-from hypothesis import HealthCheck, Phase, given, settings
+from hypothesis import HealthCheck, Phase, event, given, settings
 from hypothesis import strategies as st
 
 from unidyn.model import robots
@@ -47,8 +47,6 @@ MAX_EXAMPLES = {
     "sweep_random_files": 50,
 }
 #: examples that ran to the end (passed), and how they ended: exit status -> count
-EXAMPLES = {name: 0 for name in MAX_EXAMPLES}
-OUTCOMES = {name: {} for name in MAX_EXAMPLES}
 
 
 def _settings(name):
@@ -222,8 +220,8 @@ def _cli(capsys, tmp_path, command, content, extra=()):
 
 
 def _record(name, status):
-    EXAMPLES[name] += 1
-    OUTCOMES[name][status] = OUTCOMES[name].get(status, 0) + 1
+    """How the example ended, in hypothesis' statistics (pytest --hypothesis-show-statistics)."""
+    event(f"exit {status}")
 
 
 # ------------------------------------------------------------------------ unidyn run
@@ -459,15 +457,6 @@ def test_a_valid_random_sweep_runs(capsys, tmp_path):
 ])
 def test_extreme_numbers_in_sweep_files(capsys, tmp_path, text):
     _cli(capsys, tmp_path, "sweep", text)
-
-
-def test_zz_report_example_counts(capsys):
-    """Print how many hypothesis examples each property ran and how they ended."""
-    with capsys.disabled():
-        print("\nhypothesis examples per property (test_cli_fuzz.py):")
-        for name, n in MAX_EXAMPLES.items():
-            ends = ", ".join(f"exit {k}: {v}" for k, v in sorted(OUTCOMES[name].items()))
-            print(f"  {name:30s} {EXAMPLES[name]:4d} passed / max_examples {n:3d}  ({ends})")
 
 
 # ------------------------------------------------------------------- long strings

@@ -44,17 +44,12 @@ MAX_EXAMPLES = {
     "speed_limits_hold_in_batch_runs": 120,
 }
 #: examples each property ran to the end (passed) in this session
-EXAMPLES = {name: 0 for name in MAX_EXAMPLES}
 
 
 def _settings(name):
     return settings(max_examples=MAX_EXAMPLES[name], deadline=None, derandomize=True,
                     database=None, suppress_health_check=[HealthCheck.too_slow,
                                                           HealthCheck.filter_too_much])
-
-
-def _ran(name):
-    EXAMPLES[name] += 1
 
 
 # --------------------------------------------------------------------- strategies
@@ -109,7 +104,6 @@ def test_coriolis_does_no_work(robot, v):
     work = np.einsum("bi,bij,bj->b", v, C, v)
     scale = abs(robot.theta3) * np.abs(v[:, 0]) * v[:, 1] ** 2
     assert np.all(np.abs(work) <= 4 * np.finfo(float).eps * scale + 1e-300)
-    _ran("coriolis_does_no_work")
 
 
 @_settings("power_balance")
@@ -134,7 +128,6 @@ def test_power_balance(robot, v, v_ref):
     assert abs(dV_direct - (supplied - dissipated)) <= 1e-12 * scale
     V_scale = model.storage(np.abs(v) + eps * np.abs(vdot), th)
     assert abs(dV_num - (supplied - dissipated)) <= 1e-12 * scale + 1e-13 * V_scale / eps
-    _ran("power_balance")
 
 
 @_settings("regressor_times_theta_is_inverse_dynamics")
@@ -153,7 +146,6 @@ def test_regressor_times_theta_is_inverse_dynamics(robot, v, data):
     # row by row equals the batched call
     for i in range(len(v)):
         np.testing.assert_array_equal(model.inverse_dynamics(v[i], vdot[i], th), rhs[i])
-    _ran("regressor_times_theta_is_inverse_dynamics")
 
 
 @_settings("dynamics_inverts_inverse_dynamics")
@@ -174,7 +166,6 @@ def test_dynamics_inverts_inverse_dynamics(robot, v, vdot, v_ref):
     again = model.inverse_dynamics(v, acc, th)
     tol = 1e-12 * (np.abs(v_ref) + H * np.abs(acc) + CF) + 1e-300
     assert np.all(np.abs(again - v_ref) <= tol)
-    _ran("dynamics_inverts_inverse_dynamics")
 
 
 def _limits():
@@ -231,7 +222,6 @@ def test_limits_hold_in_the_derivative(robot, limits, v_ref, a, data):
     # a kinematic robot turns at most at steer_max
     q = model.kinematic_unicycle_deriv(x[0:3], v_ref, a, limits)
     assert abs(q[2]) <= limits.steer_max
-    _ran("limits_hold_in_the_derivative")
 
 
 # ------------------------------------------------------------------ scenario runs
@@ -315,7 +305,6 @@ def test_scenario_runs_are_finite_and_reproducible(sc):
                                                                    r.theta_hat.shape))
     # the same scenario gives the same bits
     _same(r, simulate_batch([sc])[0])
-    _ran("scenario_runs_are_finite_and_reproducible")
 
 
 @pytest.mark.skipif(not _kernels.AVAILABLE, reason="needs the compiled backend (numba)")
@@ -329,7 +318,6 @@ def test_batch_runs_are_independent(sc, others, position):
     batch.insert(min(position, len(batch)), sc)
     together = simulate_batch(batch, backend="compiled")[batch.index(sc)]
     _same(alone, together)
-    _ran("batch_runs_are_independent")
 
 
 #: found by this property: the batch engine once let |u| pass speed_max by ~4e-5 m/s
@@ -349,13 +337,3 @@ def test_speed_limits_hold_in_batch_runs(sc):
     assert r.complete or "not within" in r.message, r.message
     assert np.all(np.abs(r.velocity[:, 0]) <= sc.limits.speed_max)
     assert np.all(np.abs(r.velocity[:, 1]) <= sc.limits.steer_max)
-    _ran("speed_limits_hold_in_batch_runs")
-
-
-def test_zz_report_example_counts(capsys):
-    """Print how many hypothesis examples each property ran (for the README)."""
-    lines = [f"{name:48s} {EXAMPLES[name]:5d} passed / {MAX_EXAMPLES[name]:5d} max_examples"
-             for name in MAX_EXAMPLES]
-    with capsys.disabled():
-        print("\nhypothesis examples per property (test_hypothesis_model.py):")
-        print("\n".join("  " + line for line in lines))

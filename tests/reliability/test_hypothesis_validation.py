@@ -49,9 +49,7 @@ MAX_EXAMPLES = {
     "robot_parameters_invalid": 60,
 }
 #: examples that ran to the end (passed) in this session, summed over targets
-EXAMPLES = {name: 0 for name in MAX_EXAMPLES}
 #: targets each property was run on
-TARGETS_RUN = {name: set() for name in MAX_EXAMPLES}
 
 
 #: the kinds of input with known gaps fail at once; their tests skip shrinking
@@ -494,9 +492,7 @@ def test_invalid_values_raise_validation_error(target):
     @given(value=INVALID[target.kind])
     def check(value):
         _rejects(target, value)
-        EXAMPLES["invalid_values"] += 1
 
-    TARGETS_RUN["invalid_values"].add(target.id)
     check()
 
 
@@ -527,9 +523,7 @@ def test_integers_beyond_the_float_range_raise_validation_error(target):
         else:
             value = big
         _rejects(target, value)
-        EXAMPLES["huge_integers"] += 1
 
-    TARGETS_RUN["huge_integers"].add(target.id)
     check()
 
 
@@ -545,9 +539,7 @@ def test_complex_arrays_raise_validation_error(target):
         re_ = data.draw(st.lists(st.floats(0.1, 10), min_size=n, max_size=n))
         im = data.draw(st.lists(st.floats(0.1, 10), min_size=n, max_size=n))
         _rejects(target, np.array(re_) + 1j * np.array(im))
-        EXAMPLES["complex_arrays"] += 1
 
-    TARGETS_RUN["complex_arrays"].add(target.id)
     check()
 
 
@@ -566,9 +558,7 @@ def test_numpy_arrays_for_names_and_flags_raise_validation_error(target):
         st.lists(st.booleans(), min_size=0, max_size=3).map(np.array)))
     def check(value):
         _rejects(target, value)
-        EXAMPLES["numpy_arrays_for_names_and_flags"] += 1
 
-    TARGETS_RUN["numpy_arrays_for_names_and_flags"].add(target.id)
     check()
 
 
@@ -583,9 +573,7 @@ def test_unhashable_trajectory_types_raise_validation_error(target):
                           st.dictionaries(st.text(max_size=3), small_ints, max_size=2)))
     def check(kind):
         _rejects(target, {"type": kind})
-        EXAMPLES["unhashable_trajectory_type"] += 1
 
-    TARGETS_RUN["unhashable_trajectory_type"].add(target.id)
     check()
 
 
@@ -605,9 +593,7 @@ def test_tables_with_non_string_keys_raise_validation_error(target):
         if "trajectory" in target.id:
             table["type"] = "circle"
         _rejects(target, table)
-        EXAMPLES["tables_with_non_string_keys"] += 1
 
-    TARGETS_RUN["tables_with_non_string_keys"].add(target.id)
     check()
 
 
@@ -718,9 +704,7 @@ def test_robot_parameters_reject_invalid_values(target):
     @given(value=INVALID[target.kind])
     def check(value):
         _rejects(target, value)
-        EXAMPLES["robot_parameters_invalid"] += 1
 
-    TARGETS_RUN["robot_parameters_invalid"].add(target.id)
     check()
 
 
@@ -733,9 +717,7 @@ def test_robot_parameters_reject_integers_beyond_the_float_range(target):
     @given(value=huge_int)
     def check(value):
         _rejects(target, value)
-        EXAMPLES["huge_integers"] += 1
 
-    TARGETS_RUN["huge_integers"].add(target.id)
     check()
 
 
@@ -746,13 +728,3 @@ def test_from_physical_rejects_parameters_that_give_an_invalid_theta():
         RobotParameters.from_physical(**{**PHYSICAL, "Iz": 0.0, "Ie": 0.0, "b": 0.0})
     with pytest.raises(ValidationError, match="theta1"):
         RobotParameters.from_physical(**{**PHYSICAL, "m": 1e300, "Ra": 1e300, "ka": 1e-300})
-
-
-def test_zz_report_example_counts(capsys):
-    """Print how many hypothesis examples each property ran (for the README)."""
-    with capsys.disabled():
-        print("\nhypothesis examples per property (test_hypothesis_validation.py):")
-        for name, n in MAX_EXAMPLES.items():
-            note = " (known gap: strict xfail on the targets it fails)" if name in KNOWN_GAPS else ""
-            print(f"  {name:34s} {len(TARGETS_RUN[name]):3d} targets x max_examples {n:3d}: "
-                  f"{EXAMPLES[name]:5d} examples passed{note}")
