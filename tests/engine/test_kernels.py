@@ -1,7 +1,10 @@
-"""The batch engine's kernels (unidyn.engine.kernels) against an independent implementation
-of the same right-hand side: the closed loop of unidyn.engine.rhs, all runs at once as
-arrays with the reference from the trajectory objects; and its Dormand-Prince step
-against what the method gives by construction."""
+"""The batch engine's kernels (unidyn.engine.kernels): their right-hand side, one run at
+a time with the reference evaluated from the parameter table, against the closed loop of
+unidyn.engine.rhs, all runs at once as arrays with the reference from the trajectory
+objects. Both evaluate unidyn.model.equations.loop_rates, so this checks the kernels'
+packing of parameters, references and noise, not the equations (which tests/model
+holds to the paper's, typed in again); and the Dormand-Prince step against what the
+method gives by construction."""
 
 import numpy as np
 import pytest
