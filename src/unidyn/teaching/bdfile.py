@@ -5,7 +5,8 @@ bdsim 1.4 reads ``.bd`` files but has no writer. :func:`save_bd` writes a diagra
 built in Python (e.g. the result of :func:`unidyn.diagrams.build_fig2`, the paper's
 Fig. 2) so that ``bdrun FILE.bd`` runs the same diagram and bdedit draws it::
 
-    from unidyn import Scenario, bdfile
+    from unidyn import Scenario
+    from unidyn.teaching import bdfile
     from unidyn.diagrams import build_fig2, new_simulator
     bdfile.save_bd(build_fig2(new_simulator(), Scenario.paper(4)), "fig2_case4.bd")
 
