@@ -22,13 +22,6 @@ from .unicycle import Limits, PAPER_LIMITS
 from .noise import NoiseSpec, PAPER_NOISE
 from .parameters import RobotParameters
 
-#: Above this adaptation gain (largest element of ``Scenario.gamma``, Eq. 18) an
-#: adaptive run is reported as not vouched for unless integrated finely enough: where
-#: the acceleration limits clip, the integrator steps across their kinks and theta_hat
-#: drifts from a converged solution. The diagram at rtol 1e-8: 1e-2 off at gamma 1000,
-#: 7e-5 at gamma 100 (the batch engine checks each run against a second one instead).
-HIGH_GAIN = 100.0
-
 __all__ = ["Scenario", "CASES", "CONTROL_MODES", "VD_DOT_METHODS", "PAPER_GAMMA", "PAPER_SIGMA"]
 
 #: The four cases of Section 5, by name, in the paper's order.

@@ -82,7 +82,7 @@ STYLE = {
     "axes.spines.right": False,
     "xtick.major.width": 0.6,
     "ytick.major.width": 0.6,
-    # tick labels as plain text: parsing each as mathtext took a third of drawing a figure
+    # tick labels as plain text, not mathtext (which is slow to lay out)
     "axes.formatter.use_mathtext": False,
     "axes.formatter.limits": (-3, 4),
     "figure.dpi": 100,
