@@ -16,6 +16,11 @@ import numpy as np
 from ._errors import NonFiniteSignalError, ValidationError  # noqa: F401  (defined there)
 
 
+#: The longest name a scenario, a sweep or a sweep's variant may have (it titles the
+#: figures and names the rows of metrics.csv).
+MAX_NAME = 200
+
+
 def real(name: str, value, *, low: float | None = None, high: float | None = None,
          low_open: bool = False, high_open: bool = False, allow_inf: bool = False) -> float:
     """Return ``value`` as a float after checking it is a finite real in range.

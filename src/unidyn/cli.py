@@ -32,8 +32,6 @@ from ._errors import (Interrupted, MissingDependency, SimulationError, Simulatio
 
 __all__ = ["main"]
 
-#: The longest scenario name a run accepts (it titles every figure).
-MAX_NAME = 200
 
 
 class _UsageError(Exception):
@@ -183,6 +181,7 @@ def _build_scenario(args):
             except ValidationError:
                 pass
         raise ValidationError(f"{culprit}: {err}") from None
+    from ._validate import MAX_NAME  # numpy loads with it, after the command's signals
     if len(sc.name) > MAX_NAME:
         raise ValidationError(f"name is {len(sc.name)} characters long; at most {MAX_NAME} "
                               f"are allowed (it titles the figures)")

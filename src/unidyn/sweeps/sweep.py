@@ -55,7 +55,7 @@ import numpy as np
 from .. import __version__
 from .cluster import connect_dask, run_on_dask
 from .._errors import Interrupted
-from .._validate import ValidationError, choice, flag, integer
+from .._validate import MAX_NAME, ValidationError, choice, flag, integer
 from ..engine.batch import DEFAULT_ATOL, DEFAULT_RTOL, simulate_batch, tolerances
 from .sweep_files import (ID_NAME, MAX_POINTS, METRICS, RECORD_NAME, cell, check_keys,
                           expand_range, finished_rows, is_number, plain, text, read_rows,
@@ -73,8 +73,6 @@ __all__ = ["Sweep", "Point", "SweepRun", "run_sweep", "sweep_id", "ENGINES", "SW
 ENGINES = ("batch", "bdsim")
 #: Default points per chunk, by engine.
 DEFAULT_CHUNK = {"batch": 40, "bdsim": 1}
-#: The longest sweep name accepted (it titles the figures and names every point).
-MAX_NAME = 200
 
 _TOP_KEYS = ("name", "base", "grid", "variants", "rtol", "atol")
 
