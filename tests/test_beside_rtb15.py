@@ -12,6 +12,7 @@ would fail here for the missing ones rather than pass. The wheels are downloaded
 once into the user's cache folder; from there the venv takes about 10 s.
 """
 
+import ast
 import hashlib
 import os
 import subprocess
@@ -104,4 +105,7 @@ def test_unidyn_bdsim_routes_work_beside_roboticstoolbox_1_5(tmp_path):
     assert lines[3].startswith("run: bdsim True 6 [") and TOOLBOX_CRASH in lines[3], lines[3]
     assert lines[4] == "imported: False"
     assert lines[5].startswith("cli: 0 ") and TOOLBOX_CRASH in lines[5], lines[5] + r.stderr
+    stderr_lines = ast.literal_eval(lines[5][len("cli: 0 "):])
+    assert stderr_lines == [f"unidyn: warning: {TOOLBOX_CRASH}; this process's bdsim "
+                            f"simulators now have bdsim's and unidyn's blocks only"]
     assert (tmp_path / "out" / "summary.json").is_file()

@@ -24,6 +24,7 @@ import argparse
 import json
 import sys
 import time
+import warnings
 from pathlib import Path
 
 from . import process
@@ -511,7 +512,6 @@ def _cli_words(text: str) -> str:
 
 
 def _cmd_identify(args) -> int:
-    import warnings
     from . import identification as ident
     from .results.folders import staged_output
     logs = [Path(p) for p in args.log]
@@ -636,7 +636,6 @@ def _read_bags(ident, paths, args) -> list:
         raise _UsageError(f"{flags[0]} applies to ROS bags; {csv[0]} is a CSV log")
     if args.cmd_timeout is not None and not args.cmd_timeout > 0:
         raise ValidationError(f"--cmd-timeout must be > 0 seconds, got {args.cmd_timeout:g}")
-    import warnings
     with warnings.catch_warnings(record=True) as caught:   # told as one line each
         warnings.simplefilter("always", ident.IdentificationWarning)
         joints = args.wheel_joints.split(",") if args.wheel_joints is not None else None
@@ -843,11 +842,18 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    """A warning as the command's other messages: one line on stderr."""
+    print(f"unidyn: warning: {' '.join(str(message).split())}", file=sys.stderr)
+
+
 def main(argv=None) -> int:
     """Run the ``unidyn`` command line; returns the exit status."""
     try:
-        args = _parser().parse_args(argv)
-        return int(args.func(args) or 0)
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_warning  # the hook the warnings module offers
+            args = _parser().parse_args(argv)
+            return int(args.func(args) or 0)
     except SystemExit as exc:  # --help, --version
         return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
     except _RunFailed as err:
