@@ -126,6 +126,12 @@ def line(ax):
                                  color=INK, lw=LW * 0.55))
 
 
+def point(ax):
+    ax.plot([0.5, 0.5], [0.12, 0.88], color=INK, lw=LW * 0.3)
+    ax.plot([0.12, 0.88], [0.5, 0.5], color=INK, lw=LW * 0.3)
+    ax.add_patch(Circle((0.5, 0.5), 0.2, fill=False, lw=LW * 0.55, ec=INK))
+
+
 def trajectory(ax):
     t = np.linspace(0.0, 1.0, 200)
     ax.plot(0.1 + 0.8 * t, 0.5 + 0.25 * np.sin(2 * np.pi * t) * (1 - 0.3 * t), color=INK, lw=LW * 0.55)
@@ -155,6 +161,7 @@ ICONS = {
     "figureeight": figure_eight,
     "circle": circle,
     "line": line,
+    "point": point,
     "trajectorysource": trajectory,
     "measurementnoise": noise,
     "sensornoise": noise_named_clock,

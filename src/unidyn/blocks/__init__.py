@@ -8,10 +8,11 @@ directly (``DynamicUnicycle(..., bd=bd)``).
 from .unicycles import DynamicUnicycle, DynamicUnicycleWithVelocity, KinematicUnicycle
 from .controllers import (DynamicCompensator, DynamicCompensatorWithRateInput,
                           KinematicController, KinematicControllerWithRate)
-from .sources import FigureEight, Circle, Line, TrajectorySource, MeasurementNoise, SensorNoise
+from .sources import (FigureEight, Circle, Line, Point, TrajectorySource, MeasurementNoise,
+                      SensorNoise)
 
 __all__ = ["DynamicUnicycle", "KinematicUnicycle", "KinematicController",
-           "DynamicCompensator", "FigureEight", "Circle", "Line", "TrajectorySource",
+           "DynamicCompensator", "FigureEight", "Circle", "Line", "Point", "TrajectorySource",
            "MeasurementNoise",
            # the same blocks with fixed ports (drawn by bdedit, loaded from .bd files)
            "DynamicUnicycleWithVelocity", "KinematicControllerWithRate",

@@ -246,6 +246,56 @@ class Line(TrajectorySource):
         self.type = "line"
 
 
+class Point(TrajectorySource):
+    r"""
+    :blockname:`POINT`
+
+    A fixed goal point, at rest (the positioning task of the authors' MATLAB package):
+    with it, the kinematic controller (Eq. 10) drives h to the point.
+
+    :inputs: 0
+    :outputs: 3
+    :states: 0
+
+    .. list-table::
+        :header-rows: 1
+
+        *   - Port type
+            - Port number
+            - Types
+            - Description
+        *   - Output
+            - 0
+            - ndarray(2)
+            - :math:`h_d = (x, y)`, the goal, m (label ``h_d``)
+        *   - Output
+            - 1
+            - ndarray(2)
+            - :math:`\dot h_d = 0` (label ``h_d_dot``)
+        *   - Output
+            - 2
+            - ndarray(2)
+            - :math:`\ddot h_d = 0` (label ``h_d_ddot``)
+    """
+
+    nin = 0
+    nout = 3
+    outlabels = ("h_d", "h_d_dot", "h_d_ddot")
+
+    def __init__(self, x: float = 1.0, y: float = 1.0, **blockargs):
+        r"""
+        :param x: the goal's x, m
+        :type x: float
+        :param y: the goal's y, m
+        :type y: float
+        :param blockargs: common block options
+        :type blockargs: dict
+        """
+        check_blockargs(self, blockargs)
+        super().__init__(traj.Point(x, y), **blockargs)
+        self.type = "point"
+
+
 def _pair(name, value):
     return tuple(vector(name, value, 2).tolist())
 

@@ -17,7 +17,7 @@ import numpy as np
 from . import equations as eq
 from .._validate import ValidationError, positive, real, string_keys, vector
 
-__all__ = ["Trajectory", "FigureEight", "Circle", "Line", "FunctionTrajectory", "from_spec",
+__all__ = ["Trajectory", "FigureEight", "Circle", "Line", "Point", "FunctionTrajectory", "from_spec",
            "KINDS"]
 
 
@@ -171,6 +171,34 @@ class Line(_FromEquations):
         return {"type": self.kind, "start": list(self.start), "velocity": list(self.velocity_)}
 
 
+class Point(Line):
+    r"""A fixed goal point (the positioning task of the authors' MATLAB package):
+    :math:`h_d = (x, y)`, at rest. Eq. (10) then reads
+    :math:`v_d = A^{-1}(\psi)\,L \tanh(K \tilde h / L)`: h goes to the point.
+    The engines evaluate it as a :class:`Line` with zero velocity.
+
+    :param x: the point's x, m
+    :param y: the point's y, m
+    """
+
+    def __init__(self, x: float = 1.0, y: float = 1.0):
+        super().__init__(start=(real("x", x), real("y", y)), velocity=(0.0, 0.0))
+
+    @property
+    def x(self) -> float:
+        return self.start[0]
+
+    @property
+    def y(self) -> float:
+        return self.start[1]
+
+    def __repr__(self) -> str:
+        return f"Point(x={self.x!r}, y={self.y!r})"
+
+    def to_spec(self) -> dict:
+        return {"type": "point", "x": self.x, "y": self.y}
+
+
 class FunctionTrajectory(Trajectory):
     r"""Wraps a user callable ``f(t) -> (h_d, h_d_dot)`` (scalar t).
 
@@ -223,7 +251,7 @@ class FunctionTrajectory(Trajectory):
         return {"type": "function", "callable": f"{getattr(self.f, '__module__', '?')}.{name}"}
 
 
-KINDS = {"figure_eight": FigureEight, "circle": Circle, "line": Line}
+KINDS = {"figure_eight": FigureEight, "circle": Circle, "line": Line, "point": Point}
 
 
 def from_spec(spec) -> Trajectory:
