@@ -7,6 +7,22 @@ import math
 import numpy as np
 
 
+def eq1(pose, v, a):
+    """Eq. (1): the pose rates of the point h, a m ahead of the axle, at velocity v."""
+    _, _, psi = pose
+    u, w = v
+    return np.array([u * math.cos(psi) - a * w * math.sin(psi),
+                     u * math.sin(psi) + a * w * math.cos(psi), w])
+
+
+def eq2(v, v_ref, theta):
+    """Eq. (2): the velocity rates of the dynamic model."""
+    t1, t2, t3, t4, t5, t6 = theta
+    u, w = v
+    return np.array([t3 / t1 * w * w - t4 / t1 * u + v_ref[0] / t1,
+                     -t5 / t2 * u * w - t6 / t2 * w + v_ref[1] / t2])
+
+
 def eq10(h_d, h_d_dot, h, psi, a, k, l):
     """Eq. (10): v_d = A^-1(psi) (h_d' + L tanh(K h~ / L)), h~ = h_d - h."""
     nu_x = h_d_dot[0] + l[0] * math.tanh(k[0] * (h_d[0] - h[0]) / l[0])

@@ -62,3 +62,41 @@ def test_example_sweep_runs_with_its_labelled_variants(tmp_path):
         ys = [iae[(v, k)] for k in (0.25, 0.5, 0.75, 1.0)]
         assert all(a > b for a, b in zip(ys, ys[1:])), (v, ys)
     assert (out / "metrics.png").stat().st_size > 5000
+
+
+def test_the_lane_change_example_follows_eqs_1_and_2_and_prints_its_path(tmp_path):
+    """examples/lanechange_dynamics.py, the lane change of the authors' MATLAB package:
+    without limits, its diagram's path is Eqs. (1)-(2) integrated independently under the
+    same commands; with the paper's limits it runs as a user runs it."""
+    import importlib.util
+    from scipy.integrate import solve_ivp
+
+    import paper_equations
+    from unidyn import NO_LIMITS, robots
+
+    spec = importlib.util.spec_from_file_location("lanechange", EXAMPLES / "lanechange_dynamics.py")
+    lc = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(lc)
+    t, q, v = lc.lanechange(limits=NO_LIMITS)
+    theta = robots.get("p3dx_laser").theta
+    times = [s for s, _ in lc.STEERING]
+
+    def w_ref(s):
+        return lc.STEERING[int(np.searchsorted(times, s, side="right")) - 1][1]
+
+    def f(s, x):
+        v_ref = (1.0, w_ref(s))
+        return np.r_[paper_equations.eq1(x[:3], x[3:], 0.2), paper_equations.eq2(x[3:], v_ref, theta)]
+    x, want = np.zeros(5), [np.zeros(5)]
+    for s0, s1 in zip([0.0] + times[1:], times[1:] + [lc.T]):  # restarted at each step
+        sol = solve_ivp(f, (s0, s1), x, method="DOP853", rtol=1e-11, atol=1e-13,
+                        t_eval=t[(t > s0 + 1e-9) & (t <= s1 + 1e-9)])
+        x = sol.y[:, -1] if sol.y.size else x
+        want.append(sol.y.T)
+    want = np.vstack(want)
+    np.testing.assert_allclose(np.c_[q, v], want[:len(t)], atol=2e-6)
+    r = subprocess.run([sys.executable, str(EXAMPLES / "lanechange_dynamics.py")], cwd=tmp_path,
+                       capture_output=True, text=True, env={**os.environ, "MPLBACKEND": "Agg"},
+                       timeout=300)
+    assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
+    assert "the lane moved by" in r.stdout and (tmp_path / "lanechange.png").is_file()
