@@ -719,7 +719,7 @@ def _parser() -> argparse.ArgumentParser:
                        "into --out. An interrupted sweep resumes where it stopped.",
                        formatter_class=_Formatter, epilog=_examples(
                            "unidyn sweep examples/sweep.toml --out out/sweep",
-                           "unidyn sweep --paper-fig11 --gains '[1, 5, 23]' --T 50 "
+                           "unidyn sweep --paper-fig11 --gains '[1, 5, 23]' --T 50 --no-noise "
                            "--out out/fig11-three-gains     # all 70 gains: leave out --gains"))
     s.add_argument("sweep", nargs="?", metavar="SWEEP.toml", help="the sweep file")
     s.add_argument("--paper-fig11", action="store_true",

@@ -37,7 +37,9 @@ def test_compiled_and_plain_kernels_agree(noise):
     for x, y in zip(a, b):
         assert np.max(np.abs(x.pose - y.pose)) < tol
         assert np.max(np.abs(x.theta_hat - y.theta_hat)) < tol
-        assert np.max(np.abs(x.v_ref - y.v_ref)) < 10 * tol
+        # the commands amplify the states' difference by the controllers' gains (Eqs. 10,
+        # 12: up to ku = 4 and 1/a = 5 here), twice over
+        assert np.max(np.abs(x.v_ref - y.v_ref)) < 100 * tol
         assert abs(x.metrics["iae"] - y.metrics["iae"]) <= tol * x.metrics["iae"]
 
 

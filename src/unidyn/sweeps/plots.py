@@ -37,6 +37,11 @@ def _legend_entry(sweep, axes, key) -> str:
     return ", ".join(parts) + (": " + ", ".join(sets) if sets else "")
 
 
+#: The largest axis value drawn as such (matplotlib cannot place ticks near the largest
+#: float); a sweep with larger values is drawn against its point index.
+_LARGEST_X = 1e100
+
+
 def plot_metrics(sweep, rows, path, metric: str = "iae"):
     """IAE (or another metric) against the first numeric axis, one line per combination
     of the other axes (a variant by its label and what it sets); log scale with plain tick labels when
@@ -45,6 +50,8 @@ def plot_metrics(sweep, rows, path, metric: str = "iae"):
 
     choice("metric", metric, METRICS)
     x_axis = _numeric_axis(sweep)
+    if x_axis and not all(abs(float(r[x_axis])) < _LARGEST_X for r in rows):
+        x_axis = None  # beyond what an axis can place ticks on: against the point index
     others = [a for a in sweep.axes if a != x_axis]
     lines = {}
     for r in rows:
