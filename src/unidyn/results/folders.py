@@ -302,11 +302,16 @@ class Ledger:
         (which must be unidyn's: a file of the user's is never replaced)."""
         if name not in self.names:
             raise ValueError(f"{name!r} is not a file of unidyn's {self.kind} results")
-        now = self._proven.get(name)
-        if now is None and os.path.lexists(self.folder / name) and not self.owns(name):
-            raise ValidationError(foreign_files(self.folder, [name], "results"))
-        now = self._proven.get(name)
+        now = self._current(name)
         self.files[name] = ([] if now is None else [_hex(now)]) + [_hex(digest)]
+
+    def _current(self, name: str):
+        """The running digest of what ``name`` holds now (None where there is nothing);
+        a file there that unidyn cannot prove it wrote is refused, never changed."""
+        if (name not in self._proven and os.path.lexists(self.folder / name)
+                and not self.owns(name)):
+            raise ValidationError(foreign_files(self.folder, [name], "results"))
+        return self._proven.get(name)
 
     def _settle(self, name: str, digest) -> None:
         self.files[name] = [_hex(digest)]
@@ -363,10 +368,11 @@ class Ledger:
     def append(self, name: str, text: str) -> None:
         """Add ``text`` at the end of ``name`` (unidyn's, proven by :meth:`owns`), in one
         write, recording the content it will have before writing it."""
-        if name not in self._proven and not self.owns(name):
-            raise ValidationError(foreign_files(self.folder, [name], "results"))
+        before = self._current(name)
+        if before is None:
+            raise FileNotFoundError(f"{self.folder / name} does not exist: nothing to append to")
         data = text.encode()
-        after = self._proven[name].copy()
+        after = before.copy()
         after.update(data)
         self._claim(name, after)
         self._save()
