@@ -142,7 +142,9 @@ class Circle(TrajectorySource):
     r"""
     :blockname:`CIRCLE`
 
-    A circular reference at constant angular rate.
+    A circular reference at constant angular rate, whose radius may step (the circle of
+    the authors' MATLAB package): ``radius=[(0, 1.0), (60, 0.9), (120, 1.0)]`` is 1 m,
+    0.9 m from 60 s on, 1 m again from 120 s on.
 
     :inputs: 0
     :outputs: 3
@@ -168,18 +170,23 @@ class Circle(TrajectorySource):
             - ndarray(2)
             - :math:`\ddot h_d`, desired acceleration, m/s² (label ``h_d_ddot``)
 
-    .. math:: h_d = c + R\,(\cos(\omega t + \phi), \sin(\omega t + \phi))
+    .. math:: h_d = c + R(t)\,(\cos(\omega t + \phi), \sin(\omega t + \phi))
+
+    At a step, :math:`h_d` jumps radially by the change of radius, while
+    :math:`\dot h_d` and :math:`\ddot h_d` are those of the circle of the current
+    radius (no impulse), as in the MATLAB package; see
+    :class:`unidyn.model.trajectories.Circle`.
     """
 
     nin = 0
     nout = 3
     outlabels = ("h_d", "h_d_dot", "h_d_ddot")
 
-    def __init__(self, radius: float = 1.0, omega: float = 0.2,
+    def __init__(self, radius: float | Sequence[Sequence[float]] = 1.0, omega: float = 0.2,
                  center: Sequence[float] = (0.0, 0.0), phase: float = 0.0, **blockargs):
         r"""
-        :param radius: R, m, > 0
-        :type radius: float
+        :param radius: R, m, > 0; or a schedule, rows [t, R]: from t (s) on the radius is R (m), the first row at t = 0, times increasing, at most 8 steps after it
+        :type radius: float or list of [t, R]
         :param omega: angular rate, rad/s, nonzero (negative: clockwise)
         :type omega: float
         :param center: c, m

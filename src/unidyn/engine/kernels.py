@@ -114,7 +114,9 @@ def reference(t, p):
         return eq.figure_eight(t, p[P.path1], p[P.path2], p[P.path3], p[P.path4],
                                p[P.path5], p[P.path6])
     if kind == 1.0:
-        return eq.circle(t, p[P.path1], p[P.path2], p[P.path3], p[P.path4], p[P.path5])
+        steps = p[P.step_time1:P.step_time1 + 2 * eq.RADIUS_STEPS]  # unused: at t = inf
+        radius = eq.stepped_radius(t, p[P.path1], steps)
+        return eq.circle(t, radius, p[P.path2], p[P.path3], p[P.path4], p[P.path5])
     return eq.line(t, p[P.path1], p[P.path2], p[P.path3], p[P.path4])
 
 

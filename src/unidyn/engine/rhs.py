@@ -133,7 +133,11 @@ class ClosedLoop:
             if kind == "figure_eight":
                 path = (tr.ax, tr.ay, tr.wx, tr.wy, tr.center[0], tr.center[1])
             elif kind == "circle":
-                path = (tr.radius, tr.omega, tr.center[0], tr.center[1], tr.phase)
+                (_, radius), *steps = tr.radius_schedule
+                path = (radius, tr.omega, tr.center[0], tr.center[1], tr.phase)
+                steps += [(np.inf, radius)] * (equations.RADIUS_STEPS - len(steps))
+                for j, (t_step, r_step) in enumerate(steps):
+                    values[f"step_time{j + 1}"], values[f"step_radius{j + 1}"] = t_step, r_step
             elif kind == "line":
                 path = (*tr.start, *tr.velocity_)
             else:  # a Python function: the kernels' plain copy calls it (path1: its index)

@@ -34,8 +34,9 @@ import numpy as np
 __all__ = ["select", "sin", "cos", "tanh", "point_velocity_components", "robot_acceleration",
            "dynamics_regressor", "saturate", "limited_acceleration", "kinematic_law",
            "kinematic_law_rate", "compensation_regressor", "compensation", "update_rate",
-           "figure_eight", "circle", "line", "loop_signals", "loop_rates",
-           "loop_derivative", "update_rates", "STATE", "S", "LOOP_PARAMETERS", "P", "TRAJECTORY_KINDS", "SWITCH_TOL"]
+           "figure_eight", "circle", "stepped_radius", "line", "loop_signals", "loop_rates",
+           "loop_derivative", "update_rates", "STATE", "S", "LOOP_PARAMETERS", "P", "TRAJECTORY_KINDS",
+           "RADIUS_STEPS", "SWITCH_TOL"]
 
 #: Adaptation is on for t >= adapt_from - SWITCH_TOL (s): the switch then falls on
 #: the same side of a solver stage that lands on adapt_from up to rounding, in
@@ -219,12 +220,26 @@ def figure_eight(t, ax, ay, wx, wy, cx, cy):
 
 def circle(t, radius, omega, cx, cy, phase):
     r"""A circle, :math:`h_d = c + R[\cos(\omega t + \phi), \sin(\omega t + \phi)]`:
-    (x_d, y_d, x_d', y_d', x_d'', y_d'')."""
+    (x_d, y_d, x_d', y_d', x_d'', y_d''). For a circle whose radius steps, R is the
+    current radius (:func:`stepped_radius`), and the derivatives are those of the circle
+    of that radius."""
     arg = omega * t + phase
     c = cos(arg)
     s = sin(arg)
     return (cx + radius * c, cy + radius * s, -radius * omega * s, radius * omega * c,
             -radius * omega * omega * c, -radius * omega * omega * s)
+
+
+def stepped_radius(t, radius, steps):
+    r"""The radius at time t of a circle whose radius steps (the circle of the authors'
+    MATLAB package): ``radius`` before the first step, :math:`R_k` from :math:`t_k` on
+    (:math:`t \ge t_k`). ``steps`` = (t_1, R_1, t_2, R_2, ...) with increasing times, s,
+    and radii, m; a pair with t_k = inf never applies. With no step it is ``radius``
+    itself."""
+    r = radius
+    for k in range(0, len(steps), 2):
+        r = select(t >= steps[k], steps[k + 1], r)
+    return r
 
 
 def line(t, x0, y0, vx, vy):
@@ -236,6 +251,10 @@ def line(t, x0, y0, vx, vy):
 #: The kinds of reference the compiled engine evaluates itself (the value of the
 #: table entry ``trajectory`` is the index in this tuple).
 TRAJECTORY_KINDS = ("figure_eight", "circle", "line")
+#: The most radius steps of a circle the compiled engine holds (the table entries
+#: ``step_time1``, ``step_radius1``, ...): eight, twice the schedule of the authors'
+#: MATLAB package.
+RADIUS_STEPS = 8
 
 
 # ---------------------------------------------------------------- the Fig. 2 loop
@@ -252,14 +271,16 @@ S = namedtuple("LoopState", STATE)(*range(len(STATE)))
 #: and ``filtered`` (1: v_d' from the filter (v_d - z)/tau; 0: the exact rate) are
 #: 0/1; ``leak1..6`` are the leakage rates of :func:`update_rate`; ``adapt_from`` is
 #: inf where the estimate is not adapted; ``path1..6`` are the reference's
-#: parameters, in the order of the function of its kind.
+#: parameters, in the order of the function of its kind; ``step_time1``,
+#: ``step_radius1``, ... a circle's radius steps (:func:`stepped_radius`; inf: unused).
 LOOP_PARAMETERS = (
     ("theta1", "theta2", "theta3", "theta4", "theta5", "theta6", "a",
      "kx", "ky", "lx", "ly", "ku", "kw", "lu", "lw")
     + tuple(f"gamma{j}" for j in range(1, 7)) + tuple(f"leak{j}" for j in range(1, 7))
     + ("adapt_from", "tau", "filtered", "dynamic", "compensated",
        "speed_u", "speed_w", "accel_u", "accel_w", "trajectory")
-    + tuple(f"path{j}" for j in range(1, 7)))
+    + tuple(f"path{j}" for j in range(1, 7))
+    + tuple(f"step_{v}{j}" for j in range(1, RADIUS_STEPS + 1) for v in ("time", "radius")))
 #: Index of each parameter by name (P.kx, P.gamma1, ...).
 P = namedtuple("LoopParameter", LOOP_PARAMETERS)(*range(len(LOOP_PARAMETERS)))
 

@@ -121,22 +121,38 @@ class FigureEight(_FromEquations):
 class Circle(_FromEquations):
     r"""A circle travelled at constant angular rate:
 
-    .. math:: h_d = c + R\,[\cos(\omega t + \phi), \sin(\omega t + \phi)]
+    .. math:: h_d = c + R(t)\,[\cos(\omega t + \phi), \sin(\omega t + \phi)]
 
-    :param radius: R, m, > 0
+    The radius is a number, or a schedule whose radius steps (the circle of the authors'
+    MATLAB package): rows ``[t, R]``, from time t (s) on the radius is R (m), the first
+    row at t = 0. That package's circle, 1 m, 0.1 m smaller from 60 s to 120 s and
+    from 180 s to 240 s, at 0.1 rad/s, is::
+
+        Circle(radius=[(0, 1.0), (60, 0.9), (120, 1.0), (180, 0.9), (240, 1.0)], omega=0.1)
+
+    At a step the position jumps radially by the change of radius. The velocity and
+    acceleration are those of the circle of the current radius, :math:`R\omega` and
+    :math:`R\omega^2` in size, as that package computes them: the jump has no impulse
+    in :math:`\dot h_d`, which is therefore not the derivative of :math:`h_d` at a step.
+    From :math:`t_k` on (:math:`t \ge t_k`) the new radius holds.
+
+    :param radius: R, m, > 0; or the schedule, a list of ``[t, R]`` rows with t in s
+        (0 first, then increasing; at most :data:`~unidyn.model.equations.RADIUS_STEPS`
+        steps after 0) and R > 0 in m. A one-row schedule is the number R.
     :param omega: angular rate, rad/s (negative: clockwise), nonzero
     :param center: c, m
     :param phase: phi, rad
     """
 
     kind = "circle"
-    radius: float = 1.0
+    radius: float | tuple = 1.0
     omega: float = 0.2
     center: tuple = (0.0, 0.0)
     phase: float = 0.0
 
     def __post_init__(self):
-        object.__setattr__(self, "radius", positive("radius", self.radius))
+        schedule = _radius_schedule(self.radius)
+        object.__setattr__(self, "radius", schedule if len(schedule) > 1 else schedule[0][1])
         om = real("omega", self.omega)
         if om == 0:
             raise ValidationError("omega must be nonzero, got 0.0")
@@ -144,8 +160,55 @@ class Circle(_FromEquations):
         object.__setattr__(self, "phase", real("phase", self.phase))
         object.__setattr__(self, "center", tuple(vector("center", self.center, 2).tolist()))
 
+    @property
+    def radius_schedule(self) -> tuple:
+        """The radius as ``((0.0, R_0), (t_1, R_1), ...)``: from t_k (s) on, R_k (m);
+        a constant radius is the one row ``((0.0, R),)``."""
+        return self.radius if isinstance(self.radius, tuple) else ((0.0, self.radius),)
+
+    def radius_at(self, t):
+        """The radius at time t (s), m (a float, or an array of t's shape)."""
+        return eq.stepped_radius(_t(t), self.radius_schedule[0][1], self._steps)
+
+    @property
+    def _steps(self) -> tuple:
+        """The steps as :func:`unidyn.model.equations.stepped_radius` takes them."""
+        return tuple(v for row in self.radius_schedule[1:] for v in row)
+
     def _eval(self, t):
-        return eq.circle(_t(t), self.radius, self.omega, *self.center, self.phase)
+        t = _t(t)
+        return eq.circle(t, self.radius_at(t), self.omega, *self.center, self.phase)
+
+
+def _radius_schedule(value) -> tuple:
+    """A circle's radius (a number > 0, or rows [t, R]) as the rows ((0.0, R_0), ...)."""
+    what = ("radius must be a number > 0 (m) or a schedule of [t, R] rows (t in s from 0 "
+            "on, increasing; R > 0 in m)")
+    if isinstance(value, (str, bytes, dict, type(None))):
+        raise ValidationError(f"{what}, got {value!r:.120}")
+    if isinstance(value, np.ndarray):
+        value = value.tolist()  # a 0-d array: its number
+    if not isinstance(value, (list, tuple)):
+        return ((0.0, positive("radius", value)),)
+    rows = list(value)
+    if not rows or not all(isinstance(r, (list, tuple)) and len(r) == 2
+                           for r in rows):
+        raise ValidationError(f"{what}, got {value!r:.120}")
+    if len(rows) > eq.RADIUS_STEPS + 1:
+        raise ValidationError(f"radius: a schedule has at most {eq.RADIUS_STEPS} steps after "
+                              f"its row at t = 0, got {len(rows) - 1}")
+    out = []
+    for k, (t, r) in enumerate(rows):
+        t = real(f"radius[{k}] t", t, low=0.0)
+        r = positive(f"radius[{k}] R", r)
+        if k == 0 and t != 0.0:
+            raise ValidationError(f"radius: a schedule starts with the radius at t = 0, "
+                                  f"[0, R]; its first row has t = {t:g}")
+        if k > 0 and t <= out[-1][0]:
+            raise ValidationError(f"radius: a schedule's times increase; row {k} has "
+                                  f"t = {t:g} after t = {out[-1][0]:g}")
+        out.append((t, r))
+    return tuple(out)
 
 
 @dataclass(frozen=True)

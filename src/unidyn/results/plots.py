@@ -70,10 +70,10 @@ def run_title(scenario) -> str:
 
 def reference_period(trajectory):
     """The period of a trajectory, s, or ``None`` (not periodic, or a period so long
-    that drawing the whole run is as good): 2 pi / omega for a circle, the common
-    period of the two sines of a figure eight."""
+    that drawing the whole run is as good): 2 pi / omega for a circle (whose radius does
+    not step), the common period of the two sines of a figure eight."""
     kind = getattr(trajectory, "kind", None)
-    if kind == "circle":
+    if kind == "circle" and len(trajectory.radius_schedule) == 1:
         return 2 * math.pi / abs(trajectory.omega)
     if kind == "figure_eight":
         ratio = Fraction(trajectory.wx / trajectory.wy).limit_denominator(24)
