@@ -616,6 +616,13 @@ def test_fig11_claims_outside_the_sweep_and_incomplete_runs():
     assert "1 incomplete point(s) left out (c at k = 2)" in claims[-1].measured
     assert "1 incomplete point(s) left out (c at k = 2)" in claims[3].measured
     assert "left out" not in claims[2].measured  # (b) against (a) uses every k
+    assert "below at 2 of 2 k" in claims[2].measured
+    assert "below at 1 of 1 k" in claims[3].measured  # (c) against (a) where (c) completed
+    # no gain where all four completed: (d) cannot be judged, the others still are
+    rows[7]["complete"], rows[7]["iae"] = False, None  # (d) at k = 5
+    claims = fig11_claims(rows)
+    assert claims[-1].holds is None and "no gain with complete points of all four" in claims[-1].measured
+    assert claims[2].holds is True and claims[3].holds is True
     with pytest.raises(ValidationError, match="no complete rows for case"):
         fig11_claims([r for r in rows if r["variant"] != "c"])
 

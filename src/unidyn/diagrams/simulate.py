@@ -85,17 +85,12 @@ class _Guard:
 
 def _check_bounds(pose, velocity, b, t):
     pose = np.ravel(pose)
-    r = math.hypot(pose[0], pose[1])
-    if not r <= b[0]:
-        raise GuardStop(f"diverged: the position |(x, y)| = {r:.3g} m is beyond {b[0]:.3g} m "
-                        f"(1e6 times the reference's size) at t = {t:.6g} s")
+    values = [math.hypot(pose[0], pose[1])]
     if velocity is not None:
-        velocity = np.ravel(velocity)
-        for j, (name, unit) in ((0, ("u", "m/s")), (1, ("w", "rad/s"))):
-            if not abs(velocity[j]) <= b[j + 1]:
-                raise GuardStop(f"diverged: |{name}| = {abs(velocity[j]):.3g} {unit} is beyond "
-                                f"{b[j + 1]:.3g} {unit} (1e6 times its limit, or what the "
-                                f"controller asks for) at t = {t:.6g} s")
+        values += [abs(v) for v in np.ravel(velocity)[:2]]
+    for which, v in enumerate(values):
+        if not v <= b[which]:
+            raise GuardStop(f"{Scenario.divergence(which, v, b[which])} at t = {t:.6g} s")
 
 
 def _unvouched(sc, rtol):

@@ -231,10 +231,6 @@ def _integrate(kernels, loop: ClosedLoop, runs, tol, compiled: bool, bar):
 
 _CAUSE = {
     1: "non-finite state (diverged)",
-    2: "diverged: the position |(x, y)| = {v:.3g} m is beyond {b:.3g} m (1e6 times the "
-       "reference's size)",
-    3: "diverged: |u| = {v:.3g} m/s is beyond {b:.3g} m/s (1e6 times its limit or command)",
-    4: "diverged: |w| = {v:.3g} rad/s is beyond {b:.3g} rad/s (1e6 times its limit or command)",
     6: "the error could not be held within rtol = {rtol:g}, atol = {atol:g} in "
        + f"{MAX_STEPS:,}" + " steps of the sample interval from here (a loop too stiff for "
        "an explicit method, or diverging); use a looser rtol and atol, a shorter Ts, or "
@@ -295,7 +291,8 @@ def _results(kernels, loop: ClosedLoop, runs, rtol: float, atol: float, backend:
             (x, y, _), (u, w) = last_row[layout["pose"]], last_row[layout["velocity"]]
             v = {2: np.hypot(x, y) if nrow else np.nan, 3: abs(u), 4: abs(w)}.get(status, 0.0)
             b = runs.bounds[i, status - 2] if 1 < status < 5 else 0.0
-            cause = _CAUSE[status].format(v=v, b=b, rtol=rtol, atol=atol)
+            cause = (Scenario.divergence(status - 2, v, b) if 1 < status < 5
+                     else _CAUSE[status].format(rtol=rtol, atol=atol))
             message = f"{cause} at t = {t_stop:.6g} s (scenario {label})"
         series = {k: log[:, layout[k]] if k in layout else None for k in kernels.LOG_SERIES}
         out.append(Result(scenario=sc, t=t, **series, engine="batch", complete=complete,

@@ -276,6 +276,16 @@ class Scenario:
             vmax if np.isfinite(vmax) else U,
             wmax if np.isfinite(wmax) else max(1.0, U / self.a)])
 
+    @staticmethod
+    def divergence(which: int, value: float, bound: float) -> str:
+        """What both engines say when the state leaves :meth:`divergence_bounds`:
+        ``which`` 0 for the position, 1 for u, 2 for w."""
+        what = (("the position |(x, y)|", "m", "the reference's size"),
+                ("|u|", "m/s", "its limit, or what the controller asks for"),
+                ("|w|", "rad/s", "its limit, or what the controller asks for"))[which]
+        return (f"diverged: {what[0]} = {value:.3g} {what[1]} is beyond {bound:.3g} {what[1]} "
+                f"({DIVERGENCE_FACTOR:g} times {what[2]})")
+
     def logged_bytes(self) -> int:
         """The bytes a result holds per logged sample: the time stamp (float64), the
         series logged (:data:`ALWAYS_LOGGED` and ``log_series``) and the error, in
