@@ -9,11 +9,13 @@ from .unicycles import DynamicUnicycle, DynamicUnicycleWithVelocity, KinematicUn
 from .controllers import (DynamicCompensator, DynamicCompensatorWithRateInput,
                           KinematicController, KinematicControllerWithRate)
 from .sources import (FigureEight, Circle, Line, Point, TrajectorySource, MeasurementNoise,
-                      SensorNoise)
+                      SensorNoise, trajectory_block)
 
 __all__ = ["DynamicUnicycle", "KinematicUnicycle", "KinematicController",
            "DynamicCompensator", "FigureEight", "Circle", "Line", "Point", "TrajectorySource",
            "MeasurementNoise",
            # the same blocks with fixed ports (drawn by bdedit, loaded from .bd files)
            "DynamicUnicycleWithVelocity", "KinematicControllerWithRate",
-           "DynamicCompensatorWithRateInput", "SensorNoise"]
+           "DynamicCompensatorWithRateInput", "SensorNoise",
+           # the reference block of a trajectory
+           "trajectory_block"]

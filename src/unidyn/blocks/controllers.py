@@ -14,7 +14,8 @@ from unidyn._validate import ValidationError, choice, flag, nonnegative, positiv
 
 from unidyn.model.parameters import RobotParameters
 
-from ._common import as_vector, check_blockargs, check_clock, check_finite, check_fixed_blockargs
+from .arguments import check_blockargs, check_clock, check_fixed_blockargs, records_arguments
+from .signals import as_vector, check_finite
 
 VD_DOT_CONTINUOUS = ("input", "filter")
 VD_DOT_SAMPLED = ("input", "difference")
@@ -91,6 +92,7 @@ class KinematicController(FunctionBlock):
     inlabels = ("h_d", "h_d_dot", "q")
     outlabels = ("v_d",)
 
+    @records_arguments
     def __init__(self, a: float = 0.2, kx: float = 0.1, ky: float = 0.1, lx: float = 0.1,
                  ly: float = 0.1, rate: bool = False, **blockargs):
         r"""
@@ -180,6 +182,7 @@ class SampledKinematicController(SampledBlock):
     inlabels = ("h_d", "h_d_dot", "q")
     outlabels = ("v_d",)
 
+    @records_arguments
     def __init__(self, clock: Clock, a: float = 0.2, kx: float = 0.1, ky: float = 0.1,
                  lx: float = 0.1, ly: float = 0.1, v_d0: Sequence[float] = (0.0, 0.0),
                  **blockargs):
@@ -312,6 +315,7 @@ class DynamicCompensator(ContinuousBlock):
     inlabels = ("v_d", "v")
     outlabels = ("v_r", "theta_hat")
 
+    @records_arguments
     def __init__(self, theta_hat0: str | RobotParameters | Sequence[float] = "p3dx_laser",
                  ku: float = 4.0, kw: float = 4.0, lu: float = 1.0, lw: float = 1.0,
                  adaptive: bool = False, gamma: Sequence[float] = PAPER_GAMMA,
@@ -454,6 +458,7 @@ class SampledDynamicCompensator(SampledBlock):
     inlabels = ("v_d", "v")
     outlabels = ("v_r", "theta_hat")
 
+    @records_arguments
     def __init__(self, clock: Clock,
                  theta_hat0: str | RobotParameters | Sequence[float] = "p3dx_laser",
                  ku: float = 4.0, kw: float = 4.0, lu: float = 1.0, lw: float = 1.0,
@@ -585,6 +590,7 @@ class KinematicControllerWithRate(KinematicController):
     inlabels = ("h_d", "h_d_dot", "q", "h_d_ddot", "v")
     outlabels = ("v_d", "v_d_dot")
 
+    @records_arguments
     def __init__(self, a: float = 0.2, kx: float = 0.1, ky: float = 0.1, lx: float = 0.1,
                  ly: float = 0.1, **blockargs):
         r"""
@@ -669,6 +675,7 @@ class DynamicCompensatorWithRateInput(DynamicCompensator):
     inlabels = ("v_d", "v", "v_d_dot")
     outlabels = ("v_r", "theta_hat")
 
+    @records_arguments
     def __init__(self, theta_hat0: str | RobotParameters | Sequence[float] = "p3dx_laser",
                  ku: float = 4.0, kw: float = 4.0, lu: float = 1.0, lw: float = 1.0,
                  adaptive: bool = False, gamma: Sequence[float] | None = None,

@@ -10,7 +10,7 @@ from bdsim.components import Clock, SampledBlock, SourceBlock
 from unidyn.model import trajectories as traj
 from unidyn._validate import ValidationError, integer, nonnegative, positive, vector
 
-from ._common import check_blockargs, check_clock, check_fixed_blockargs
+from .arguments import check_blockargs, check_clock, check_fixed_blockargs, records_arguments
 
 class TrajectorySource(SourceBlock):
     r"""
@@ -53,6 +53,7 @@ class TrajectorySource(SourceBlock):
     nout = 3
     outlabels = ("h_d", "h_d_dot", "h_d_ddot")
 
+    @records_arguments
     def __init__(self, trajectory: traj.Trajectory | dict | Callable,
                  acceleration: Callable | None = None, **blockargs):
         r"""
@@ -113,10 +114,13 @@ class FigureEight(TrajectorySource):
     Defaults are the paper's: A_x = A_y = 1 m, omega_x = 0.5, omega_y = 0.25 rad/s.
     """
 
+    #: the trajectory it produces, whose parameters are the block's
+    trajectory_class = traj.FigureEight
     nin = 0
     nout = 3
     outlabels = ("h_d", "h_d_dot", "h_d_ddot")
 
+    @records_arguments
     def __init__(self, ax: float = 1.0, ay: float = 1.0, wx: float = 0.5, wy: float = 0.25,
                  center: Sequence[float] = (0.0, 0.0), **blockargs):
         r"""
@@ -178,10 +182,13 @@ class Circle(TrajectorySource):
     :class:`unidyn.model.trajectories.Circle`.
     """
 
+    #: the trajectory it produces, whose parameters are the block's
+    trajectory_class = traj.Circle
     nin = 0
     nout = 3
     outlabels = ("h_d", "h_d_dot", "h_d_ddot")
 
+    @records_arguments
     def __init__(self, radius: float | Sequence[Sequence[float]] = 1.0, omega: float = 0.2,
                  center: Sequence[float] = (0.0, 0.0), phase: float = 0.0, **blockargs):
         r"""
@@ -234,10 +241,13 @@ class Line(TrajectorySource):
     .. math:: h_d = p_0 + v\,t
     """
 
+    #: the trajectory it produces, whose parameters are the block's
+    trajectory_class = traj.Line
     nin = 0
     nout = 3
     outlabels = ("h_d", "h_d_dot", "h_d_ddot")
 
+    @records_arguments
     def __init__(self, start: Sequence[float] = (0.0, 0.0),
                  velocity: Sequence[float] = (0.2, 0.0), **blockargs):
         r"""
@@ -285,10 +295,13 @@ class Point(TrajectorySource):
             - :math:`\ddot h_d = 0` (label ``h_d_ddot``)
     """
 
+    #: the trajectory it produces, whose parameters are the block's
+    trajectory_class = traj.Point
     nin = 0
     nout = 3
     outlabels = ("h_d", "h_d_dot", "h_d_ddot")
 
+    @records_arguments
     def __init__(self, x: float = 1.0, y: float = 1.0, **blockargs):
         r"""
         :param x: the goal's x, m
@@ -301,6 +314,25 @@ class Point(TrajectorySource):
         check_blockargs(self, blockargs)
         super().__init__(traj.Point(x, y), **blockargs)
         self.type = "point"
+
+
+def trajectory_block(trajectory: traj.Trajectory | dict | Callable, **blockargs) -> TrajectorySource:
+    """The source block of a reference: a :class:`FigureEight`, :class:`Circle`,
+    :class:`Line` or :class:`Point` with the trajectory's own parameters for those
+    trajectories (a ``.bd`` file then holds them as numbers bdedit shows), else a
+    :class:`TrajectorySource` of it.
+
+    :param trajectory: a Trajectory, a trajectory spec dict, or a callable t -> (h_d, h_d_dot)
+    :param blockargs: common block options (``bd``, ``name``, ...)
+    """
+    if isinstance(trajectory, (traj.Trajectory, dict, str)):
+        trajectory = traj.from_spec(trajectory)
+        for cls in TrajectorySource.__subclasses__():
+            if type(trajectory) is getattr(cls, "trajectory_class", None):
+                spec = trajectory.to_spec()
+                del spec["type"]
+                return cls(**spec, **blockargs)
+    return TrajectorySource(trajectory, **blockargs)
 
 
 def _pair(name, value):
@@ -348,6 +380,7 @@ class MeasurementNoise(SampledBlock):
     inlabels = ("s",)
     outlabels = ("s_meas",)
 
+    @records_arguments
     def __init__(self, clock: Clock, std: float = 0.01,
                  seed: int | np.random.SeedSequence = 0, indices: Sequence[int] = (0, 1),
                  **blockargs):
@@ -449,6 +482,7 @@ class SensorNoise(MeasurementNoise):
     inlabels = ("s",)
     outlabels = ("s_meas",)
 
+    @records_arguments
     def __init__(self, Ts: float = 0.1, clock_name: str = "sensor", std: float = 0.01,
                  seed: int | np.random.SeedSequence = 0, stream: int | None = None,
                  indices: Sequence[int] = (0, 1), **blockargs):

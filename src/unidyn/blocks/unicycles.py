@@ -12,8 +12,9 @@ from unidyn._validate import ValidationError, flag, positive, real, vector
 from unidyn.model.unicycle import Limits
 from unidyn.model.parameters import RobotParameters
 
-from ._common import (as_vector, check_blockargs, check_finite, check_fixed_blockargs,
-                      limits_from_args, optional_limit, qualified_state_names)
+from .arguments import (check_blockargs, check_fixed_blockargs, limits_from_args,
+                        optional_limit, records_arguments)
+from .signals import as_vector, check_finite, qualified_state_names
 
 
 class DynamicUnicycle(ContinuousBlock):
@@ -94,6 +95,7 @@ class DynamicUnicycle(ContinuousBlock):
     inlabels = ("v", "ω")
     outlabels = ("q",)
 
+    @records_arguments
     def __init__(self, robot: str | RobotParameters | Sequence[float] = "p3dx_laser",
                  a: float = 0.0, x0: Sequence[float] | None = None, speed_max: float = np.inf,
                  accel_max: float = np.inf, steer_max: float = np.inf,
@@ -177,6 +179,7 @@ class DynamicUnicycle(ContinuousBlock):
                     f"DynamicUnicycle: the initial speed x0[{j}] ({name} = {x0[j]:g} {unit}) is beyond "
                     f"the limit {lim:g} {unit}; start the robot within its limits")
         self._state0 = x0
+        self.arguments["x0"] = value  # the block is rebuilt with the x0 it runs from
 
     _x0 = x0
 
@@ -259,6 +262,7 @@ class KinematicUnicycle(ContinuousBlock):
     inlabels = ("v", "ω")
     outlabels = ("q",)
 
+    @records_arguments
     def __init__(self, a: float = 0.0, x0: Sequence[float] | None = None,
                  speed_max: float = np.inf, steer_max: float = np.inf,
                  limits: Limits | None = None, **blockargs):
@@ -297,6 +301,7 @@ class KinematicUnicycle(ContinuousBlock):
     @x0.setter
     def x0(self, value) -> None:
         self._state0 = vector("x0", value, (3, 5))[:3]
+        self.arguments["x0"] = value  # the block is rebuilt with the x0 it runs from
 
     _x0 = x0
 
@@ -376,6 +381,7 @@ class DynamicUnicycleWithVelocity(DynamicUnicycle):
     inlabels = ("v", "ω")
     outlabels = ("q", "velocity")
 
+    @records_arguments
     def __init__(self, robot: str | RobotParameters | Sequence[float] = "p3dx_laser",
                  a: float = 0.0, x0: Sequence[float] = (0.0, 0.0, 0.0),
                  speed_max: float | None = None, accel_max: float | None = None,

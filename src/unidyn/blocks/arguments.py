@@ -1,34 +1,45 @@
-"""Helpers shared by unidyn's blocks (not blocks themselves)."""
+"""What unidyn's blocks do with their constructor arguments: keep them as given
+(:func:`records_arguments`, which the ``.bd`` writer reads), and check the keywords,
+limits and clocks they are given."""
 
 from __future__ import annotations
 
 import difflib
+import functools
 import inspect
-import math
 
 import numpy as np
 
-from unidyn._validate import NonFiniteSignalError, ValidationError
+from unidyn._validate import ValidationError
 from unidyn.model.unicycle import Limits
 
 
-def as_vector(value, n: int, block, port: str, t: float) -> np.ndarray:
-    """An input port's value as a finite float vector of length n, or a clear error."""
-    arr = np.asarray(value, dtype=float).reshape(-1)
-    if arr.shape[0] != n:
-        raise ValidationError(
-            f"block {block.name!r}: input {port!r} must have {n} elements, got {arr.shape[0]}")
-    if not all(map(math.isfinite, arr.tolist())):
-        raise NonFiniteSignalError(
-            f"block {block.name!r}: input {port!r} is not finite at t = {t:.6g} s: {arr.tolist()}")
-    return arr
+def records_arguments(init):
+    """Decorate a block's ``__init__`` so that the block keeps the arguments it was
+    built with, as given, in ``block.arguments``: parameter name -> value, every
+    parameter of the signature in its order, defaults filled in; bdsim's block options
+    (``name``, ``bd``, ``inputs``, ...) are not among them. When a block's
+    ``__init__`` calls its parent's (the fixed-port classes do), the block keeps the
+    arguments of the outermost call, the ones that rebuild it.
 
+    :func:`unidyn.diagrams.bdfile.save_bd` writes a block as its class and these
+    arguments, so a new parameter of a block is written without further code."""
+    signature = inspect.signature(init)
+    own = [name for name, p in signature.parameters.items()
+           if p.kind not in (p.VAR_KEYWORD, p.VAR_POSITIONAL)][1:]  # not self
 
-def check_finite(arr, block, what: str, t: float) -> np.ndarray:
-    if not all(map(math.isfinite, np.asarray(arr).reshape(-1).tolist())):
-        raise NonFiniteSignalError(
-            f"block {block.name!r}: {what} is not finite at t = {t:.6g} s: {np.asarray(arr).tolist()}")
-    return arr
+    @functools.wraps(init)
+    def recording_init(self, *args, **kwargs):
+        if "arguments" not in vars(self):
+            try:
+                bound = signature.bind(self, *args, **kwargs)
+            except TypeError:
+                return init(self, *args, **kwargs)  # raises Python's own message
+            bound.apply_defaults()
+            self.arguments = {name: bound.arguments[name] for name in own}
+        return init(self, *args, **kwargs)
+
+    return recording_init
 
 
 #: Keywords of roboticstoolbox's vehicle blocks (UNICYCLE, BICYCLE) that unidyn's
@@ -49,14 +60,6 @@ def keyword_hint(keyword: str, known) -> str:
         return f" ({meant[1]})"
     close = difflib.get_close_matches(keyword, sorted(known), n=1)
     return f" (did you mean {close[0]!r}?)" if close else ""
-
-
-def qualified_state_names(block, names) -> None:
-    """Name ``block``'s states ``<block name>:<state>`` (bdsim's own form for
-    unnamed states, ``vehicle:x_0``), so that the states of several blocks of one
-    kind stay apart in ``out.xnames``; called when the diagram is compiled, once
-    bdsim has named every block."""
-    block.state_names([f"{block.name}:{n}" for n in names])
 
 
 def check_blockargs(block, blockargs: dict) -> None:
