@@ -3,8 +3,8 @@
     python tools/make_bd_files.py            # into examples/bd/
     python tools/make_bd_files.py OUT_DIR
 
-Each file is the diagram of :func:`unidyn.teaching.bdfile.paper_fig2` written by
-:func:`unidyn.teaching.bdfile.save_bd`; tests/teaching/test_bdfiles.py checks that the shipped files
+Each file is the diagram of :func:`unidyn.diagrams.bdfile.paper_fig2` written by
+:func:`unidyn.diagrams.bdfile.save_bd`; tests/diagrams/test_bdfiles.py checks that the shipped files
 are what this script writes and that bdrun runs them to the numbers of
 ``unidyn.simulate(Scenario.paper(n))``.
 """
@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 
 import unidyn  # noqa: F401  (puts unidyn's blocks on bdsim's BDSIMPATH)
-from unidyn.teaching.bdfile import write_paper_fig2
+from unidyn.diagrams.bdfile import write_paper_fig2
 
 
 def main(argv=None) -> int:

@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 import unidyn  # noqa: F401  (BDSIMPATH for the subprocesses)
-from unidyn.teaching.bdfile import PAPER_FILES
+from unidyn.diagrams.bdfile import PAPER_FILES
 
 ROOT = Path(__file__).resolve().parents[2]
 BD_DIR = ROOT / "examples" / "bd"

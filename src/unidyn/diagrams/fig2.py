@@ -18,7 +18,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-from unidyn.model.noise import noise_seeds
 from unidyn.model.scenario import Scenario
 
 __all__ = ["Fig2", "TOOLBOX_CRASH", "ToolboxWarning", "build_fig2", "new_simulator"]
@@ -130,8 +129,10 @@ def build_fig2(sim, scenario: Scenario, *, robot: Callable | None = None,
     :return: the wired :class:`Fig2`
     """
     # bdsim loads with the blocks: when a diagram is built, not on import
-    from unidyn.blocks import (DynamicCompensator, DynamicUnicycle, KinematicController,
-                               KinematicUnicycle, MeasurementNoise, TrajectorySource)
+    from unidyn.blocks import (DynamicCompensator, DynamicCompensatorWithRateInput,
+                               DynamicUnicycleWithVelocity, KinematicController,
+                               KinematicControllerWithRate, KinematicUnicycle, SensorNoise,
+                               trajectory_block)
     from unidyn.blocks.controllers import SampledDynamicCompensator, SampledKinematicController
 
     sc = scenario
@@ -152,31 +153,40 @@ def build_fig2(sim, scenario: Scenario, *, robot: Callable | None = None,
         fig.clocks["controller"] = ctrl_clock
 
     # --- reference
-    src = trajectory(bd, sc) if trajectory else TrajectorySource(sc.trajectory, bd=bd, name="trajectory")
+    # Where a port-changing option is on, the blocks are the classes with those ports
+    # fixed (DynamicUnicycleWithVelocity for velocity_output=True, ...): the same
+    # equations, and the blocks a .bd file holds and bdedit draws.
+    src = trajectory(bd, sc) if trajectory else trajectory_block(sc.trajectory, bd=bd, name="trajectory")
     fig.blocks["trajectory"] = src
 
     # --- robot
     if robot is not None:
         R = robot(bd, sc)
     elif dynamic:
-        R = DynamicUnicycle(robot=sc.robot, a=sc.a, x0=sc.x0, limits=sc.limits,
-                            velocity_output=True, bd=bd, name="robot")
+        lim = sc.limits
+        R = DynamicUnicycleWithVelocity(
+            robot=sc.robot, a=sc.a, x0=sc.x0, speed_max=_limit(lim.speed_max),
+            accel_max=_limit(lim.accel_max), steer_max=_limit(lim.steer_max),
+            angular_accel_max=_limit(lim.angular_accel_max), bd=bd, name="robot")
     else:
-        R = KinematicUnicycle(a=sc.a, x0=sc.x0, limits=sc.limits, bd=bd, name="robot")
+        R = KinematicUnicycle(a=sc.a, x0=sc.x0, speed_max=sc.limits.speed_max,
+                              steer_max=sc.limits.steer_max, bd=bd, name="robot")
     fig.blocks["robot"] = R
 
     # --- measurements (noise held over Ts; psi is fed back clean)
     q_meas, v_meas = R[0], (R[1] if dynamic else None)
     if sc.noise is not None:
-        pos_seed, vel_seed = noise_seeds(sc.noise.seed)
-        pn = MeasurementNoise(sensor, std=sc.noise.position_std, seed=pos_seed, indices=(0, 1),
-                              bd=bd, name="position_noise")
+        # the streams 0 and 1 of the run's seed (unidyn.model.noise.noise_seeds)
+        pn = SensorNoise(Ts=sc.Ts, clock_name=sensor.name, std=sc.noise.position_std,
+                         seed=sc.noise.seed, stream=0, indices=(0, 1), bd=bd,
+                         name="position_noise")
         bd.connect(R[0], pn)
         q_meas = pn[0]
         fig.blocks["position_noise"] = pn
         if dynamic:
-            vn = MeasurementNoise(sensor, std=sc.noise.velocity_std, seed=vel_seed,
-                                  indices=(0, 1), bd=bd, name="velocity_noise")
+            vn = SensorNoise(Ts=sc.Ts, clock_name=sensor.name, std=sc.noise.velocity_std,
+                             seed=sc.noise.seed, stream=1, indices=(0, 1), bd=bd,
+                             name="velocity_noise")
             bd.connect(R[1], vn)
             v_meas = vn[0]
             fig.blocks["velocity_noise"] = vn
@@ -187,8 +197,10 @@ def build_fig2(sim, scenario: Scenario, *, robot: Callable | None = None,
         K = controller(bd, sc)
     elif sampled:
         K = SampledKinematicController(ctrl_clock, **gains, bd=bd, name="controller")
+    elif analytic:
+        K = KinematicControllerWithRate(**gains, bd=bd, name="controller")
     else:
-        K = KinematicController(**gains, rate=analytic, bd=bd, name="controller")
+        K = KinematicController(**gains, bd=bd, name="controller")
     fig.blocks["controller"] = K
     bd.connect(src[0], K[0])
     bd.connect(src[1], K[1])
@@ -209,9 +221,11 @@ def build_fig2(sim, scenario: Scenario, *, robot: Callable | None = None,
         elif sampled:
             D = SampledDynamicCompensator(ctrl_clock, **dargs, vd_dot="difference", bd=bd,
                                           name="compensator")
+        elif analytic:
+            D = DynamicCompensatorWithRateInput(**dargs, bd=bd, name="compensator")
         else:
-            D = DynamicCompensator(**dargs, vd_dot="input" if analytic else "filter", tau=sc.tau,
-                                   bd=bd, name="compensator")
+            D = DynamicCompensator(**dargs, vd_dot="filter", tau=sc.tau, bd=bd,
+                                   name="compensator")
         fig.blocks["compensator"] = D
         bd.connect(K[0], D[0])
         bd.connect(v_meas, D[1])
@@ -231,6 +245,11 @@ def build_fig2(sim, scenario: Scenario, *, robot: Callable | None = None,
         fig.watch["velocity"] = R[1]
     _terminate_unused_outputs(bd)
     return fig
+
+
+def _limit(value: float) -> float | None:
+    """A limit as the fixed-port robot takes it: None for no limit."""
+    return None if value == float("inf") else value
 
 
 def _terminate_unused_outputs(bd):

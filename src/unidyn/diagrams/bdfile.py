@@ -6,28 +6,27 @@ built in Python (e.g. the result of :func:`unidyn.diagrams.build_fig2`, the pape
 Fig. 2) so that ``bdrun FILE.bd`` runs the same diagram and bdedit draws it::
 
     from unidyn import Scenario
-    from unidyn.teaching import bdfile
-    from unidyn.diagrams import build_fig2, new_simulator
+    from unidyn.diagrams import bdfile, build_fig2, new_simulator
     bdfile.save_bd(build_fig2(new_simulator(), Scenario.paper(4)), "fig2_case4.bd")
 
-Blocks do not record the arguments they were built with, so the writer knows, for
-each block type it supports, how to read them back from the block (unidyn's blocks
-and bdsim's ``DEMUX``, ``MUX``, ``NULL``, ``CONSTANT`` and ``GAIN``). A block whose
-ports depend on an option is written as its fixed-port class, which bdedit draws
-(``DynamicUnicycle(velocity_output=True)`` as ``DYNAMICUNICYCLEWITHVELOCITY``,
-``KinematicController(rate=True)`` as ``KINEMATICCONTROLLERWITHRATE``,
-``DynamicCompensator(vd_dot="input")`` as ``DYNAMICCOMPENSATORWITHRATEINPUT``,
-``MeasurementNoise`` as ``SENSORNOISE``, which names its clock instead of holding
-it; a reference ``TrajectorySource`` of a figure eight, circle or line as
-``FIGUREEIGHT``, ``CIRCLE`` or ``LINE``). Anything else (another block type, a
-bdsim clock, a callable trajectory, ...) raises :class:`BdFileError` naming the
-block and the parameter.
+A unidyn block is written as its class and the arguments it was built with, which
+every unidyn block keeps (``block.arguments``); bdsim's ``DEMUX``, ``MUX``,
+``NULL``, ``CONSTANT`` and ``GAIN`` are read back from the block. Arguments that
+are objects of the model are written as the plain values the blocks also take: a
+robot by its preset name or its six numbers, a trajectory by its spec, ``limits``
+as the block's own ``speed_max``, ... keywords. A block whose ports depend on an
+option (``DynamicUnicycle(velocity_output=True)``) is written as it is, and bdrun
+runs it; bdedit draws the ports such a file gives it, labelled where the class's
+defaults have them, so :func:`~unidyn.diagrams.build_fig2` builds the classes with
+those ports fixed (``DYNAMICUNICYCLEWITHVELOCITY``, ...). Anything a file cannot hold
+(a bdsim clock: sampled control; a callable trajectory; another package's block)
+raises :class:`BdFileError` naming the block and the parameter.
 
 Parameter values are written in the form ``bdload`` reads back: numbers, lists of
 numbers, booleans and null as JSON; a string as itself when ``bdload``'s evaluation
 leaves it a string (``"p3dx_laser"``), and as the expression ``"='...'"`` when it
 would not (``"input"`` and ``"filter"`` are Python builtins); infinity as
-``"=math.inf"``; a spawned seed as ``"=np.random.SeedSequence(...)"``. Files are
+``"=math.inf"``; a seed sequence as ``"=np.random.SeedSequence(...)"``. Files are
 deterministic: the same diagram gives the same bytes.
 """
 
@@ -37,19 +36,21 @@ import ast
 import builtins
 import json
 import math
+from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
 from ..model import robots
 from ..model import trajectories as traj
 from .._validate import ValidationError
-from ..model.laws import PAPER_GAMMA, PAPER_SIGMA
+from ..model.parameters import RobotParameters
 from ..model.scenario import Scenario
+from ..model.unicycle import Limits
+from .fig2 import build_fig2, new_simulator
 
 __all__ = ["save_bd", "to_bd_dict", "block_parameters", "paper_fig2", "write_paper_fig2",
-           "BdFileError", "FIG2_LAYOUT", "SUPPORTED_TYPES", "PAPER_FILES"]
+           "BdFileError", "FIG2_LAYOUT", "BDSIM_TYPES", "PAPER_FILES"]
 
 # bdedit's socket sides and kinds (bdedit.block_socket)
 _LEFT, _RIGHT = 1, 3
@@ -161,24 +162,18 @@ def _write_value(v, where: str):
     return "=" + _expr(v, where)
 
 
+@dataclass(frozen=True)
 class _Expr:
     """A parameter written as a bdload expression (``"=..."``)."""
 
-    def __init__(self, text: str):
-        self.text = text
+    text: str
 
 
-def _seed(seed, where: str) -> dict:
-    """``seed`` and ``stream`` of a SensorNoise for an int or a SeedSequence."""
-    if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
-        return {"seed": int(seed), "stream": None}
-    if isinstance(seed, np.random.SeedSequence):
-        ent, key = seed.entropy, tuple(seed.spawn_key)
-        if isinstance(ent, (int, np.integer)) and seed.pool_size == 4 and len(key) <= 1:
-            return {"seed": int(ent), "stream": int(key[0]) if key else None}
-        if isinstance(ent, (int, np.integer)) and all(isinstance(k, (int, np.integer)) for k in key):
-            return {"seed": _Expr(f"np.random.SeedSequence({int(ent)}, spawn_key={tuple(int(k) for k in key)!r}, "
-                                  f"pool_size={seed.pool_size})"), "stream": None}
+def _seed_expr(seed: np.random.SeedSequence, where: str) -> _Expr:
+    ent, key = seed.entropy, tuple(seed.spawn_key)
+    if isinstance(ent, (int, np.integer)) and all(isinstance(k, (int, np.integer)) for k in key):
+        return _Expr(f"np.random.SeedSequence({int(ent)}, spawn_key={tuple(int(k) for k in key)!r}, "
+                     f"pool_size={seed.pool_size})")
     raise BdFileError(f"{where}: seed {seed!r} cannot be written (use an int or an int-seeded SeedSequence)")
 
 
@@ -186,7 +181,7 @@ def _seed(seed, where: str) -> dict:
 # blocks -> (block type, parameters)
 
 
-def _robot_value(params):
+def _robot_value(params: RobotParameters):
     """A preset robot by name, any other as six numbers."""
     try:
         if params.name in robots.names() and robots.get(params.name) == params:
@@ -196,95 +191,37 @@ def _robot_value(params):
     return [float(x) for x in params.theta]
 
 
-def _theta_value(theta):
-    for name in robots.names():
-        if np.array_equal(robots.get(name).theta, theta):
-            return name
-    return [float(x) for x in theta]
+def _argument(value, where: str):
+    """A block argument as a value a .bd file holds: the model's objects as the plain
+    values the blocks also take (a robot by name or theta, a trajectory by its spec),
+    a seed sequence as the expression that rebuilds it; a clock or code refused."""
+    if isinstance(value, RobotParameters):
+        return _robot_value(value)
+    if isinstance(value, traj.Trajectory):
+        value = value.to_spec()
+        if value["type"] not in traj.KINDS:
+            raise BdFileError(f"{where} is a {value['type']} trajectory, which a .bd file cannot "
+                              f"hold (a file holds no code); use a figure eight, circle, line or point")
+        return value
+    if isinstance(value, np.random.SeedSequence):
+        return _seed_expr(value, where)
+    if callable(value) and not isinstance(value, type):
+        raise BdFileError(f"{where} is code ({value!r}), which a .bd file cannot hold")
+    if type(value).__module__.startswith("bdsim."):
+        raise BdFileError(f"{where} is a bdsim {type(value).__name__}, which a .bd file cannot "
+                          f"hold; write continuous control, or name the clock (SENSORNOISE)")
+    return value
 
 
-def _limit_or_none(x):
-    return None if np.isinf(x) else float(x)
-
-
-def _dynamic_unicycle(b):
-    from ..blocks import DynamicUnicycleWithVelocity  # bdsim: loaded when needed
-    x0 = [float(v) for v in b.x0]
-    if x0[3] == 0.0 and x0[4] == 0.0:
-        x0 = x0[:3]
-    lim = b.limits
-    if b.velocity_output and not b.disturbance or isinstance(b, DynamicUnicycleWithVelocity):
-        return "DYNAMICUNICYCLEWITHVELOCITY", {
-            "robot": _robot_value(b.params), "a": float(b.a), "x0": x0,
-            "speed_max": _limit_or_none(lim.speed_max), "accel_max": _limit_or_none(lim.accel_max),
-            "steer_max": _limit_or_none(lim.steer_max),
-            "angular_accel_max": _limit_or_none(lim.angular_accel_max)}
-    return "DYNAMICUNICYCLE", {
-        "robot": _robot_value(b.params), "a": float(b.a), "x0": x0,
-        "speed_max": lim.speed_max, "accel_max": lim.accel_max, "steer_max": lim.steer_max,
-        "angular_accel_max": lim.angular_accel_max, "limits": None,
-        "disturbance": b.disturbance, "velocity_output": b.velocity_output, "w": b.width}
-
-
-def _kinematic_unicycle(b):
-    lim = b.limits
-    return "KINEMATICUNICYCLE", {"a": float(b.a), "x0": [float(v) for v in b.x0],
-                                 "speed_max": lim.speed_max, "steer_max": lim.steer_max,
-                                 "limits": None}
-
-
-def _kinematic_controller(b):
-    gains = {"a": float(b.a), "kx": float(b.k[0]), "ky": float(b.k[1]),
-             "lx": float(b.l[0]), "ly": float(b.l[1])}
-    if b.rate:
-        return "KINEMATICCONTROLLERWITHRATE", gains
-    return "KINEMATICCONTROLLER", {**gains, "rate": False}
-
-
-def _compensator(b):
-    st = b.settings
-    p = {"theta_hat0": _theta_value(st.theta_hat0), "ku": float(st.k[0]), "kw": float(st.k[1]),
-         "lu": float(st.l[0]), "lw": float(st.l[1]), "adaptive": st.adaptive,
-         "gamma": [float(x) for x in st.gamma], "sigma": [float(x) for x in st.sigma],
-         "adapt_from": float(st.adapt_from), "leakage": st.leakage}
-    if b.vd_dot == "input":
-        if np.array_equal(st.gamma, np.asarray(PAPER_GAMMA, dtype=float)):
-            p["gamma"] = None
-        if np.array_equal(st.sigma, np.asarray(PAPER_SIGMA, dtype=float)):
-            p["sigma"] = None
-        return "DYNAMICCOMPENSATORWITHRATEINPUT", p
-    return "DYNAMICCOMPENSATOR", {**p, "vd_dot": b.vd_dot, "tau": float(b.tau)}
-
-
-def _trajectory(b):
-    tr = b.trajectory
-    if isinstance(tr, traj.FigureEight):
-        return "FIGUREEIGHT", {"ax": tr.ax, "ay": tr.ay, "wx": tr.wx, "wy": tr.wy,
-                               "center": list(tr.center)}
-    if isinstance(tr, traj.Circle):
-        return "CIRCLE", {"radius": tr.radius, "omega": tr.omega, "center": list(tr.center),
-                          "phase": tr.phase}
-    if isinstance(tr, traj.Line):
-        spec = tr.to_spec()
-        return "LINE", {"start": spec["start"], "velocity": spec["velocity"]}
-    raise BdFileError(f"block {b.name!r} ({type(b).__name__}): parameter 'trajectory' is a "
-                      f"{type(tr).__name__}, which a .bd file cannot hold (a file holds no code); "
-                      f"use a figure eight, circle or line")
-
-
-def _noise(b):
-    where = f"block {b.name!r} ({type(b).__name__}): parameter 'seed'"
-    clock = b._clock
-    if clock.offset != 0:
-        raise BdFileError(f"block {b.name!r} ({type(b).__name__}): parameter 'clock' has an offset "
-                          f"({clock.offset:g} s), which SENSORNOISE cannot express")
-    return "SENSORNOISE", {"Ts": float(clock.T), "clock_name": clock.name, "std": float(b.std),
-                           **_seed(b.seed, where), "indices": [int(i) for i in b.indices]}
-
-
-def _sampled_controller(b):
-    raise BdFileError(f"block {b.name!r} ({type(b).__name__}): parameter 'clock' is a bdsim "
-                      f"Clock, which a .bd file cannot hold; write continuous control")
+def _unidyn_block(b) -> tuple[str, dict]:
+    """A unidyn block as its class and the arguments it was built with."""
+    where = f"block {b.name!r} ({type(b).__name__}): parameter"
+    args = dict(b.arguments)
+    limits = args.get("limits")
+    if isinstance(limits, Limits):  # the limits as the block's own keywords
+        args.update({k: v for k, v in asdict(limits).items() if k in args}, limits=None)
+    return type(b).__name__.upper(), {k: _plain(_argument(v, f"{where} {k!r}"))
+                                      for k, v in args.items()}
 
 
 def _bdsim_block(b):
@@ -300,36 +237,19 @@ def _bdsim_block(b):
     if t == "GAIN":
         return "GAIN", {"K": _plain(b.K), "premul": bool(getattr(b, "premul", False))}
     raise BdFileError(f"block {b.name!r} ({type(b).__name__}): the .bd writer cannot read back "
-                      f"its parameters (it knows unidyn's blocks and {', '.join(_BDSIM_TYPES)})")
+                      f"its parameters (it knows unidyn's blocks and {', '.join(BDSIM_TYPES)})")
 
 
-_BDSIM_TYPES = ("DEMUX", "MUX", "NULL", "CONSTANT", "GAIN")
-
-
-def _extractors() -> list[tuple[type, Callable]]:
-    # bdsim loads with the blocks: when a diagram is written, not on import
-    from ..blocks import (DynamicCompensator, DynamicUnicycle, KinematicController,
-                          KinematicUnicycle, MeasurementNoise, TrajectorySource)
-    from ..blocks.controllers import SampledDynamicCompensator, SampledKinematicController
-    return [(DynamicUnicycle, _dynamic_unicycle), (KinematicUnicycle, _kinematic_unicycle),
-            (KinematicController, _kinematic_controller), (DynamicCompensator, _compensator),
-            (TrajectorySource, _trajectory), (MeasurementNoise, _noise),
-            (SampledKinematicController, _sampled_controller),
-            (SampledDynamicCompensator, _sampled_controller)]
-
-
-#: Block types the writer produces.
-SUPPORTED_TYPES = ("DYNAMICUNICYCLE", "DYNAMICUNICYCLEWITHVELOCITY", "KINEMATICUNICYCLE",
-                   "KINEMATICCONTROLLER", "KINEMATICCONTROLLERWITHRATE", "DYNAMICCOMPENSATOR",
-                   "DYNAMICCOMPENSATORWITHRATEINPUT", "FIGUREEIGHT", "CIRCLE", "LINE",
-                   "SENSORNOISE") + _BDSIM_TYPES
+#: bdsim's own blocks the writer knows (they do not record their arguments).
+BDSIM_TYPES = ("DEMUX", "MUX", "NULL", "CONSTANT", "GAIN")
 
 
 def block_parameters(block) -> tuple[str, dict]:
-    """The block type and constructor parameters under which bdload rebuilds ``block``."""
-    for cls, f in _extractors():
-        if isinstance(block, cls):
-            return f(block)
+    """The block type and constructor parameters under which bdload rebuilds ``block``:
+    for unidyn's blocks, the class and the arguments it was built with (its
+    ``arguments``), for bdsim's those of :data:`BDSIM_TYPES`."""
+    if isinstance(vars(block).get("arguments"), dict):
+        return _unidyn_block(block)
     if type(block).__module__.startswith("bdsim."):
         return _bdsim_block(block)
     raise BdFileError(f"block {block.name!r} ({type(block).__name__}): the .bd writer cannot "
@@ -476,7 +396,7 @@ def to_bd_dict(diagram, *, layout: dict | str | None = "fig2",
             if (id(b), i) not in connected:
                 raise BdFileError(f"block {b.name!r}: input {i} is not connected; bdload "
                                   f"refuses a diagram with an open input")
-    return {"id": 0, "created_by": "unidyn.teaching.bdfile", "creation_time": 0,
+    return {"id": 0, "created_by": "unidyn.diagrams.bdfile", "creation_time": 0,
             "simulation_time": simulation_time, "scene_width": 6400, "scene_height": 6400,
             "blocks": jblocks, "wires": jwires, "labels": [], "grouping_boxes": []}
 
@@ -528,7 +448,6 @@ def paper_fig2(sim, n: int):
     :return: a :class:`unidyn.diagrams.Fig2` whose scenario is ``Scenario.paper(n)``
     """
     from ..blocks import DynamicUnicycle  # bdsim: loaded when a diagram is built
-    from ..diagrams import build_fig2
     if n == 2:
         sc = Scenario.paper(2)
 
@@ -543,7 +462,6 @@ def paper_fig2(sim, n: int):
 
 def write_paper_fig2(folder) -> list[Path]:
     """Write the four ``.bd`` files of :data:`PAPER_FILES` into ``folder``."""
-    from ..diagrams import new_simulator  # bdsim: loaded when a diagram is built
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     return [save_bd(paper_fig2(new_simulator(), n), folder / name) for n, name in PAPER_FILES.items()]
