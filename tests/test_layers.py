@@ -27,7 +27,7 @@ LAYERS = {
     # what a run gives back: the result, its folders, files and figures
     "results": ("unidyn.results",),
     # bdsim's blocks and diagrams, and the batch engine
-    "simulation": ("unidyn.blocks", "unidyn.diagrams", "unidyn.engine", "unidyn.engines"),
+    "simulation": ("unidyn.blocks", "unidyn.diagrams", "unidyn.engine"),
     # identification, sweeps, teaching tools and bridges
     "tools": ("unidyn.identification", "unidyn.sweeps", "unidyn.teaching"),
     # the paper's reproductions

@@ -225,7 +225,7 @@ def _cmd_run(args) -> int:
     from .results.folders import staged_output
     from .results.result import RUN_FILES
     sc, engine_from = _build_scenario(args)
-    from .engines import choose
+    from .engine.choice import choose
     engine = choose(sc, args.engine or engine_from or "auto")  # as unidyn.run chooses
     out = _out(args.out)
     animation = _import_animation() if args.animate else None
@@ -281,7 +281,7 @@ def _run_staged(staging, sc, engine, out, animation, **options):
             print(f"unidyn: replacing {out}/ ({replaced}) once the new run is written; "
                   f"kept as they are if it fails or is interrupted", file=sys.stderr, flush=True)
         t0 = time.perf_counter()
-        from .engines import run
+        from .engine.choice import run
         interrupted = False
         try:
             result = run(sc, engine, **options)

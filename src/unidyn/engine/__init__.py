@@ -5,4 +5,7 @@
 holds the step rule, an error-controlled Dormand-Prince method, compiled by numba where
 installed and also run as plain Python (:mod:`~unidyn.engine.jit`);
 :mod:`~unidyn.engine.rhs` the loop's right-hand side on arrays of runs, which the converged
-references integrate with scipy's ``solve_ivp``."""
+references integrate with scipy's ``solve_ivp``.
+
+:mod:`~unidyn.engine.choice` says which of the two engines, this one or the bdsim
+diagram of :mod:`unidyn.diagrams`, runs a scenario (:func:`unidyn.run`)."""

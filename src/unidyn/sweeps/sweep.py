@@ -65,13 +65,13 @@ from ..results.folders import (FolderLock, Ledger, check_manifest, foreign_files
                                output_folder, staged_output)
 from .plots import plot_metrics
 from ..diagrams.simulate import simulate
+from ..engine.choice import ENGINES
 
-__all__ = ["Sweep", "Point", "SweepRun", "run_sweep", "sweep_id", "ENGINES", "SWEEP_FILES"]
+__all__ = ["Sweep", "Point", "SweepRun", "run_sweep", "sweep_id", "SWEEP_FILES"]
 
-#: ``"batch"``: :func:`unidyn.engine.batch.simulate_batch`, one call per chunk (sampled-control
-#: points go through :func:`unidyn.simulate`); ``"bdsim"``: :func:`unidyn.simulate` per point.
-ENGINES = ("batch", "bdsim")
-#: Default points per chunk, by engine.
+#: Default points per chunk, by engine (:data:`unidyn.engine.choice.ENGINES`): ``"batch"``,
+#: :func:`unidyn.engine.batch.simulate_batch` once per chunk (sampled-control points go
+#: through :func:`unidyn.simulate`); ``"bdsim"``, :func:`unidyn.simulate` per point.
 DEFAULT_CHUNK = {"batch": 40, "bdsim": 1}
 
 _TOP_KEYS = ("name", "base", "grid", "variants", "rtol", "atol")

@@ -1,5 +1,5 @@
-"""Running one scenario: which engine, chosen the same way in Python and on the
-command line (``unidyn run --engine``).
+"""Which engine runs a scenario, chosen the same way in Python (:func:`unidyn.run`),
+on the command line (``unidyn run --engine``) and in sweeps.
 
 Two engines integrate the same equations (:mod:`unidyn.model.equations`):
 
@@ -17,13 +17,13 @@ control; :attr:`Result.engine <unidyn.Result>` says which ran.
 
 from __future__ import annotations
 
-from ._validate import choice
-from .model.scenario import Scenario
+from .._validate import choice
+from ..model.scenario import Scenario
 
 __all__ = ["ENGINES", "choose", "run"]
 
-#: The engines :func:`run` accepts.
-ENGINES = ("auto", "batch", "bdsim")
+#: The two engines; :func:`run` also takes ``"auto"``, which picks one of them.
+ENGINES = ("batch", "bdsim")
 
 
 def choose(scenario: Scenario, engine: str = "auto") -> str:
@@ -33,7 +33,7 @@ def choose(scenario: Scenario, engine: str = "auto") -> str:
         diagram for sampled control), ``"batch"`` or ``"bdsim"``
     :raises ValidationError: for another engine
     """
-    engine = choice("engine", engine, ENGINES)
+    engine = choice("engine", engine, ("auto",) + ENGINES)
     if engine == "auto":
         return "batch" if scenario.control == "continuous" else "bdsim"
     return engine
@@ -49,7 +49,7 @@ def run(scenario: Scenario, engine: str = "auto", **options):
     :return: :class:`~unidyn.Result` (its ``engine`` says which ran)
     """
     if choose(scenario, engine) == "batch":
-        from .engine.batch import simulate_batch  # numba, where installed, loads with it
+        from .batch import simulate_batch  # numba, where installed, loads with it
         return simulate_batch([scenario], **options)[0]
-    from .diagrams.simulate import simulate  # bdsim loads with it
+    from ..diagrams.simulate import simulate  # bdsim loads with it
     return simulate(scenario, **options)
