@@ -17,6 +17,7 @@ import numpy as np
 from ..model import equations, laws
 from ..model.equations import LOOP_PARAMETERS, TRAJECTORY_KINDS, P
 from ..model.noise import HeldNoise, noise_seeds
+from ..model.parameters import THETA_NAMES
 from ..model.scenario import Scenario
 
 __all__ = ["ClosedLoop", "NSTATE"]
@@ -118,7 +119,7 @@ class ClosedLoop:
             tr = s.trajectory
             kind = getattr(tr, "kind", None)
             values = dict(
-                zip(("theta1", "theta2", "theta3", "theta4", "theta5", "theta6"), s.robot.theta),
+                zip(THETA_NAMES, s.robot.theta),
                 a=s.a, kx=s.kx, ky=s.ky, lx=s.lx, ly=s.ly, ku=s.ku, kw=s.kw, lu=s.lu, lw=s.lw,
                 adapt_from=s.adapt_from if adaptive else np.inf, tau=s.tau,
                 filtered=float(s.derivative == "filter"), dynamic=float(s.case != "kinematic"),

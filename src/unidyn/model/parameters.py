@@ -13,8 +13,10 @@ import numpy as np
 
 from .._validate import ValidationError, nonnegative, positive, real, vector
 
-__all__ = ["RobotParameters"]
+__all__ = ["RobotParameters", "THETA_NAMES"]
 
+#: The six parameters by name, in the order of the vector theta (Eq. 2).
+THETA_NAMES = ("theta1", "theta2", "theta3", "theta4", "theta5", "theta6")
 _POSITIVE = ("theta1", "theta2", "theta4", "theta6")
 
 
@@ -55,7 +57,7 @@ class RobotParameters:
     source: str = field(default="", compare=False)
 
     def __post_init__(self):
-        for k in ("theta1", "theta2", "theta3", "theta4", "theta5", "theta6"):
+        for k in THETA_NAMES:
             v = getattr(self, k)
             if k in _POSITIVE:
                 v = real(k, v, low=0.0, low_open=True)
@@ -70,8 +72,7 @@ class RobotParameters:
     @property
     def theta(self) -> np.ndarray:
         """The parameter vector [theta1, ..., theta6] (a fresh array)."""
-        return np.array([self.theta1, self.theta2, self.theta3,
-                         self.theta4, self.theta5, self.theta6])
+        return np.array([getattr(self, k) for k in THETA_NAMES])
 
     @classmethod
     def from_vector(cls, theta, name: str = "custom", source: str = "") -> "RobotParameters":
@@ -87,7 +88,7 @@ class RobotParameters:
 
     def as_dict(self) -> dict:
         """theta1..theta6 by name (for JSON and TOML)."""
-        return {f"theta{i + 1}": float(v) for i, v in enumerate(self.theta)}
+        return {k: float(v) for k, v in zip(THETA_NAMES, self.theta)}
 
     @classmethod
     def from_physical(cls, m, Iz, Ra, ka, kb, Be, Ie, r, b, d, kPT, kPR, kDT=0.0, kDR=0.0,
@@ -162,5 +163,5 @@ class RobotParameters:
         )
 
     def __str__(self) -> str:
-        vals = ", ".join(f"theta{i + 1}={v:.6g}" for i, v in enumerate(self.theta))
+        vals = ", ".join(f"{k}={v:.6g}" for k, v in zip(THETA_NAMES, self.theta))
         return f"RobotParameters({self.name}: {vals})"

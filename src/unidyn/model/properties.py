@@ -27,7 +27,7 @@ import numpy as np
 
 from . import robots, unicycle
 from .._validate import ValidationError, integer, positive
-from .parameters import RobotParameters
+from .parameters import THETA_NAMES, RobotParameters
 
 __all__ = ["PropertyResult", "PropertyReport", "check_properties",
            "RankTestResult", "rank_test", "DEFAULT_U_MAX", "DEFAULT_W_MAX",
@@ -128,7 +128,7 @@ class PropertyReport:
         """The report as plain Python types (``json.dumps`` accepts it)."""
         return {
             "robot": self.robot,
-            "theta": {f"theta{i + 1}": float(v) for i, v in enumerate(self.theta)},
+            "theta": {k: float(v) for k, v in zip(THETA_NAMES, self.theta)},
             "u_max": float(self.u_max),
             "w_max": float(self.w_max),
             "u_max_source": self.u_max_source,

@@ -41,7 +41,7 @@ Khepera III (0.0228 s, 0.0568 s). Use :func:`get` with one of :func:`names`::
 from __future__ import annotations
 
 from .._validate import ValidationError, string_keys
-from .parameters import RobotParameters
+from .parameters import THETA_NAMES, RobotParameters
 
 __all__ = ["get", "names", "SPEED_LIMITS"]
 
@@ -115,17 +115,16 @@ def resolve(robot, what: str = "robot") -> RobotParameters:
             raise ValidationError(f"{what}: {err}") from None
     if isinstance(robot, dict):
         string_keys(what, robot)
-        keys = ("theta1", "theta2", "theta3", "theta4", "theta5", "theta6")
-        unknown = sorted(set(robot) - set(keys) - {"name", "source"})
+        unknown = sorted(set(robot) - set(THETA_NAMES) - {"name", "source"})
         if unknown:
             raise ValidationError(f"{what}: unknown key {unknown[0]!r}; a robot table has "
                                   f"theta1..theta6 (and optionally name)")
-        missing = [k for k in keys if k not in robot]
+        missing = [k for k in THETA_NAMES if k not in robot]
         if missing:
             raise ValidationError(f"{what}: missing {missing[0]}")
         name = robot.get("name", "custom")
         try:
-            return RobotParameters(*(robot[k] for k in keys),
+            return RobotParameters(*(robot[k] for k in THETA_NAMES),
                                    name=name if isinstance(name, str) else repr(name))
         except ValidationError as err:
             raise ValidationError(f"{what}: {err}") from None
@@ -148,6 +147,5 @@ def _from_json(path: str, what: str) -> RobotParameters:
         data = data["theta"]
     if not isinstance(data, dict):
         raise ValidationError(f"{what}: {path} must hold a JSON object with theta1..theta6")
-    data = {k: v for k, v in data.items() if k in ("theta1", "theta2", "theta3", "theta4",
-                                                  "theta5", "theta6", "name")}
+    data = {k: v for k, v in data.items() if k in THETA_NAMES + ("name",)}
     return resolve({**data, "name": data.get("name", Path(path).stem)}, f"{what} ({path})")
