@@ -33,8 +33,7 @@ def _root_cause(err):
 DEFAULT_RTOL = 1e-8
 DEFAULT_ATOL = 1e-10
 #: The most right-hand-side evaluations the solver may make in one sample interval
-#: Ts before the run is stopped as too stiff for it (the paper's runs need about
-#: 120, adaptation gains of 1000 about 720; RK45 makes six per step).
+#: Ts before the run is stopped as too stiff for it (RK45 makes six per step).
 MAX_RHS_PER_SAMPLE = 5_000
 #: Above this adaptation gain (the largest element of ``Scenario.gamma``, Eq. 18) an
 #: adaptive run of the diagram is ``complete=False`` unless its ``rtol`` is at most

@@ -38,7 +38,8 @@ if AVAILABLE:
     from numba.core import types
     from numba.extending import overload
 
-    # inlined by LLVM (forceinline), not by numba (inline="always": a minute of typing)
+    # inlined by LLVM (forceinline), not by numba's inline="always", which types each
+    # function again at every place it is called
     _OVERLOADED = (equations.select, equations.saturate)
     for _name in equations.__all__:
         _f = getattr(equations, _name)

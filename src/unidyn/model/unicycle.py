@@ -89,9 +89,9 @@ NO_LIMITS = Limits()
 
 def _parts(a, n=None):
     """The components of ``a`` along its last axis: Python floats for a single vector
-    (arithmetic on them is several times faster than on numpy scalars, which matters
-    in the blocks, called once per solver stage), else arrays. A scalar stands for
-    ``n`` equal components where n is given."""
+    (the blocks call it at every solver stage, and arithmetic on floats has none of
+    numpy's per-call overhead), else arrays. A scalar stands for ``n`` equal components
+    where n is given."""
     a = np.asarray(a, dtype=float)
     if a.ndim == 0 and n is not None:
         return [float(a)] * n

@@ -82,7 +82,7 @@ STYLE = {
     "axes.spines.right": False,
     "xtick.major.width": 0.6,
     "ytick.major.width": 0.6,
-    # tick labels as plain text, not mathtext (which is slow to lay out)
+    # tick labels as plain text: mathtext would parse and lay out every label as TeX
     "axes.formatter.use_mathtext": False,
     "axes.formatter.limits": (-3, 4),
     "figure.dpi": 100,
