@@ -470,3 +470,9 @@ def test_annotations_resolve():
         cls = type(_construct(sim, key))
         hints = typing.get_type_hints(cls.__init__)
         assert hints, key
+
+
+def test_the_former_import_path_still_gives_the_writer():
+    with pytest.warns(DeprecationWarning, match="unidyn.diagrams.bdfile"):
+        from unidyn.teaching import bdfile as former
+    assert former is bdfile
