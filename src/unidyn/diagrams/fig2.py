@@ -115,6 +115,13 @@ def build_fig2(sim, scenario: Scenario, *, robot: Callable | None = None,
     ``adaptive``       ``DYNAMICUNICYCLE``                  ``DYNAMICCOMPENSATOR``, adaptive
     =================  ==================================  ======================
 
+    Where an option fixes a block's ports, the block is the class with those ports
+    (the robot with its velocity output is a ``DYNAMICUNICYCLEWITHVELOCITY``, K with
+    its rate output a ``KINEMATICCONTROLLERWITHRATE``, D taking that rate a
+    ``DYNAMICCOMPENSATORWITHRATEINPUT``, the noise a ``SENSORNOISE``), and the reference
+    is a ``FIGUREEIGHT``, ``CIRCLE``, ``LINE`` or ``POINT``: the diagram is then what its
+    ``.bd`` file holds (:mod:`unidyn.diagrams.bdfile`).
+
     :param sim: a ``bdsim.BDSim`` (see :func:`new_simulator`)
     :param scenario: the run to wire
     :param robot: optional factory ``f(bd, scenario) -> block`` replacing the robot; the
