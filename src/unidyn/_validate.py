@@ -63,6 +63,21 @@ def positive(name: str, value, *, allow_inf: bool = False) -> float:
     return real(name, value, low=0.0, low_open=True, allow_inf=allow_inf)
 
 
+#: Both engines' default tolerances, as ``solve_ivp``'s rtol and atol.
+DEFAULT_RTOL = 1e-8
+DEFAULT_ATOL = 1e-10
+
+
+def tolerances(rtol, atol) -> tuple:
+    """(rtol, atol) as floats, as both engines take them; ValidationError unless rtol
+    is in [1e-13, 0.1] and atol > 0."""
+    rtol, atol = positive("rtol", rtol), positive("atol", atol)
+    if not 1e-13 <= rtol <= 0.1:
+        raise ValidationError(f"rtol must lie in [1e-13, 0.1] (float64 resolves no finer); "
+                              f"got {rtol:g}")
+    return float(rtol), float(atol)
+
+
 def nonnegative(name: str, value) -> float:
     """A finite real number >= 0."""
     return real(name, value, low=0.0)

@@ -20,7 +20,7 @@ import numpy as np
 
 from .results import figstyle
 from ._validate import ValidationError
-from .engine.batch import DEFAULT_ATOL, DEFAULT_RTOL
+from ._validate import DEFAULT_ATOL, DEFAULT_RTOL
 from .sweeps.sweep_files import read_metrics
 from .model.noise import PAPER_NOISE
 from .sweeps.sweep import Sweep

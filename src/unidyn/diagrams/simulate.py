@@ -11,12 +11,13 @@ import warnings
 import numpy as np
 
 from .._errors import AccuracyWarning, SimulationError, SimulationInterrupted
-from .._validate import NonFiniteSignalError, ValidationError, positive
+from .._validate import (DEFAULT_ATOL, DEFAULT_RTOL, NonFiniteSignalError, ValidationError,
+                         positive, tolerances)
 from ..model.equations import saturate
 from ..results.result import Result
 from ..model.scenario import Scenario
 
-__all__ = ["simulate", "SimulationError", "SimulationInterrupted", "DEFAULT_RTOL", "DEFAULT_ATOL"]
+__all__ = ["simulate", "SimulationError", "SimulationInterrupted"]
 
 
 def _root_cause(err):
@@ -30,8 +31,6 @@ def _root_cause(err):
             return e
     return seen[-1]
 
-DEFAULT_RTOL = 1e-8
-DEFAULT_ATOL = 1e-10
 #: The most right-hand-side evaluations the solver may make in one sample interval
 #: Ts before the run is stopped as too stiff for it (RK45 makes six per step).
 MAX_RHS_PER_SAMPLE = 5_000
@@ -132,8 +131,7 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
     """
     if not isinstance(scenario, Scenario):
         raise ValidationError(f"scenario must be a unidyn.Scenario, got {type(scenario).__name__}")
-    rtol = positive("rtol", rtol)
-    atol = positive("atol", atol)
+    rtol, atol = tolerances(rtol, atol)
     if timeout is not None:
         timeout = positive("timeout", timeout)
     from . import RunMonitor, build_fig2, new_simulator  # bdsim: loaded when a run starts

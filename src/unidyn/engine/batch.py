@@ -18,17 +18,14 @@ from concurrent.futures import ThreadPoolExecutor, wait
 import numpy as np
 
 from .._errors import SimulationInterrupted
-from .._validate import ValidationError, positive
+from .._validate import DEFAULT_ATOL, DEFAULT_RTOL, ValidationError, tolerances
 from ..model.equations import TRAJECTORY_KINDS
 from ..model.scenario import ALWAYS_LOGGED, Scenario
 from ..results.result import Result
 from .rhs import ClosedLoop
 
-__all__ = ["simulate_batch", "backend_for", "tolerances", "DEFAULT_RTOL", "DEFAULT_ATOL", "MAX_STEPS"]
+__all__ = ["simulate_batch", "backend_for", "MAX_STEPS"]
 
-#: The tolerances, as ``solve_ivp``'s (and :func:`unidyn.simulate`'s defaults).
-DEFAULT_RTOL = 1e-8
-DEFAULT_ATOL = 1e-10
 #: A complete result's IAE is within PROMISE (relative), its theta_hat within PROMISE,
 #: of its check: the run at CHECK_FACTOR times the tolerances, less accurate, whose
 #: difference bounds the result's error; else it is ``complete=False``, saying so.
@@ -60,15 +57,6 @@ def backend_for(scenarios, backend: str = "auto") -> str:
     if backend == "compiled" or (backend == "auto" and kernels.AVAILABLE and compilable):
         return "compiled"
     return "plain"
-
-
-def tolerances(rtol, atol) -> tuple:
-    """(rtol, atol) as floats; ValidationError unless rtol is in [1e-13, 0.1], atol > 0."""
-    rtol, atol = positive("rtol", rtol), positive("atol", atol)
-    if not 1e-13 <= rtol <= 0.1:
-        raise ValidationError(f"rtol must lie in [1e-13, 0.1] (float64 resolves no finer); "
-                              f"got {rtol:g}")
-    return float(rtol), float(atol)
 
 
 def simulate_batch(scenarios, *, rtol: float = DEFAULT_RTOL, atol: float = DEFAULT_ATOL,

@@ -14,7 +14,7 @@ from collections import namedtuple
 import numpy as np
 
 from ..model import equations as eq
-from ..model.equations import P, S
+from ..model.equations import NSTATE, P, S
 from .jit import AVAILABLE, jit
 
 if AVAILABLE:
@@ -24,7 +24,6 @@ __all__ = ["AVAILABLE", "Runs", "Call", "LOG_COLUMNS", "LOG_SERIES",
            "log_layout", "reference", "loop_rates", "advance", "dp_step",
            "integrate_interval", "OK", "NONFINITE", "POSITION", "SPEED_U", "SPEED_W", "STEP"]
 
-NSTATE = len(eq.STATE)
 
 # ------------------------------------------------ Dormand-Prince 5(4), a table
 # Dormand, Prince, J. Comp. Appl. Math. 6 (1980): stage s at t + C[s] h from

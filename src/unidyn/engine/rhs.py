@@ -15,14 +15,13 @@ from __future__ import annotations
 import numpy as np
 
 from ..model import equations, laws
-from ..model.equations import LOOP_PARAMETERS, TRAJECTORY_KINDS, P
+from ..model.equations import LOOP_PARAMETERS, NSTATE, TRAJECTORY_KINDS, P
 from ..model.noise import HeldNoise, noise_seeds
 from ..model.parameters import THETA_NAMES
 from ..model.scenario import Scenario
 
-__all__ = ["ClosedLoop", "NSTATE"]
+__all__ = ["ClosedLoop"]
 
-NSTATE = len(equations.STATE)
 #: Noise values (rows x runs) drawn per window: 2 x 16 MB however long the run.
 NOISE_WINDOW_VALUES = 1_000_000
 

@@ -31,11 +31,13 @@ from collections import namedtuple
 
 import numpy as np
 
+from .parameters import THETA_NAMES
+
 __all__ = ["select", "sin", "cos", "tanh", "point_velocity_components", "robot_acceleration",
            "dynamics_regressor", "saturate", "limited_acceleration", "kinematic_law",
            "kinematic_law_rate", "compensation_regressor", "compensation", "update_rate",
            "figure_eight", "circle", "stepped_radius", "line", "loop_signals", "loop_rates",
-           "loop_derivative", "update_rates", "STATE", "S", "LOOP_PARAMETERS", "P", "TRAJECTORY_KINDS",
+           "loop_derivative", "update_rates", "STATE", "S", "NSTATE", "LOOP_PARAMETERS", "P", "TRAJECTORY_KINDS",
            "RADIUS_STEPS", "SWITCH_TOL"]
 
 #: Adaptation is on for t >= adapt_from - SWITCH_TOL (s): the switch then falls on
@@ -264,6 +266,8 @@ STATE = ("x", "y", "psi", "u", "w", "theta_hat1", "theta_hat2", "theta_hat3",
          "theta_hat4", "theta_hat5", "theta_hat6", "z_u", "z_w")
 #: Index of each state by name (S.x, S.theta_hat1, ...).
 S = namedtuple("LoopState", STATE)(*range(len(STATE)))
+#: The number of states of the loop.
+NSTATE = len(STATE)
 
 #: The per-run parameter table of the Fig. 2 loop, one value per name; see
 #: :meth:`unidyn.engine.rhs.ClosedLoop.parameter_table`. ``dynamic`` (1: the robot has
@@ -274,8 +278,7 @@ S = namedtuple("LoopState", STATE)(*range(len(STATE)))
 #: parameters, in the order of the function of its kind; ``step_time1``,
 #: ``step_radius1``, ... a circle's radius steps (:func:`stepped_radius`; inf: unused).
 LOOP_PARAMETERS = (
-    ("theta1", "theta2", "theta3", "theta4", "theta5", "theta6", "a",
-     "kx", "ky", "lx", "ly", "ku", "kw", "lu", "lw")
+    THETA_NAMES + ("a", "kx", "ky", "lx", "ly", "ku", "kw", "lu", "lw")
     + tuple(f"gamma{j}" for j in range(1, 7)) + tuple(f"leak{j}" for j in range(1, 7))
     + ("adapt_from", "tau", "filtered", "dynamic", "compensated",
        "speed_u", "speed_w", "accel_u", "accel_w", "trajectory")

@@ -49,8 +49,8 @@ class Trajectory:
 
 
 def _t(t):
-    """t as a float (arithmetic on a float is several times faster than on a 0-d
-    array, which matters in the blocks, called once per solver stage), else an array."""
+    """t as a float (arithmetic on a float is faster than on a 0-d array, and the
+    blocks call this once per solver stage), else an array."""
     return t if isinstance(t, float) else np.asarray(t, dtype=float)
 
 

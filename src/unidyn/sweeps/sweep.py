@@ -56,7 +56,8 @@ from .. import __version__
 from .cluster import connect_dask, run_on_dask
 from .._errors import Interrupted
 from .._validate import MAX_NAME, ValidationError, choice, flag, integer
-from ..engine.batch import DEFAULT_ATOL, DEFAULT_RTOL, simulate_batch, tolerances
+from .._validate import DEFAULT_ATOL, DEFAULT_RTOL, tolerances
+from ..engine.batch import simulate_batch
 from .sweep_files import (ID_NAME, MAX_POINTS, METRICS, RECORD_NAME, cell, check_keys,
                           expand_range, finished_rows, is_number, plain, text, read_rows,
                           read_sweep_id, read_sweep_record, read_toml, rows_text,
