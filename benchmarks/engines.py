@@ -178,7 +178,7 @@ def rhs_rows():
     X = (np.repeat(loop.initial_state(), B, axis=0) + rng.normal(scale=0.1, size=(B, 13)))
     P = np.repeat(loop.P, B, axis=0)
     noise = (0.0, 0.0, 0.0, 0.0)
-    rates = kernels.loop_rates
+    rates = kernels.loop_rhs
 
     @numba.njit
     def compiled(X, P, dX):

@@ -29,7 +29,7 @@ from rosbags.typesys import Stores, get_typestore
 from scipy.integrate import solve_ivp
 
 from unidyn import RobotParameters
-from unidyn.model.equations import robot_acceleration
+from unidyn.model.equations import dynamics_components
 from unidyn.identification import excitation
 
 ROBOT = RobotParameters(0.38, 0.22, 0.01, 1.04, 0.03, 1.06, name="courier")
@@ -57,7 +57,7 @@ def simulate(seed=7):
         cu, cw = exc["u_ref"][j], exc["w_ref"][j]
 
         def rhs(_, s):
-            du, dw = robot_acceleration(s[3], s[4], cu, cw, *th)
+            du, dw = dynamics_components(s[3], s[4], cu, cw, *th)
             return [s[3] * math.cos(s[2]), s[3] * math.sin(s[2]), s[4], du, dw]
         sel = np.flatnonzero((t_odom >= a) & (t_odom < b))
         sol = solve_ivp(rhs, (a, b), state, method="DOP853", rtol=1e-10, atol=1e-12,

@@ -18,9 +18,9 @@ from unidyn.model.trajectories import Circle, Line
 # the kernel's right-hand side (one run at a time, its reference evaluated from the
 # parameter table) as plain Python (what runs without numba) always, and compiled where
 # numba is installed
-KERNEL_RHS = [pytest.param(getattr(_kernels.loop_rates, "py_func", _kernels.loop_rates),
+KERNEL_RHS = [pytest.param(getattr(_kernels.loop_rhs, "py_func", _kernels.loop_rhs),
                            id="python")] + (
-    [pytest.param(_kernels.loop_rates, id="compiled")] if _kernels.AVAILABLE else [])
+    [pytest.param(_kernels.loop_rhs, id="compiled")] if _kernels.AVAILABLE else [])
 
 
 @pytest.mark.parametrize("rhs", KERNEL_RHS)

@@ -574,13 +574,8 @@ class KinematicControllerWithRate(KinematicController):
     :class:`KinematicController` with ``rate=True``, as a block whose ports never
     change (so that bdedit draws it). Output 0 is Eq. (10); output 1 is Eq. (10)
     differentiated along the motion (:func:`unidyn.model.laws.kinematic_control_rate`),
-    the :math:`\dot v_d` of the compensator's Eq. (12):
-
-    .. math::
-
-        v_d = \begin{bmatrix} \cos\psi & \sin\psi \\ -\frac{\sin\psi}{a} & \frac{\cos\psi}{a} \end{bmatrix}
-        \begin{bmatrix} \dot x_d + l_x \tanh(k_x \tilde x / l_x) \\
-                        \dot y_d + l_y \tanh(k_y \tilde y / l_y) \end{bmatrix} \qquad \text{Eq. (10)}
+    the :math:`\dot v_d` of the compensator's Eq. (12); Eq. (10) is written out at
+    :class:`KinematicController`.
 
     :seealso: :class:`KinematicController`, :class:`DynamicCompensatorWithRateInput`
     """
@@ -652,15 +647,7 @@ class DynamicCompensatorWithRateInput(DynamicCompensator):
 
     :class:`DynamicCompensator` with ``vd_dot="input"``, as a block whose ports
     never change (so that bdedit draws it). The command is Eqs. (12)/(14),
-
-    .. math::
-
-        v_r = G\hat\theta, \quad
-        G = \begin{bmatrix} \sigma_1 & 0 & -\omega_d\omega & u_d & 0 & 0 \\
-            0 & \sigma_2 & u_d\omega - u\omega_d & 0 & u\omega_d & \omega_d \end{bmatrix}, \quad
-        \sigma = \dot v_d + L\tanh(K\tilde v / L), \quad \tilde v = v_d - v
-
-    with :math:`\hat\theta = \hat\theta_0` fixed (``adaptive=False``: exact
+    :math:`v_r = G\hat\theta` (written out at :class:`DynamicCompensator`), with :math:`\hat\theta = \hat\theta_0` fixed (``adaptive=False``: exact
     compensation when it equals the robot's theta, the paper's third simulation)
     or, from ``t = adapt_from`` on, updated by Eq. (20) (``leakage="paper"``,
     :math:`\dot{\hat\theta} = \gamma G^T\tilde v - \gamma\Sigma\hat\theta`), by the

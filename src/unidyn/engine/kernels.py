@@ -21,7 +21,7 @@ if AVAILABLE:
     from numba.extending import overload
 
 __all__ = ["AVAILABLE", "Runs", "Call", "LOG_COLUMNS", "LOG_SERIES",
-           "log_layout", "reference", "loop_rates", "advance", "dp_step",
+           "log_layout", "reference", "loop_rhs", "advance", "dp_step",
            "integrate_interval", "OK", "NONFINITE", "POSITION", "SPEED_U", "SPEED_W", "STEP"]
 
 
@@ -120,7 +120,7 @@ def reference(t, p):
 
 
 @jit
-def loop_rates(t, X, args, out):
+def loop_rhs(t, X, args, out):
     """The Fig. 2 loop's dX/dt (:func:`unidyn.model.equations.loop_rates`) of one run
     at time t into out. args = (p, noise): a row of the parameter table
     (:data:`unidyn.model.equations.LOOP_PARAMETERS`) and the interval's held noise
@@ -217,13 +217,13 @@ def integrate_interval(t0, t1, X, h, args, call, K, y, Xn):
     ``call.max_steps`` steps; NONFINITE: the last error estimate not a number)."""
     p, span = args[0], t1 - t0
     h = h if h > 0.0 else span
-    loop_rates(t0, X, args, K[0])
+    loop_rhs(t0, X, args, K[0])
     t, kept, rejected, proposal = t0, 0, 0, h
     again = False  # a step of this interval was taken again: grow no step after it
     while True:
         last = h >= t1 - t
         h = t1 - t if last else h
-        err = dp_step(loop_rates, t, X, h, args, K, y, Xn, call.rtol, call.atol)
+        err = dp_step(loop_rhs, t, X, h, args, K, y, Xn, call.rtol, call.atol)
         if err <= 1.0:  # kept (an error estimate that is NaN is not)
             kept += 1
             factor = min(1.0, step_factor(err)) if again else step_factor(err)
@@ -240,7 +240,7 @@ def integrate_interval(t0, t1, X, h, args, call, K, y, Xn):
                 return proposal, kept, rejected, OK
             t = t + h
             if clipped:  # f at the step's end was evaluated beyond the limit
-                loop_rates(t, X, args, K[0])
+                loop_rhs(t, X, args, K[0])
             else:
                 for i in range(X.shape[0]):
                     K[0, i] = K[6, i]

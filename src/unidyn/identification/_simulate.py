@@ -15,7 +15,7 @@ import numpy as np
 
 from ..engine.jit import AVAILABLE as FAST
 from ..engine.jit import jit
-from ..model.equations import robot_acceleration
+from ..model.equations import dynamics_components
 from ..model.unicycle import unicycle_deriv
 
 #: How the logged commands act between their time stamps.
@@ -49,7 +49,7 @@ def robot_rates(t, v, args, out):
     """Eq. (2): (u', w') at velocities v under the command of one piece of a log,
     args = (theta, u_ref, w_ref, its slopes in time, the time they are read at)."""
     th, cu, cw, su, sw, t0 = args
-    out[0], out[1] = robot_acceleration(v[0], v[1], cu + su * (t - t0), cw + sw * (t - t0),
+    out[0], out[1] = dynamics_components(v[0], v[1], cu + su * (t - t0), cw + sw * (t - t0),
                                         th[0], th[1], th[2], th[3], th[4], th[5])
 
 

@@ -1,22 +1,24 @@
-r"""The paper's equations, written once.
+r"""The paper's equations in components: the arithmetic every engine runs.
 
-Every equation of the model and the controllers of Martins et al. (2017) is here,
-once, as plain arithmetic: Eq. (1) (:func:`point_velocity_components`), Eq. (2)
-(:func:`robot_acceleration`) with the speed and acceleration limits, Eq. (10) and
-its time derivative (:func:`kinematic_law`, :func:`kinematic_law_rate`), the
-compensation of Eqs. (12)/(14) (:func:`compensation_regressor`,
-:func:`compensation`), the update law of Eqs. (18)/(20) (:func:`update_rate`),
-the reference trajectories, and the whole Fig. 2 loop built from them
-(:func:`loop_signals`, :func:`loop_derivative`).
+Each equation has one name: its public form takes and returns arrays
+(:mod:`unidyn.model.unicycle`, :mod:`unidyn.model.laws`, whose docstrings write the
+equation out), and its form here, the same name with ``_components``, takes and returns
+the vectors' components, the arithmetic both forms run: Eq. (1)
+(:func:`point_velocity_components`), Eq. (2) (:func:`dynamics_components`, with the
+speed and acceleration limits :func:`saturate`, :func:`limited_acceleration`), Eq. (11)
+(:func:`regressor_components`), Eq. (10) and its time derivative
+(:func:`kinematic_control_components`, :func:`kinematic_control_and_rate_components`),
+Eqs. (12)/(14) (:func:`compensation_regressor_components`,
+:func:`compensation_components`), Eqs. (18)/(20) (:func:`adaptation_rate_components`);
+the reference trajectories; and the whole Fig. 2 loop built from them
+(:func:`loop_signals`, :func:`loop_rates`, :func:`loop_derivative`).
 
 The arguments may be Python floats or numpy arrays of any broadcastable shape
 (the runs of a batch, the samples of a log), and numba compiles the same
 functions for the batch engine and for identification (:mod:`unidyn.engine.jit`
 registers every function of this module with numba, so they call each other in
-compiled code). Vectors are passed as their components and results come back as
-tuples of components, so no function allocates an array of its own;
-:mod:`unidyn.model.unicycle`, :mod:`unidyn.model.laws` and :mod:`unidyn.model.trajectories` stack
-them into the array shapes of their public interfaces.
+compiled code). Components in, tuples of components out: no function allocates an
+array of its own.
 
 What this module may use, so that numba compiles it: arithmetic, comparisons,
 ``np.minimum/maximum/sqrt``, :func:`sin`, :func:`cos`, :func:`tanh` (numpy's, which
@@ -33,11 +35,11 @@ import numpy as np
 
 from .parameters import THETA_NAMES
 
-__all__ = ["select", "sin", "cos", "tanh", "point_velocity_components", "robot_acceleration",
-           "dynamics_regressor", "saturate", "limited_acceleration", "kinematic_law",
-           "kinematic_law_rate", "compensation_regressor", "compensation", "update_rate",
+__all__ = ["select", "sin", "cos", "tanh", "point_velocity_components", "dynamics_components",
+           "regressor_components", "saturate", "limited_acceleration", "kinematic_control_components",
+           "kinematic_control_and_rate_components", "compensation_regressor_components", "compensation_components", "adaptation_rate_components",
            "figure_eight", "circle", "stepped_radius", "line", "loop_signals", "loop_rates",
-           "loop_derivative", "update_rates", "STATE", "S", "NSTATE", "LOOP_PARAMETERS", "P", "TRAJECTORY_KINDS",
+           "loop_derivative", "loop_adaptation_rates", "STATE", "S", "NSTATE", "LOOP_PARAMETERS", "P", "TRAJECTORY_KINDS",
            "RADIUS_STEPS", "SWITCH_TOL"]
 
 #: Adaptation is on for t >= adapt_from - SWITCH_TOL (s): the switch then falls on
@@ -71,37 +73,23 @@ def tanh(x):
 
 # --------------------------------------------------------------------------- robot
 def point_velocity_components(psi, u, w, a):
-    r"""Eq. (1), first two rows: the velocity of the point of interest h,
-    :math:`\dot x = u\cos\psi - a w\sin\psi,\ \dot y = u\sin\psi + a w\cos\psi`."""
+    """Eq. (1), first two rows, in components: (x', y') of the point of interest h
+    (:func:`unidyn.model.unicycle.point_velocity`)."""
     c = cos(psi)
     s = sin(psi)
     return u * c - a * w * s, u * s + a * w * c
 
 
-def robot_acceleration(u, w, u_ref, w_ref, th1, th2, th3, th4, th5, th6):
-    r"""Eq. (2): the accelerations of the robot's velocities under the commands
-    u_ref, w_ref (no disturbance),
-
-    .. math::
-
-        \dot u = \frac{\theta_3}{\theta_1} w^2 - \frac{\theta_4}{\theta_1} u
-                 + \frac{u_{ref}}{\theta_1},\quad
-        \dot\omega = -\frac{\theta_5}{\theta_2} u\omega - \frac{\theta_6}{\theta_2}\omega
-                 + \frac{\omega_{ref}}{\theta_2}
-    """
+def dynamics_components(u, w, u_ref, w_ref, th1, th2, th3, th4, th5, th6):
+    """Eq. (2) in components: (u', w') under the commands u_ref, w_ref, no
+    disturbance (:func:`unidyn.model.unicycle.dynamics`)."""
     return ((th3 * w * w - th4 * u + u_ref) / th1,
             (-th5 * u * w - th6 * w + w_ref) / th2)
 
 
-def dynamics_regressor(u, w, du, dw):
-    r"""The regressor Y of Eq. (11), the linear parametrisation of Eq. (2),
-    :math:`v_{ref} = Y(v, \dot v)\,\theta`, row by row (12 entries):
-
-    .. math::
-
-        Y = \begin{bmatrix} \dot u & 0 & -\omega^2 & u & 0 & 0 \\
-                            0 & \dot\omega & 0 & 0 & u\omega & \omega \end{bmatrix}
-    """
+def regressor_components(u, w, du, dw):
+    """The regressor Y of Eq. (11) in components, row by row (12 entries)
+    (:func:`unidyn.model.unicycle.regressor`)."""
     return (du, 0.0, -w * w, u, 0.0, 0.0,
             0.0, dw, 0.0, 0.0, u * w, w)
 
@@ -124,18 +112,9 @@ def limited_acceleration(u, w, du, dw, speed_u, speed_w, accel_u, accel_w):
 
 
 # --------------------------------------------------------------------- controllers
-def kinematic_law(xd, yd, vxd, vyd, x, y, psi, a, kx, ky, lx, ly):
-    r"""Eq. (10): the desired velocities (u_d, w_d) that make h = (x, y) track
-    h_d = (xd, yd) moving at (vxd, vyd),
-
-    .. math::
-
-        \begin{bmatrix} u_d \\ \omega_d \end{bmatrix} =
-        \begin{bmatrix} \cos\psi & \sin\psi \\ -\frac{\sin\psi}{a} & \frac{\cos\psi}{a}
-        \end{bmatrix}
-        \begin{bmatrix} \dot x_d + l_x \tanh(k_x \tilde x / l_x) \\
-                        \dot y_d + l_y \tanh(k_y \tilde y / l_y) \end{bmatrix}
-    """
+def kinematic_control_components(xd, yd, vxd, vyd, x, y, psi, a, kx, ky, lx, ly):
+    """Eq. (10) in components: (u_d, w_d) that make h = (x, y) track
+    h_d = (xd, yd) moving at (vxd, vyd) (:func:`unidyn.model.laws.kinematic_control`)."""
     nux = vxd + lx * tanh(kx * (xd - x) / lx)
     nuy = vyd + ly * tanh(ky * (yd - y) / ly)
     c = cos(psi)
@@ -143,18 +122,10 @@ def kinematic_law(xd, yd, vxd, vyd, x, y, psi, a, kx, ky, lx, ly):
     return c * nux + s * nuy, (-s * nux + c * nuy) / a
 
 
-def kinematic_law_rate(xd, yd, vxd, vyd, axd, ayd, x, y, psi, u, w, a, kx, ky, lx, ly):
-    r"""Eq. (10) and its time derivative along the motion (the exact v_d'):
-    returns (u_d, w_d, u_d', w_d').
-
-    .. math::
-
-        \dot v_d = \frac{d A^{-1}(\psi)}{dt}\,\nu + A^{-1}(\psi)\,\dot\nu,\quad
-        \dot\nu = \ddot h_d + K\,\mathrm{sech}^2(K\tilde h/L)\,(\dot h_d - \dot h)
-
-    with :math:`\dot h` from Eq. (1) at the velocities (u, w) and
-    :math:`\dot\psi = \omega`.
-    """
+def kinematic_control_and_rate_components(xd, yd, vxd, vyd, axd, ayd, x, y, psi, u, w, a, kx, ky, lx, ly):
+    """Eq. (10) and its time derivative along the motion, in components:
+    (u_d, w_d, u_d', w_d') (:func:`unidyn.model.laws.kinematic_control_and_rate`), with
+    h' from Eq. (1) at the velocities (u, w) and psi' = w."""
     tx = tanh(kx * (xd - x) / lx)
     ty = tanh(ky * (yd - y) / ly)
     nux = vxd + lx * tx
@@ -171,26 +142,19 @@ def kinematic_law_rate(xd, yd, vxd, vyd, axd, ayd, x, y, psi, u, w, a, kx, ky, l
             (w * (-c * nux - s * nuy) - s * ndx + c * ndy) / a)
 
 
-def compensation_regressor(ud, wd, udd, wdd, u, w, ku, kw, lu, lw):
-    r"""The regressor G of Eq. (14), row by row (12 entries, G[0, 0..5], G[1, 0..5]):
-
-    .. math::
-
-        G = \begin{bmatrix} \sigma_1 & 0 & -\omega_d\omega & u_d & 0 & 0 \\
-            0 & \sigma_2 & u_d\omega - u\,\omega_d & 0 & u\,\omega_d & \omega_d \end{bmatrix},
-        \quad \sigma_1 = \dot u_d + l_u\tanh\!\left(\frac{k_u}{l_u}\tilde u\right),\
-        \sigma_2 = \dot\omega_d + l_\omega\tanh\!\left(\frac{k_\omega}{l_\omega}\tilde\omega\right)
-    """
+def compensation_regressor_components(ud, wd, udd, wdd, u, w, ku, kw, lu, lw):
+    """The regressor G of Eq. (14) in components, row by row (12 entries,
+    G[0, 0..5], G[1, 0..5]) (:func:`unidyn.model.laws.compensation_regressor`)."""
     s1 = udd + lu * tanh(ku * (ud - u) / lu)
     s2 = wdd + lw * tanh(kw * (wd - w) / lw)
     return (s1, 0.0, -wd * w, ud, 0.0, 0.0,
             0.0, s2, ud * w - u * wd, 0.0, u * wd, wd)
 
 
-def compensation(G, th):
-    r"""Eq. (12) in the linear form of Eq. (14), :math:`v_r = G\hat\theta`:
-    (u_r, w_r) from the 12 entries of G (:func:`compensation_regressor`) and
-    the six estimates th[0..5]."""
+def compensation_components(G, th):
+    r"""Eq. (12) in the linear form of Eq. (14), :math:`v_r = G\hat\theta`, in
+    components: (u_r, w_r) from the 12 entries of G and the six estimates th[0..5]
+    (:func:`unidyn.model.laws.compensation`)."""
     ur = G[0] * th[0]
     wr = G[6] * th[0]
     for j in range(1, 6):
@@ -199,12 +163,11 @@ def compensation(G, th):
     return ur, wr
 
 
-def update_rate(g0, g1, u_tilde, w_tilde, gamma, leak, theta_hat):
-    r"""Eqs. (18)/(20) for one parameter j: :math:`\dot{\hat\theta}_j =
-    \gamma_j (G_{0j}\tilde u + G_{1j}\tilde\omega) - \lambda_j \hat\theta_j`, with the
-    leakage rate :math:`\lambda_j = \gamma_j\sigma_j` (Eq. 20), :math:`\sigma_j`
-    (the authors' Simulink package) or 0 (Eq. 18); see
-    :func:`unidyn.model.laws.leakage_rate`."""
+def adaptation_rate_components(g0, g1, u_tilde, w_tilde, gamma, leak, theta_hat):
+    """Eqs. (18)/(20) for one estimate j, in components:
+    gamma_j (G[0, j] u~ + G[1, j] w~) - leak_j theta_hat_j
+    (:func:`unidyn.model.laws.adaptation_rate`; ``leak`` from
+    :func:`unidyn.model.laws.leakage_rate`)."""
     return gamma * (g0 * u_tilde + g1 * w_tilde) - leak * theta_hat
 
 
@@ -273,7 +236,7 @@ NSTATE = len(STATE)
 #: :meth:`unidyn.engine.rhs.ClosedLoop.parameter_table`. ``dynamic`` (1: the robot has
 #: Eq. 2, 0: kinematic), ``compensated`` (1: v_ref = G theta_hat, Eq. 14; 0: v_ref = v_d)
 #: and ``filtered`` (1: v_d' from the filter (v_d - z)/tau; 0: the exact rate) are
-#: 0/1; ``leak1..6`` are the leakage rates of :func:`update_rate`; ``adapt_from`` is
+#: 0/1; ``leak1..6`` are the leakage rates of :func:`adaptation_rate_components`; ``adapt_from`` is
 #: inf where the estimate is not adapted; ``path1..6`` are the reference's
 #: parameters, in the order of the function of its kind; ``step_time1``,
 #: ``step_radius1``, ... a circle's radius steps (:func:`stepped_radius`; inf: unused).
@@ -303,14 +266,14 @@ def loop_signals(X, ref, p, noise):
     """
     um = X[S.u] + noise[2]
     wm = X[S.w] + noise[3]
-    ud, wd, rate_u, rate_w = kinematic_law_rate(
+    ud, wd, rate_u, rate_w = kinematic_control_and_rate_components(
         ref[0], ref[1], ref[2], ref[3], ref[4], ref[5], X[S.x] + noise[0], X[S.y] + noise[1],
         X[S.psi], um, wm, p[P.a], p[P.kx], p[P.ky], p[P.lx], p[P.ly])
     filtered = p[P.filtered] != 0.0
     udd = select(filtered, (ud - X[S.z_u]) / p[P.tau], rate_u)
     wdd = select(filtered, (wd - X[S.z_w]) / p[P.tau], rate_w)
-    G = compensation_regressor(ud, wd, udd, wdd, um, wm, p[P.ku], p[P.kw], p[P.lu], p[P.lw])
-    ur, wr = compensation(G, (X[S.theta_hat1], X[S.theta_hat2], X[S.theta_hat3],
+    G = compensation_regressor_components(ud, wd, udd, wdd, um, wm, p[P.ku], p[P.kw], p[P.lu], p[P.lw])
+    ur, wr = compensation_components(G, (X[S.theta_hat1], X[S.theta_hat2], X[S.theta_hat3],
                               X[S.theta_hat4], X[S.theta_hat5], X[S.theta_hat6]))
     compensated = p[P.compensated] != 0.0
     return (ud, wd, udd, wdd, G, select(compensated, ur, ud), select(compensated, wr, wd),
@@ -323,7 +286,7 @@ def loop_rates(t, X, ref, p, noise):
     The commands are clipped to the speed limits; the robot follows Eqs. (1)-(2)
     with the acceleration limits (:func:`limited_acceleration`), or Eq. (1) with
     v = the clipped command for a kinematic robot; the estimate follows
-    Eqs. (18)/(20) from ``adapt_from`` on (:func:`update_rate`, with the velocity
+    Eqs. (18)/(20) from ``adapt_from`` on (:func:`adaptation_rate_components`, with the velocity
     error v_d - v_meas); the derivative filter integrates v_d'. Arguments as
     :func:`loop_signals` (X and p may be tuples: the compiled engine passes one run's
     values in registers).
@@ -333,7 +296,7 @@ def loop_rates(t, X, ref, p, noise):
     wc = saturate(w_ref, p[P.speed_w])
     u = X[S.u]
     w = X[S.w]
-    du, dw = robot_acceleration(u, w, uc, wc, p[P.theta1], p[P.theta2], p[P.theta3],
+    du, dw = dynamics_components(u, w, uc, wc, p[P.theta1], p[P.theta2], p[P.theta3],
                                 p[P.theta4], p[P.theta5], p[P.theta6])
     du, dw = limited_acceleration(u, w, du, dw, p[P.speed_u], p[P.speed_w],
                                   p[P.accel_u], p[P.accel_w])
@@ -344,7 +307,7 @@ def loop_rates(t, X, ref, p, noise):
     on = t >= p[P.adapt_from] - SWITCH_TOL
     u_tilde = ud - um
     w_tilde = wd - wm
-    r = update_rates(G, u_tilde, w_tilde, p, X)
+    r = loop_adaptation_rates(G, u_tilde, w_tilde, p, X)
     filtered = p[P.filtered] != 0.0
     du = select(dynamic, du, 0.0)
     dw = select(dynamic, dw, 0.0)
@@ -354,16 +317,16 @@ def loop_rates(t, X, ref, p, noise):
             select(filtered, udd, 0.0), select(filtered, wdd, 0.0))
 
 
-def update_rates(G, u_tilde, w_tilde, p, X):
-    """:func:`update_rate` for the six estimates of the loop state X (parameters p
+def loop_adaptation_rates(G, u_tilde, w_tilde, p, X):
+    """:func:`adaptation_rate_components` for the six estimates of the loop state X (parameters p
     indexed by :data:`P`), as a tuple."""
     return (
-        update_rate(G[0], G[6], u_tilde, w_tilde, p[P.gamma1], p[P.leak1], X[S.theta_hat1]),
-        update_rate(G[1], G[7], u_tilde, w_tilde, p[P.gamma2], p[P.leak2], X[S.theta_hat2]),
-        update_rate(G[2], G[8], u_tilde, w_tilde, p[P.gamma3], p[P.leak3], X[S.theta_hat3]),
-        update_rate(G[3], G[9], u_tilde, w_tilde, p[P.gamma4], p[P.leak4], X[S.theta_hat4]),
-        update_rate(G[4], G[10], u_tilde, w_tilde, p[P.gamma5], p[P.leak5], X[S.theta_hat5]),
-        update_rate(G[5], G[11], u_tilde, w_tilde, p[P.gamma6], p[P.leak6], X[S.theta_hat6]))
+        adaptation_rate_components(G[0], G[6], u_tilde, w_tilde, p[P.gamma1], p[P.leak1], X[S.theta_hat1]),
+        adaptation_rate_components(G[1], G[7], u_tilde, w_tilde, p[P.gamma2], p[P.leak2], X[S.theta_hat2]),
+        adaptation_rate_components(G[2], G[8], u_tilde, w_tilde, p[P.gamma3], p[P.leak3], X[S.theta_hat3]),
+        adaptation_rate_components(G[3], G[9], u_tilde, w_tilde, p[P.gamma4], p[P.leak4], X[S.theta_hat4]),
+        adaptation_rate_components(G[4], G[10], u_tilde, w_tilde, p[P.gamma5], p[P.leak5], X[S.theta_hat5]),
+        adaptation_rate_components(G[5], G[11], u_tilde, w_tilde, p[P.gamma6], p[P.leak6], X[S.theta_hat6]))
 
 
 def loop_derivative(t, X, ref, p, noise, dX):

@@ -54,7 +54,7 @@ def kinematic_control(h_d, h_d_dot, h, psi, a, k, l):
     :param l: saturation constants [l_x, l_y], m/s
     :return: v_d = [u_d, w_d], shape ``(..., 2)``
     """
-    return _pair(*eq.kinematic_law(*_parts(h_d), *_parts(h_d_dot), *_parts(h), _scalar(psi),
+    return _pair(*eq.kinematic_control_components(*_parts(h_d), *_parts(h_d_dot), *_parts(h), _scalar(psi),
                                    a, *_parts(k, 2), *_parts(l, 2)))
 
 
@@ -78,7 +78,7 @@ def kinematic_control_rate(h_d, h_d_dot, h_d_ddot, h, psi, v, a, k, l):
 def kinematic_control_and_rate(h_d, h_d_dot, h_d_ddot, h, psi, v, a, k, l):
     """Eq. (10) and its time derivative at once (:func:`kinematic_control`,
     :func:`kinematic_control_rate`): (v_d, v_d'), each shape ``(..., 2)``."""
-    ud, wd, udd, wdd = eq.kinematic_law_rate(
+    ud, wd, udd, wdd = eq.kinematic_control_and_rate_components(
         *_parts(h_d), *_parts(h_d_dot), *_parts(h_d_ddot), *_parts(h), _scalar(psi), *_parts(v),
         a, *_parts(k, 2), *_parts(l, 2))
     return _pair(ud, wd), _pair(udd, wdd)
@@ -103,7 +103,7 @@ def compensation_regressor(v_d, v_d_dot, v, k, l):
     :param l: saturation constants [l_u, l_w]
     :return: G, shape ``(..., 2, 6)``
     """
-    G = _join(*eq.compensation_regressor(*_parts(v_d), *_parts(v_d_dot), *_parts(v),
+    G = _join(*eq.compensation_regressor_components(*_parts(v_d), *_parts(v_d_dot), *_parts(v),
                                          *_parts(k, 2), *_parts(l, 2)))
     return G.reshape(G.shape[:-1] + (2, 6))
 
@@ -112,11 +112,11 @@ def compensation(G, theta_hat):
     r"""The compensator's command, Eq. (12) in the linear form of Eq. (14):
     :math:`v_r = G\hat\theta`, shape ``(..., 2)``."""
     G = np.asarray(G, dtype=float)
-    return _pair(*eq.compensation(_parts(G.reshape(G.shape[:-2] + (12,))), _parts(theta_hat)))
+    return _pair(*eq.compensation_components(_parts(G.reshape(G.shape[:-2] + (12,))), _parts(theta_hat)))
 
 
 def leakage_rate(gamma, sigma, leakage="paper"):
-    r"""The leakage rates :math:`\lambda_j` of :func:`unidyn.model.equations.update_rate`
+    r"""The leakage rates :math:`\lambda_j` of :func:`unidyn.model.equations.adaptation_rate_components`
     for a named leakage form: :math:`\gamma_j\sigma_j` for ``"paper"`` (Eq. 20),
     :math:`\sigma_j` for ``"fx44850"`` (the authors' Simulink package), 0 for
     ``"none"`` (Eq. 18)."""
@@ -151,5 +151,5 @@ def adaptation_rate(G, v_tilde, theta_hat, gamma, sigma, leakage="paper"):
     G = np.asarray(G, dtype=float)
     g = _parts(G.reshape(G.shape[:-2] + (12,)))
     ut, wt = _parts(v_tilde)
-    return _join(*(eq.update_rate(g[j], g[6 + j], ut, wt, gj, leak[j], th)
+    return _join(*(eq.adaptation_rate_components(g[j], g[6 + j], ut, wt, gj, leak[j], th)
                    for j, (gj, th) in enumerate(zip(_parts(gamma, 6), _parts(theta_hat)))))

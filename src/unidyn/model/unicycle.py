@@ -165,7 +165,7 @@ def dynamics(v, v_ref, theta):
         \dot u = \frac{\theta_3}{\theta_1} w^2 - \frac{\theta_4}{\theta_1} u + \frac{u_{ref}}{\theta_1},\quad
         \dot w = -\frac{\theta_5}{\theta_2} u w - \frac{\theta_6}{\theta_2} w + \frac{w_{ref}}{\theta_2}
     """
-    return _pair(*eq.robot_acceleration(*_parts(v), *_parts(v_ref), *_th(theta)))
+    return _pair(*eq.dynamics_components(*_parts(v), *_parts(v_ref), *_th(theta)))
 
 
 def inertia(theta):
@@ -216,7 +216,7 @@ def regressor(v, v_dot):
 
     :return: shape ``(..., 2, 6)``
     """
-    Y = _join(*eq.dynamics_regressor(*_parts(v), *_parts(v_dot)))
+    Y = _join(*eq.regressor_components(*_parts(v), *_parts(v_dot)))
     return Y.reshape(Y.shape[:-1] + (2, 6))
 
 
@@ -246,7 +246,7 @@ def unicycle_deriv(x, v_ref, theta, a, limits: Limits = NO_LIMITS, delta=None):
     speed, accel = limits.speed.tolist(), limits.accel.tolist()
     if limits.active:
         u_ref, w_ref = eq.saturate(u_ref, speed[0]), eq.saturate(w_ref, speed[1])
-    du, dw = eq.robot_acceleration(u, w, u_ref, w_ref, *_th(theta))
+    du, dw = eq.dynamics_components(u, w, u_ref, w_ref, *_th(theta))
     dx, dy = eq.point_velocity_components(psi, u, w, a)
     if delta is not None:
         ex, ey, eu, ew = _parts(delta)
