@@ -68,7 +68,7 @@ from .plots import plot_metrics
 from ..diagrams.simulate import simulate
 from ..engine.choice import ENGINES
 
-__all__ = ["Sweep", "Point", "SweepRun", "run_sweep", "sweep_id", "SWEEP_FILES"]
+__all__ = ["Sweep", "SweepPoint", "SweepRun", "run_sweep", "sweep_id", "SWEEP_FILES"]
 
 #: Default points per chunk, by engine (:data:`unidyn.engine.choice.ENGINES`): ``"batch"``,
 #: :func:`unidyn.engine.batch.simulate_batch` once per chunk (sampled-control points go
@@ -81,7 +81,7 @@ _TOP_KEYS = ("name", "base", "grid", "variants", "rtol", "atol")
 # -------------------------------------------------------------------------- Sweep
 
 @dataclass(frozen=True)
-class Point:
+class SweepPoint:
     """One point of a sweep: its index, its axis values and its scenario."""
 
     index: int
@@ -224,7 +224,7 @@ class Sweep:
                 except ValidationError as err:
                     at = f"sweep point {index}" + (f" ({desc})" if desc else "")
                     raise ValidationError(f"{at}: {err}") from None
-                out.append(Point(index, params, sc))
+                out.append(SweepPoint(index, params, sc))
                 index += 1
         object.__setattr__(self, "_points", tuple(out))
         return list(out)
