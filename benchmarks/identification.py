@@ -58,7 +58,7 @@ import warnings  # noqa: E402
 
 from unidyn import Limits, RobotParameters  # noqa: E402
 from unidyn import identification as ident  # noqa: E402
-from unidyn.identification._simulate import simulate_held  # noqa: E402
+from unidyn.identification.replay import simulate_held  # noqa: E402
 
 ROBOTS = {
     "hauler (90 kg, b = 0.3 m)": RobotParameters.from_physical(

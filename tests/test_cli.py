@@ -399,19 +399,20 @@ def test_ctrl_c_reported_as_a_librarys_own_error_is_an_interrupt(capsys, monkeyp
     (Python: "Error calling __set_name__", with the interrupt as its cause): exit 130,
     one line, no traceback."""
     import unidyn.cli as c
+    import unidyn.cli.robots
 
     def interrupted_import(args):
         try:
             raise KeyboardInterrupt
         except KeyboardInterrupt as err:
             raise RuntimeError("Error calling __set_name__") from err
-    monkeypatch.setattr(c, "_cmd_robots", interrupted_import)
+    monkeypatch.setattr(unidyn.cli.robots, "unidyn_robots", interrupted_import)
     assert c.main(["robots"]) == 130
     assert capsys.readouterr().err.strip() == "unidyn: interrupted"
 
     def plain_bug(args):
         raise RuntimeError("a bug")
-    monkeypatch.setattr(c, "_cmd_robots", plain_bug)
+    monkeypatch.setattr(unidyn.cli.robots, "unidyn_robots", plain_bug)
     with pytest.raises(RuntimeError, match="a bug"):  # anything else: a traceback as ever
         c.main(["robots"])
 

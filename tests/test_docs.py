@@ -53,8 +53,8 @@ def _block_classes():
 
 
 def _subcommands():
-    from unidyn.cli import _parser
-    for action in _parser()._actions:
+    from unidyn.cli import parser
+    for action in parser()._actions:
         if isinstance(getattr(action, "choices", None), dict):   # the subcommands
             return sorted(action.choices)
     return []

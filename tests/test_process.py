@@ -45,13 +45,13 @@ def test_a_stopped_command_dies_by_its_signal_after_the_exit_handlers_and_output
     out, and then the process dies by that very signal (what a shell needs to stop its
     loop)."""
     p = _child("import atexit, os, signal, threading\n"
-               "import unidyn.cli as c\n"
+               "import unidyn.cli as c, unidyn.cli.robots\n"
                "def cmd(args):\n"
                "    atexit.register(print, 'handler ran')\n"
                "    print('buffered output')  # stdout is a pipe: not flushed yet\n"
                f"    os.kill(os.getpid(), {int(sig)})\n"
                "    threading.Event().wait(30)\n"
-               "c._cmd_robots = cmd\n"
+               "unidyn.cli.robots.unidyn_robots = cmd\n"
                "c.script(['robots'])\n")
     assert p.returncode == -sig, (p.returncode, p.stdout, p.stderr)
     assert p.stdout.split("\n")[:2] == ["buffered output", "handler ran"], p.stdout

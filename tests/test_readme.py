@@ -429,8 +429,8 @@ def test_csv_block_is_read_by_the_log_reader(block, tmp_path):
 # -------------------------------------------------------------------- --help texts
 
 def _epilog_commands():
-    from unidyn.cli import _parser
-    parser = _parser()
+    from unidyn.cli import parser as cli_parser
+    parser = cli_parser()
     subs = [a for a in parser._actions if hasattr(a, "choices") and isinstance(a.choices, dict)]
     found = []
     for name, sub in (subs[0].choices.items() if subs else []):

@@ -119,12 +119,12 @@ def repair_docstring(app, what, name, obj, options, lines):
 
 
 def cli_parser():
-    """The ``unidyn`` command's parser (:func:`unidyn.cli._parser`), with its help texts
+    """The ``unidyn`` command's parser (:func:`unidyn.cli.parser`), with its help texts
     escaped for reST (sphinx-argparse reads them as reST; they are written as plain
     text for the terminal, where ``|u|`` is an absolute value)."""
     import argparse
 
-    from unidyn.cli import _parser
+    from unidyn.cli import parser
 
     def escape(parser):
         for action in parser._actions:
@@ -134,7 +134,7 @@ def cli_parser():
                 for sub in action.choices.values():
                     escape(sub)
         return parser
-    return escape(_parser())
+    return escape(parser())
 
 
 def _copy_if_changed(src: Path, dst: Path) -> None:

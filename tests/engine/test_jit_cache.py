@@ -34,7 +34,7 @@ print(simulate_batch([sc], backend=sys.argv[1], progress=False)[0].metrics["iae"
 """
 HELD = """
 import numpy as np
-from unidyn.identification._simulate import simulate_held
+from unidyn.identification.replay import simulate_held
 t = np.arange(0.0, 2.0, 0.1)
 v = simulate_held([0.24, 0.23, 0.0003, 0.97, 0.003, 1.07], t, np.full(t.size, 0.3),
                   np.zeros(t.size), [(0, t.size)], [[0.0, 0.0]])

@@ -40,7 +40,7 @@ import pytest
 from unidyn import ValidationError
 from unidyn.model import robots
 from unidyn import identification as ident
-from unidyn.identification import estimator
+from unidyn.identification import equation_error
 from unidyn.model.unicycle import PAPER_LIMITS, Limits
 
 DT = 0.005
@@ -230,9 +230,9 @@ def test_filter_gives_the_same_rows_on_uniform_and_irregular_code_paths():
     n = 4000
     args = [log[k][:n] for k in ("u_ref", "w_ref", "u", "w")]
     t = log["t"][:n]
-    uni = estimator._filter_regression(t, *args, 0.5)
+    uni = equation_error._filter_regression(t, *args, 0.5)
     t2 = t + 1e-9 * np.sin(np.arange(n))        # defeats the uniform fast path only
-    gen = estimator._filter_regression(t2, *args, 0.5)
+    gen = equation_error._filter_regression(t2, *args, 0.5)
     m = uni[2] & gen[2]
     assert m.sum() > n - 250
     np.testing.assert_allclose(gen[0][m], uni[0][m], atol=1e-6)
@@ -254,9 +254,9 @@ def test_filtered_rows_are_the_filter_applied_to_the_eq11_regressor():
         ud = 0.26 * np.cos(1.3 * t) - 0.155 * np.sin(3.1 * t)
         wd = 0.35 * np.cos(0.7 * t + 0.4) + 0.46 * np.sin(2.3 * t)
         Y = regressor(np.stack([u, w], axis=1), np.stack([ud, wd], axis=1))   # (N, 2, 6)
-        y, X, interior, _ = estimator._filter_regression(t, 0 * t, 0 * t, u, w, 0.5)
+        y, X, interior, _ = equation_error._filter_regression(t, 0 * t, 0 * t, u, w, 0.5)
         direct = np.full((t.size, 2, 6), np.nan)
-        for sl, ii, A, _, _ in estimator._filter_weights(t, 0.5):
+        for sl, ii, A, _, _ in equation_error._filter_weights(t, 0.5):
             direct[sl] = np.einsum("nm,nmrc->nrc", A, Y[ii])
         for row, cols in enumerate(((0, 2, 3), (1, 4, 5))):
             scale = np.max(np.abs(direct[interior][:, row, list(cols)]), axis=0)
@@ -269,7 +269,7 @@ def test_local_polynomial_equals_savgol_filter_on_a_uniform_grid():
     rng = np.random.default_rng(0)
     t = np.arange(500) * 0.01
     y = np.sin(3 * t) + 0.1 * rng.standard_normal(t.size)
-    val, der, interior = estimator._local_poly(t, y[:, None], 0.1, 3)    # 21 samples
+    val, der, interior = equation_error._local_poly(t, y[:, None], 0.1, 3)    # 21 samples
     np.testing.assert_allclose(val[interior, 0],
                                savgol_filter(y, 21, 3)[interior], atol=1e-10)
     np.testing.assert_allclose(der[interior, 0],

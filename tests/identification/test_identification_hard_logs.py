@@ -164,16 +164,16 @@ def test_parameter_without_effect_gets_no_tiny_standard_error():
 def test_parameter_with_zero_sensitivity_is_reported_not_identifiable():
     """The scaled inverse of a normal matrix with a zero column: that parameter
     gets an infinite variance, the others the inverse of their own block."""
-    from unidyn.identification.estimator import _scaled_inverse
+    from unidyn.identification.output_error import scaled_inverse
     rng = np.random.default_rng(0)
     J = rng.standard_normal((200, 4)) * [1.0, 1e-9, 1e3, 1.0]
     J[:, 3] = 0.0
-    Minv, dead = _scaled_inverse(J.T @ J)
+    Minv, dead = scaled_inverse(J.T @ J)
     assert dead.tolist() == [False, False, False, True]
     ref = np.linalg.inv(J[:, :3].T @ J[:, :3])
     np.testing.assert_allclose(Minv[:3, :3], ref, rtol=1e-8)
     J[:, 3] = J[:, 0] - 2e3 * J[:, 1]       # exactly collinear with columns 0 and 1
-    Minv, dead = _scaled_inverse(J.T @ J)
+    Minv, dead = scaled_inverse(J.T @ J)
     assert dead.sum() == 1 and not dead[2]
 
 

@@ -29,7 +29,7 @@ import pytest
 
 from unidyn import RobotParameters, ValidationError
 from unidyn import identification as ident
-from unidyn.identification._simulate import simulate_held
+from unidyn.identification.replay import simulate_held
 
 from test_identification import identify  # warnings asserted, not printed
 

@@ -234,7 +234,7 @@ def test_a_parameter_excited_only_by_blips_gets_no_interval():
     """Constant commands with three one-sample blips: the share of the samples that
     theta2 rests on is below half a percent, and it is reported without an interval
     rather than with a confident one."""
-    from unidyn.identification._simulate import simulate_held
+    from unidyn.identification.replay import simulate_held
     rp = RobotParameters(0.42, 0.27, 0.02, 1.05, 0.035, 1.08)
     t = np.arange(0, 90, 1 / 30)
     rng = np.random.default_rng(0)

@@ -22,7 +22,7 @@ from test_identification_hard_logs import held_velocities, make_log, multisine
 from unidyn import ValidationError
 from unidyn.model import robots
 from unidyn import identification as ident
-from unidyn.identification._simulate import simulate_held
+from unidyn.identification.replay import simulate_held
 
 P3 = robots.get("p3dx").theta
 HEADER = ",".join(ident.COLUMNS)

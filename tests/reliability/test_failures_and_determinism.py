@@ -62,13 +62,13 @@ def test_a_nan_in_the_batch_engine_marks_only_that_run_incomplete():
 
 def test_the_cli_writes_a_failed_run_marked_incomplete(tmp_path, capsys, monkeypatch):
     # a scenario file cannot hold Python, so inject the failing trajectory in-process
-    import unidyn.cli as cli
-    real = cli._build_scenario
+    import unidyn.cli.run as cli_run
+    real = cli_run._build_scenario
 
     def build(args):
         sc, engine = real(args)
         return sc.replace(trajectory=_nan_after(1.0), name="nan-run"), engine
-    monkeypatch.setattr(cli, "_build_scenario", build)
+    monkeypatch.setattr(cli_run, "_build_scenario", build)
     out = tmp_path / "run"
     code = main(["run", "--paper", "4", "--T", "5", "--engine", "bdsim", "--out", str(out)])
     assert code == 1

@@ -124,7 +124,7 @@ def loading(code: int, err: str) -> bool:
     """Ctrl-C while Python was still importing the package, before any unidyn code
     ran: Python's own traceback, nothing started, nothing written."""
     return (code == -signal.SIGINT and err.strip().endswith("KeyboardInterrupt")
-            and "_run_module_as_main" in err and "unidyn/cli.py" not in err)
+            and "_run_module_as_main" in err and "unidyn/cli/" not in err)
 
 
 # --------------------------------------------------------------------------- run
@@ -186,12 +186,12 @@ def test_an_interrupted_command_run_in_process_returns_130_and_leaves_the_caller
     caller's signal handling is as it was, its exit handlers run, and it exits with the
     status it chooses. Only the ``unidyn`` command ends its process by the signal."""
     child = ("import atexit, os, signal, subprocess, sys, threading\n"
-             "import unidyn.cli as c\n"
+             "import unidyn.cli as c, unidyn.cli.robots\n"
              "atexit.register(print, 'handler ran', flush=True)\n"
              "def cmd(args):\n"
              "    os.kill(os.getpid(), signal.SIGINT)\n"
              "    threading.Event().wait(10)\n"
-             "c._cmd_robots = cmd\n"
+             "unidyn.cli.robots.unidyn_robots = cmd\n"
              "before = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)\n"
              "print('status', c.entry(['robots']), flush=True)\n"
              "after = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)\n"

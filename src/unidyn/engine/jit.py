@@ -65,7 +65,7 @@ if AVAILABLE:
 #: The package's files whose code the compiled functions run: the equations they
 #: inline, the overloads here, and the compiled functions.
 COMPILED_SOURCES = ("model/equations.py", "engine/jit.py",
-                    "engine/kernels.py", "identification/_simulate.py")
+                    "engine/kernels.py", "identification/replay.py")
 #: Versions of the compiled code whose cache folders are kept (switching between a few
 #: versions, as between git branches, compiles none of them again).
 KEEP_VERSIONS = 3

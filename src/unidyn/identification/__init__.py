@@ -32,7 +32,7 @@ a second (t in ms, us or ns) is refused with the likely unit, ``time_unit=``
 reads it, and identified time constants over a minute are flagged. Every row
 dropped or skipped while reading (exact duplicates, a units row, comment lines,
 pieces too short) is listed in the result's warnings. The equation-error estimator (``method="equation-error"``: Eq. (11) through a
-state-variable filter, see :mod:`unidyn.identification.estimator`) gives the
+state-variable filter, see :mod:`unidyn.identification.equation_error`) gives the
 first estimate for smooth commands.
 
 The workflow, all pure numpy/scipy (nothing here imports bdsim)::
@@ -52,24 +52,29 @@ The workflow, all pure numpy/scipy (nothing here imports bdsim)::
 ``theta.json`` is read back by ``unidyn.model.robots.resolve("out/p3dx/theta.json")``.
 
 The package is split by job: :mod:`~unidyn.identification.logs` reads and
-checks logs, :mod:`~unidyn.identification.estimator` holds the output-error and
-equation-error fits (its docstring explains how the equation-error estimate
-handles the velocity derivatives), :mod:`~unidyn.identification.design`
-designs commands and simulates logs, :mod:`~unidyn.identification.bags` reads
-ROS recordings (``read_bag``: commands held as the robot applied them, odometry at
-its stamps), and :mod:`~unidyn.identification.validation`
-compares a model with a log.
+checks logs, and :mod:`~unidyn.identification.bags` ROS recordings (``read_bag``:
+commands held as the robot applied them, odometry at its stamps);
+:mod:`~unidyn.identification.estimator` holds :func:`identify`, which runs
+:mod:`~unidyn.identification.output_error` (from
+:mod:`~unidyn.identification.first_estimate`) or
+:mod:`~unidyn.identification.equation_error` (its docstring explains how the
+velocity derivatives are handled), with :mod:`~unidyn.identification.intervals` and
+:mod:`~unidyn.identification.checks`; :mod:`~unidyn.identification.replay` simulates
+Eq. (2) over a log; :mod:`~unidyn.identification.design` designs commands and
+simulates logs, and :mod:`~unidyn.identification.validation` compares a model with a
+log.
 """
 
 from __future__ import annotations
 
-from ._simulate import COMMAND_CONVENTIONS, FAST
+from .replay import COMMAND_CONVENTIONS, FAST
 from .bags import read_bag
 from .design import excitation, simulate_log
-from .estimator import (METHODS, SMOOTHING_METHODS, IdentificationResult,
-                        IdentificationWarning, identify)
-from .logs import (COLUMNS, TIME_UNITS, MissingColumnsError, join_logs, load_log, segments,
-                   split_log)
+from .equation_error import SMOOTHING_METHODS
+from .estimator import METHODS, identify
+from .logs import (COLUMNS, TIME_UNITS, IdentificationWarning, MissingColumnsError, join_logs,
+                   load_log, segments, split_log)
+from .results import IdentificationResult
 from .validation import ValidationReport, nrmse_fit, plot_validation, validate, validation_report
 
 __all__ = ["IdentificationResult", "ValidationReport", "MissingColumnsError",

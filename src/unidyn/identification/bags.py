@@ -568,3 +568,19 @@ def held_weighted(c_t, c, t, tau, timeout=None) -> np.ndarray:
     out = held_mean(c_t, c, t, timeout)        # its last sample: the command in force
     out[:-1] = num[:t.size - 1] / den[:t.size - 1]
     return out
+
+
+def row_commands(recorded, theta, lags=None):
+    """u_ref, w_ref of the rows of logs read from bags, from their commands as
+    recorded (each delayed by ``lags``, one array per log, s), each row's held value
+    weighted by the response of time constant theta1/theta4 (u) or theta2/theta6
+    (w): see :func:`~unidyn.identification.bags.held_weighted`."""
+    tau_u = theta[0] / theta[3] if theta[3] > 0 else math.inf
+    tau_w = theta[1] / theta[5] if theta[5] > 0 else math.inf
+    out = {"u_ref": [], "w_ref": []}
+    for k, log in enumerate(recorded):
+        c = log["commands"]
+        c_t = c["t"] if lags is None else np.sort(c["t"] + lags[k])
+        for key, tau in (("u_ref", tau_u), ("w_ref", tau_w)):
+            out[key].append(held_weighted(c_t, c[key], log["t"], tau, log.get("cmd_timeout")))
+    return {k: np.concatenate(v) for k, v in out.items()}

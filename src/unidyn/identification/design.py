@@ -12,7 +12,7 @@ import numpy as np
 from ..model import robots
 from .._validate import ValidationError, choice, integer, nonnegative, positive, real, vector
 from ..model.unicycle import NO_LIMITS, PAPER_LIMITS, Limits, unicycle_deriv
-from ._simulate import COMMAND_CONVENTIONS, simulate_stepwise
+from .replay import COMMAND_CONVENTIONS, simulate_stepwise
 from .logs import load_log
 
 

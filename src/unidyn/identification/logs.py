@@ -62,21 +62,22 @@ def _column_map(columns) -> dict:
         return {k: k for k in COLUMNS}
     if not isinstance(columns, Mapping):
         raise ValidationError(f"columns must be a mapping from {', '.join(COLUMNS)} to the "
-                              f"log's column names, got {_short(columns)}")
+                              f"log's column names, got {short_repr(columns)}")
     unknown = [k for k in columns if k not in COLUMNS]
     if unknown:
-        raise ValidationError(f"columns: unknown key(s) {', '.join(_short(k) for k in unknown)}; "
+        raise ValidationError(f"columns: unknown key(s) {', '.join(short_repr(k) for k in unknown)}; "
                               f"allowed keys are {', '.join(COLUMNS)}")
     out = {k: k for k in COLUMNS}
     for k, v in columns.items():
         if not isinstance(v, str) or not v.strip():
             raise ValidationError(f"columns[{k!r}] must be a column name (a non-empty string), "
-                                  f"got {_short(v)}")
+                                  f"got {short_repr(v)}")
         out[k] = v.strip()
     return out
 
 
-def _short(x, n: int = 60) -> str:
+def short_repr(x, n: int = 60) -> str:
+    """``repr(x)`` cut to at most ``n`` characters, for naming a bad value in a message."""
     s = repr(x)
     return s if len(s) <= n else s[:n - 5] + "...'" if s[:1] in "'\"" else s[:n - 3] + "..."
 
@@ -285,7 +286,7 @@ def _read_csv(path: Path, wanted=None) -> tuple[dict, list, list]:
              if line.lstrip().startswith("#")]
     if inner:
         notes.append(f"log: {path}: skipped {len(inner)} comment line(s) among the data rows "
-                     f"(first at line {inner[0]}: {_short(lines[inner[0] - 1].strip())})")
+                     f"(first at line {inner[0]}: {short_repr(lines[inner[0] - 1].strip())})")
     rows = csv.reader((line for _, line in body), delimiter=delim)
     for j, ((n, _), row) in enumerate(zip(body, rows)):
         if len(row) == len(header) + 1 and not row[-1].strip():
@@ -302,7 +303,7 @@ def _read_csv(path: Path, wanted=None) -> tuple[dict, list, list]:
         if j == 0 and vals and all(v is None for v in vals) and \
                 all(_number(c.strip()) is None for c in row):
             notes.append(f"log: {path} line {n}: skipped a row of non-numbers right after "
-                         f"the header (units?): {_short(delim.join(row))}")
+                         f"the header (units?): {short_repr(delim.join(row))}")
             continue
         for (h, i), v in zip(cols, vals):
             if v is None:
@@ -313,7 +314,7 @@ def _read_csv(path: Path, wanted=None) -> tuple[dict, list, list]:
                             "it must be a non-number)")
                 elif "," in cell:
                     hint = " (a decimal comma? use ';' or tab as the separator, or quote it)"
-                raise ValidationError(f"log: {path} line {n}, column {h!r}: {_short(cell)} is "
+                raise ValidationError(f"log: {path} line {n}, column {h!r}: {short_repr(cell)} is "
                                       f"not a number{hint}")
             data[h].append(v)
         rowlines.append(n)
@@ -384,7 +385,7 @@ def load_log(log, columns=None, time_unit: str | None = None) -> dict:
 def _time_unit(time_unit):
     if time_unit is not None and time_unit not in TIME_UNITS:
         raise ValidationError(f"time_unit must be one of {', '.join(TIME_UNITS)} (the unit of "
-                              f"the log's time column), got {_short(time_unit)}")
+                              f"the log's time column), got {short_repr(time_unit)}")
     return time_unit
 
 
@@ -402,7 +403,7 @@ def _load(log, columns, time_unit=None) -> tuple[dict, list]:
                                       else not hasattr(obj, cmap[k]))]
     if missing:
         desc = [f"{k!r}" + (f" (as {cmap[k]!r})" if cmap[k] != k else "") for k in missing]
-        shown = ", ".join(_short(a, 40) for a in available[:20])
+        shown = ", ".join(short_repr(a, 40) for a in available[:20])
         if len(available) > 20:
             shown += f" and {len(available) - 20} more"
         raise MissingColumnsError(

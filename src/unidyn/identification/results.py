@@ -17,7 +17,8 @@ from ..model.parameters import RobotParameters
 
 __all__ = ["IdentificationResult", "ValidationReport"]
 
-_NAMES = ("theta1", "theta2", "theta3", "theta4", "theta5", "theta6")
+#: The names of theta1..theta6, in order (the keys of theta.json).
+THETA_NAMES = ("theta1", "theta2", "theta3", "theta4", "theta5", "theta6")
 #: Every file an identification's folder may hold: the estimate, then the validation
 #: that ``unidyn identify`` adds (the names its manifest may list).
 IDENTIFY_FILES = ("theta.json", "validation.json", "validation.png")
@@ -130,11 +131,11 @@ class IdentificationResult:
         def num(x):
             x = float(x)
             return x if math.isfinite(x) else None
-        d = {k: float(v) for k, v in zip(_NAMES, self.theta.theta)}
+        d = {k: float(v) for k, v in zip(THETA_NAMES, self.theta.theta)}
         d["name"] = self.theta.name
         d["source"] = self.theta.source
-        d["stderr"] = {k: num(v) for k, v in zip(_NAMES, self.stderr)}
-        d["ci95"] = {k: [num(lo), num(hi)] for k, (lo, hi) in zip(_NAMES, self.ci95)}
+        d["stderr"] = {k: num(v) for k, v in zip(THETA_NAMES, self.stderr)}
+        d["ci95"] = {k: [num(lo), num(hi)] for k, (lo, hi) in zip(THETA_NAMES, self.ci95)}
         d["condition_numbers"] = [num(c) for c in self.condition_numbers]
         d["fit_r2"] = [num(c) for c in self.fit_r2]
         d["warnings"] = list(self.warnings)
@@ -171,7 +172,7 @@ class IdentificationResult:
     def summary(self) -> str:
         """A readable table of the estimates."""
         lines = [f"{'':8s} {'estimate':>12s} {'stderr':>10s} {'95% CI':>27s}"]
-        for k, v, s, (lo, hi) in zip(_NAMES, self.theta.theta, self.stderr, self.ci95):
+        for k, v, s, (lo, hi) in zip(THETA_NAMES, self.theta.theta, self.stderr, self.ci95):
             lines.append(f"{k:8s} {v:12.6g} {s:10.3g} [{lo:12.6g}, {hi:12.6g}]")
         lines.append(f"{self.method}, commands {self.commands}, delay {self.delay:.4g} s"
                      + (f" (stderr {self.delay_stderr:.2g} s)" if self.delay_stderr else "")

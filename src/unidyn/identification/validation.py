@@ -12,7 +12,7 @@ from ..model import robots
 from .._validate import ValidationError, choice, nonnegative, positive, vector
 from ..results.figstyle import label, size, styled, ylim_from_data
 from ..model.unicycle import NO_LIMITS, Limits
-from ._simulate import COMMAND_CONVENTIONS, simulate_held, simulate_stepwise
+from .replay import COMMAND_CONVENTIONS, simulate_held, simulate_stepwise
 from .logs import load_log, segments
 from .results import IdentificationResult, ValidationReport
 

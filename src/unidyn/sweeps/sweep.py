@@ -420,7 +420,9 @@ def _what_is_held(out: Path, record: dict) -> tuple:
     return "same", ""
 
 
-def _rows_named(indices) -> str:
+def rows_named(indices) -> str:
+    """Finished rows of metrics.csv (point indices) as one phrase: counted, with their
+    indices as ranges ("3 finished row(s) in metrics.csv (points 0-2)")."""
     indices = sorted(indices)
     if not indices:
         return "no finished rows"
@@ -515,7 +517,7 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
                         run = _run_in(sweep, stage.path, record, engine, chunk_size,
                                       progress, client, t0, resume=False)
                 except BaseException as err:
-                    raise _kept(err, f"{out} is as it was ({_rows_named(rows_held)}); the "
+                    raise _kept(err, f"{out} is as it was ({rows_named(rows_held)}); the "
                                      f"new sweep's rows were discarded")
                 run.out_dir = out
                 run.replaced = tuple(rows_held)
@@ -531,7 +533,7 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
 
 
 def _refusal(out, state, detail, rows, resume) -> str:
-    held = _rows_named(rows)
+    held = rows_named(rows)
     if state in ("same", "none") and not resume:
         return (f"{out} holds {held}; starting over (resume=False) would delete them: add "
                 f"overwrite=True to replace them once the new sweep has finished, or choose "

@@ -200,18 +200,18 @@ def _special(where: str, key: str, value):
 
 
 def scenario_from_layers(layers, name: str = ""):
-    """The Scenario of a stack of layers [(where, dict)]: later layers override earlier ones;
-    the special keys are applied last."""
-    fields, fields_from, special = {}, {}, {}
-    for where, d in layers:
-        for k, v in d.items():
-            if k == "label":
-                continue
-            if k in SPECIAL_KEYS:
-                special[k] = (where, _special(where, k, v))
-            else:
-                fields[k] = v
-                fields_from[k] = where
+    """The Scenario of a stack of layers [(where, table)], each overriding the earlier
+    ones: a sweep's base, variant and grid point; ``unidyn run``'s scenario, then its
+    flags and ``--set`` options in order. A dotted key (``noise.seed``) sets one field
+    of a table that an earlier layer gave. The special keys are applied last; one that
+    sets a field some layer also sets (``kxy`` and ``kx``) is refused as ambiguous.
+
+    The scenario need only be valid once every layer is applied (``T = 400000`` with
+    ``log_every = 100`` is fine although the T alone is not); when it is not, the error
+    names the layer after which it never became valid again (``where``), and an error in
+    a layer's own keys names that layer.
+    """
+    fields, fields_from, special = _stacked(layers)
     for key, (where, _) in special.items():
         for f in _CONFLICTS.get(key, ()):
             if f in fields:
@@ -219,7 +219,10 @@ def scenario_from_layers(layers, name: str = ""):
                                       f"{f}; use one of them")
     if name and "name" not in fields:
         fields["name"] = name
-    sc = Scenario.from_dict(fields)
+    try:
+        sc = Scenario.from_dict(fields)
+    except ValidationError as err:
+        raise ValidationError(f"{_culprit(layers)}: {err}") from None
     if "kxy" in special:
         k = special["kxy"][1]
         sc = sc.replace(kx=k, ky=k)
@@ -232,6 +235,51 @@ def scenario_from_layers(layers, name: str = ""):
                                   f"(e.g. noise = {{position_std = 0.01, velocity_std = 0.0141}})")
         sc = sc.replace(noise=dataclasses.replace(sc.noise, seed=seed))
     return sc
+
+
+def _stacked(layers):
+    """The fields of stacked layers (with the layer that set each last) and the
+    special keys (with the layer that gave each)."""
+    fields, fields_from, special = {}, {}, {}
+    for where, d in layers:
+        for k, v in d.items():
+            if k == "label":
+                continue
+            if k in SPECIAL_KEYS:
+                special[k] = (where, _special(where, k, v))
+                continue
+            head, dot, rest = k.partition(".")
+            fields[head] = _set_field(fields, head, rest, v, where) if dot else v
+            fields_from[head] = where
+    return fields, fields_from, special
+
+
+def _set_field(fields, head, rest, value, where):
+    """The table ``fields[head]`` with its field ``rest`` (dotted for a table in it) set."""
+    if head not in fields:
+        raise ValidationError(f"{where}: unknown scenario field {head!r}")
+    table = fields[head]
+    if table is None:
+        raise ValidationError(f"{where}: {head} is off; set the whole table, e.g. "
+                              f"{head}={{...}}")
+    if not isinstance(table, dict):
+        raise ValidationError(f"{where}: {head} is not a table")
+    table = dict(table)
+    key, dot, deeper = rest.partition(".")
+    table[key] = _set_field(table, key, deeper, value, where) if dot else value
+    return table
+
+
+def _culprit(layers) -> str:
+    """The layer after which the stacked scenario never became valid again."""
+    culprit = layers[0][0] if layers else "scenario"
+    for k in range(1, len(layers)):
+        try:
+            Scenario.from_dict(_stacked(layers[:k])[0])
+            culprit = layers[k][0]
+        except ValidationError:
+            pass
+    return culprit
 
 
 #: Columns of metrics.csv that hold text as written (a variant's label, the case):

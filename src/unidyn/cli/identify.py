@@ -1,0 +1,204 @@
+"""``unidyn identify``: theta1..theta6 of Eq. (2) from logs of one robot (CSV files
+or ROS bags), written into --out as theta.json, with its validation on a held-out
+log or in-sample (validation.json, validation.png); the library's messages in the
+command's words."""
+
+from __future__ import annotations
+
+import json
+import sys
+import warnings
+from pathlib import Path
+
+from .. import identification as ident
+from .._errors import ValidationError
+from ..identification.bags import is_bag
+from ..identification.estimator import read_delay
+from ..identification.logs import COLUMNS
+from ..identification.results import IDENTIFY_FILES
+from ..results.figstyle import save
+from ..results.folders import staged_output
+from .errors import UsageError
+from .output import out_folder
+
+
+def unidyn_identify(args) -> int:
+    """``unidyn identify``: theta1..theta6 from the logs, written into --out with its
+    validation."""
+    logs = [Path(p) for p in args.log]
+    for p in logs:
+        if not p.exists():
+            raise FileNotFoundError(f"log {p} does not exist")
+    bags = _read_bags(ident, logs, args)   # ROS recordings read as logs; CSV paths kept
+    if args.validate and args.no_validate:
+        raise UsageError("--validate and --no-validate exclude each other")
+    vlog = Path(args.validate) if args.validate else None
+    if vlog is not None and not vlog.exists():
+        raise FileNotFoundError(f"validation log {vlog} does not exist")
+    columns = _parse_columns(args.columns) if args.columns is not None else None
+    if columns is not None and bags:
+        raise UsageError("--columns applies to CSV logs, not to bags (--cmd and --odom "
+                         "choose their topics)")
+    if args.time_unit is not None and bags:
+        raise UsageError("--time-unit applies to CSV logs, not to bags (a bag's stamps are "
+                         "read in seconds)")
+    if vlog is not None and is_bag(vlog):
+        vlog = _read_bags(ident, [vlog], args)[0]
+    delay = 0.0
+    if args.delay is not None:   # checked before the logs are read
+        try:
+            kind, value = read_delay(args.delay)
+        except ValidationError as err:
+            raise ValidationError(_cli_words(str(err))) from None
+        delay = value if kind == "s" else args.delay
+    kwargs = {"columns": columns, "commands": args.commands, "delay": delay,
+              "method": args.method, "validate": False}
+    for k in ("smoothing", "window", "name", "gap", "time_unit"):
+        if getattr(args, k) is not None:
+            kwargs[k] = getattr(args, k)
+    logs = [bags.pop(0) if is_bag(p) else p for p in logs]
+    out = out_folder(args.out)
+    staging = staged_output(out, kind="identify", names=IDENTIFY_FILES,
+                            overwrite=args.overwrite, what="identification results")
+    with staging as stage:
+        replaced = ", ".join(stage.held)
+        if replaced:
+            print(f"unidyn: replacing {out}/ ({replaced}) once the new identification is "
+                  f"written; kept as they are if it fails or is interrupted", file=sys.stderr,
+                  flush=True)
+        try:
+            with warnings.catch_warnings():   # the summary prints them
+                warnings.simplefilter("ignore", ident.IdentificationWarning)
+                res = ident.identify(*(p if isinstance(p, dict) else str(p) for p in logs),
+                                     **kwargs)
+        except ident.MissingColumnsError as err:
+            have = ", ".join(repr(a[:40]) for a in err.available[:12]) or "no columns"
+            want = ",".join(f"{k}=..." for k in err.missing)
+            raise ValidationError(f"log {err.source} is missing column(s) "
+                                  f"{', '.join(repr(err.mapped[k][:40]) for k in err.missing)}"
+                                  f"; it has {have}. Pass --columns {want} to map the "
+                                  f"log's names") from None
+        except ValidationError as err:
+            raise ValidationError(_cli_words(str(err))) from None
+        path = res.save(stage.path)
+        _record_topics(path, logs)
+        for b in logs:
+            if isinstance(b, dict):
+                print(f"bag        {b['source']}: commands {b['cmd_topic']} ({b['cmd_type']}: "
+                      f"{b['cmd_why']}), measured velocities {b['odom_topic']} "
+                      f"({b['odom_why']})")
+        print(_cli_words(res.summary()))
+        if not args.no_validate:
+            with warnings.catch_warnings(record=True) as seen:  # rows the held-out log
+                warnings.simplefilter("always", ident.IdentificationWarning)  # skipped
+                report = ident.validate(res, vlog if isinstance(vlog, dict) else str(vlog),
+                                        columns=columns, time_unit=args.time_unit) if vlog else \
+                    ident.validation_report(res.theta, *_joined(ident, logs, columns,
+                                                                kwargs.get("gap"), args.time_unit),
+                                            res.commands, res.delay)
+            for w in seen:
+                if issubclass(w.category, ident.IdentificationWarning):
+                    print(f"warning: {_cli_words(str(w.message))}")
+                else:
+                    warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+            what = "held-out log" if vlog else "the same log(s) (in-sample)"
+            print(f"validation on {what}: NRMSE fit "
+                  + ", ".join(f"{k} {v:.1f} %" for k, v in report.fit.items()))
+            (stage.path / "validation.json").write_text(
+                json.dumps({**report.as_dict(), "log": [_source(vlog)] if vlog else
+                            [_source(p) for p in logs], "in_sample": vlog is None},
+                           indent=2, allow_nan=False) + "\n")
+            axes = ident.plot_validation(report)
+            save(axes[0].figure, stage.path / "validation.png")
+    final = out  # an identification is never partial: it is where it was asked for
+    print(f"written    {final / path.name}")
+    if not args.no_validate:
+        print(f"written    {final / 'validation.json'}, {final / 'validation.png'}")
+    if replaced:  # an identification is swapped in whole or not at all
+        print(f"replaced   the previous {replaced}")
+    return 0
+
+
+def _parse_columns(text: str) -> dict:
+    """--columns NAME=COLUMN,... as a mapping; names are t, u_ref, w_ref, u, w."""
+    out = {}
+    for part in text.split(","):
+        part = part.strip()
+        if not part:
+            continue
+        k, sep, v = part.partition("=")
+        k, v = k.strip(), v.strip()
+        if not sep or not k or not v:
+            raise ValidationError(f"--columns expects NAME=COLUMN pairs separated by commas "
+                                  f"(e.g. t=time,u=v_meas), got {part[:60]!r}")
+        if k not in COLUMNS:
+            raise ValidationError(f"--columns: unknown name {k[:40]!r} in {part[:60]!r}; the "
+                                  f"names are {', '.join(COLUMNS)} (e.g. --columns t=time,u=v_meas)")
+        if k in out:
+            raise ValidationError(f"--columns names {k!r} twice")
+        out[k] = v
+    if not out:
+        raise ValidationError("--columns is empty; expected NAME=COLUMN pairs, e.g. "
+                              "--columns t=time,u=v_meas")
+    return out
+
+
+def _cli_words(text: str) -> str:
+    """The library's argument names in a message, as this command's options."""
+    for lib, cli in (("delay must be", "--delay must be"),
+                     ("commands='linear'", "--commands linear"),
+                     ("commands='held'", "--commands held"),
+                     ("delay='auto'", "--delay auto"),
+                     ("method='output-error'", "--method output-error"),
+                     ("use a longer log or a shorter window", "use a longer log or a "
+                                                             "smaller --window"),
+                     *((f"time_unit='{u}'", f"--time-unit {u}") for u in ("s", "ms", "us", "ns"))):
+        text = text.replace(lib, cli)
+    return text
+
+
+def _joined(ident, logs, columns, gap=None, time_unit=None):
+    """The logs read and joined as identify() joins them: (arrays, pieces)."""
+    D, segs, _, _ = ident.join_logs([p if isinstance(p, dict) else str(p) for p in logs],
+                                    columns, gap, time_unit=time_unit)
+    return D, segs
+
+
+def _read_bags(ident, paths, args) -> list:
+    """The ROS recordings among ``paths`` read as logs (read_bag), in order; with
+    --cmd, --odom or --cmd-timeout every path must be one."""
+    flags = [f for f, v in (("--cmd", args.cmd), ("--odom", args.odom),
+                            ("--cmd-timeout", args.cmd_timeout),
+                            ("--wheel-radius", args.wheel_radius),
+                            ("--wheel-separation", args.wheel_separation),
+                            ("--wheel-joints", args.wheel_joints)) if v is not None]
+    csv = [p for p in paths if not is_bag(p)]
+    if flags and csv:
+        raise UsageError(f"{flags[0]} applies to ROS bags; {csv[0]} is a CSV log")
+    if args.cmd_timeout is not None and not args.cmd_timeout > 0:
+        raise ValidationError(f"--cmd-timeout must be > 0 seconds, got {args.cmd_timeout:g}")
+    with warnings.catch_warnings(record=True) as caught:   # told as one line each
+        warnings.simplefilter("always", ident.IdentificationWarning)
+        joints = args.wheel_joints.split(",") if args.wheel_joints is not None else None
+        logs = [ident.read_bag(p, cmd=args.cmd, odom=args.odom, cmd_timeout=args.cmd_timeout,
+                               wheel_radius=args.wheel_radius,
+                               wheel_separation=args.wheel_separation, wheel_joints=joints)
+                for p in paths if is_bag(p)]
+    for w in caught:
+        print(f"unidyn: warning: {w.message}", file=sys.stderr)
+    return logs
+
+
+def _source(log) -> str:
+    return log["source"] if isinstance(log, dict) else str(log)
+
+
+def _record_topics(theta_json: Path, logs) -> None:
+    """Add the bags' chosen topics to theta.json (a "bags" list), when there are bags."""
+    bags = [{"path": b["source"], "cmd_topic": b["cmd_topic"], "cmd_type": b["cmd_type"],
+             "odom_topic": b["odom_topic"], "cmd_timeout": b["cmd_timeout"]}
+            for b in logs if isinstance(b, dict)]
+    if bags:
+        d = json.loads(theta_json.read_text())
+        d["bags"] = bags
+        theta_json.write_text(json.dumps(d, indent=2, allow_nan=False) + "\n")

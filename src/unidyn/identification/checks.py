@@ -1,0 +1,162 @@
+"""Checks of a log and of an estimate of theta: one clear line for what cannot be
+identified (constant commands, a non-physical estimate, a log whose fit needs more
+memory than there is), and the warnings about an estimate that can be made but not
+trusted as it stands (unidentified or ill-conditioned parameters, implausible time
+constants)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .._validate import ValidationError
+from .equation_error import ROW_PARAMS, coupling
+from .intervals import Z95
+from .logs import TIME_UNITS
+from .output_error import TAU_MIN_SAMPLES
+from .results import THETA_NAMES
+
+#: theta1, theta2 or a velocity time constant above this (s) is flagged as
+#: implausible for a wheeled robot (a log whose time is not in seconds)
+MAX_TIME_CONSTANT = 60.0
+# the shortest sampling step (s) of a robot's log: 10 kHz
+_MIN_STEP = 1e-4
+_UNIT_NAMES = {"ms": "milliseconds", "us": "microseconds", "ns": "nanoseconds"}
+# memory the output-error fit holds per row of the log beyond the log's own columns,
+# bytes (its single-precision Jacobian, simulated and measured velocities, residuals,
+# the validation's copies: 2.2 GB in all for 10^7 rows), and per parameter fitted
+# beyond the first eight
+_BYTES_PER_ROW = 250
+_BYTES_PER_ROW_PARAM = 8
+
+
+def _available_memory() -> float | None:
+    """Bytes of memory the system can give this process now (Linux), else None."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return float(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return None
+
+
+def _memory_needed(rows: int, pieces: int = 1) -> float:
+    """Bytes the output-error fit of a log of ``rows`` rows in ``pieces`` pieces
+    needs beyond the log itself (about 250 a row)."""
+    extra = max(2 * pieces - 2, 0)
+    return rows * (_BYTES_PER_ROW + _BYTES_PER_ROW_PARAM * extra)
+
+
+def check_memory(lg, method):
+    """Refuse, before the fit, a log whose fit would not fit in the memory available."""
+    if method != "output-error":
+        return
+    need = _memory_needed(lg.D["t"].size, len(lg.segs))
+    have = _available_memory()
+    if have is not None and need > have:
+        raise ValidationError(
+            f"the log's {lg.D['t'].size} rows need about {need / 1e9:.2g} GB of memory to "
+            f"identify from and {have / 1e9:.2g} GB are available: identify from a part "
+            f"(split_log), or on a machine with more memory")
+
+
+def check_excitation(u_ref, w_ref):
+    """Refuse logs whose command u_ref or w_ref (m/s, rad/s) is constant: nothing excites
+    the parameters of its row of Eq. (11)."""
+    for k, v, unit, params in (("u_ref", u_ref, "m/s", "theta1, theta3, theta4"),
+                               ("w_ref", w_ref, "rad/s", "theta2, theta5, theta6")):
+        spread = float(np.ptp(v))
+        if spread <= 1e-9 * max(1.0, float(np.max(np.abs(v)))):
+            raise ValidationError(
+                f"log column {k!r} is constant ({v[0]:g} {unit}) throughout: no excitation, "
+                f"{params} cannot be identified; vary the command (see excitation())")
+
+
+def check_physical(theta, stderr):
+    """Refuse an estimate with theta1, theta2, theta4 or theta6 not > 0 (no physical robot
+    has one, Section 2), naming the likely causes; ``stderr`` is shown beside each."""
+    bad = [(k, theta[i], stderr[i]) for i, k in enumerate(THETA_NAMES)
+           if i in (0, 1, 3, 5) and not theta[i] > 0]
+    if bad:
+        desc = ", ".join(f"{k} = {v:.4g} (stderr {s:.2g})" for k, v, s in bad)
+        raise ValidationError(
+            f"identified {desc}: theta1, theta2, theta4 and theta6 must be > 0 for any physical "
+            f"robot (Section 2). Likely causes: commands and measured velocities swapped or in "
+            f"different units or signs, a time stamp offset between them, saturated commands "
+            f"or accelerations, or too little excitation; check the log and its columns")
+
+
+def estimate_warnings(theta, stderr, conds, u, w, dt, rel_max) -> list:
+    """The warnings about an estimate ``theta`` with standard errors ``stderr`` from a log
+    of velocities u (m/s), w (rad/s) sampled every ``dt`` s: theta3 or theta5 unidentified
+    (standard error above ``rel_max`` of its size), ill-conditioned rows (condition
+    numbers ``conds``), theta4 or theta6 well below 1, time constants the sampling does
+    not resolve or too long for a wheeled robot, theta1 or theta2 barely determined."""
+    out = []
+    rms = lambda a: float(np.sqrt(np.mean(np.square(a))))  # noqa: E731
+    w2, uw = coupling(u, w)
+    turning = (f"rms(w^2) = {rms(w2):.3g} rad²/s², rms(u*w) = {rms(uw):.3g} "
+               f"m·rad/s², "
+               f"rms(u) = {rms(u):.3g} m/s, rms(w) = {rms(w):.3g} rad/s")
+    for i, term in ((2, "-w^2 (centripetal)"), (4, "u*w (Coriolis)")):
+        k = THETA_NAMES[i]
+        if not stderr[i] <= rel_max * abs(theta[i]):
+            half = Z95 * stderr[i]
+            what = ("is not distinguishable from zero" if half >= abs(theta[i]) else
+                    f"is poorly determined (+/- {100 * half / abs(theta[i]):.0f} %)")
+            out.append(
+                f"{k} is unidentified: {theta[i]:.3g} +/- {half:.2g} (95 %) {what}. Either the "
+                f"centre of mass is close to the wheel axle (b ~ 0, so {k} ~ 0), or the log has "
+                f"too little turning at speed to excite the {term} term ({turning}); excite "
+                f"with simultaneous linear and angular speed (see excitation()) before relying "
+                f"on {k}")
+    for row, c in enumerate(conds):
+        if c > 1e4:
+            ps = ", ".join(THETA_NAMES[p] for p in ROW_PARAMS[row])
+            out.append(f"the regression for {ps} is ill-conditioned (condition number {c:.3g} "
+                       f"after column scaling): their estimates are strongly correlated")
+    for i in (3, 5):
+        if theta[i] < 0.8:
+            out.append(f"{THETA_NAMES[i]} = {theta[i]:.4g} is well below 1; Section 2 gives "
+                       f"{THETA_NAMES[i]} = 1 + (Ra/ka)(ka kb/Ra + Be)(...) >= 1 (identified sets "
+                       f"reach 0.956): check the scale of the measured velocities against "
+                       f"the commands")
+    for i, j in ((0, 3), (1, 5)):
+        tau = theta[i] / theta[j] if theta[j] > 0 else math.nan
+        if tau <= 1.05 * TAU_MIN_SAMPLES * dt:
+            out.append(f"the time constant {THETA_NAMES[i]}/{THETA_NAMES[j]} is not resolvable at this "
+                       f"sampling rate: the fit reached the shortest one it explores, "
+                       f"{tau:.3g} s (1/{1 / TAU_MIN_SAMPLES:g} of the {dt:g} s sample "
+                       f"interval), so the response settles within one sample; {THETA_NAMES[i]} "
+                       f"is only known to be about this small or smaller (its interval is "
+                       f"not meaningful): log faster to identify it")
+        elif tau < 2 * dt:
+            out.append(f"the time constant {THETA_NAMES[i]}/{THETA_NAMES[j]} = {tau:.3g} s is shorter "
+                       f"than two sampling intervals (2 x {dt:g} s): the log barely resolves "
+                       f"it, so {THETA_NAMES[i]} rests on the command convention and delay being "
+                       f"right; log faster if you can")
+    for i, j in ((0, 3), (1, 5)):
+        tau = max(theta[i], theta[i] / theta[j] if theta[j] > 0 else 0.0)
+        if tau > MAX_TIME_CONSTANT:
+            unit = next((u for u in ("ms", "us", "ns") if tau * TIME_UNITS[u] <= 10.0), "ns")
+            # time in another unit also shows as steps that, in that unit, are a robot's
+            # sampling (at most 10 kHz); a log at a robot's rate read in seconds is not
+            # in another unit: the log, not its unit, is what is wrong
+            why = (f"is t in {_UNIT_NAMES[unit]}? pass time_unit='{unit}'"
+                   if dt * TIME_UNITS[unit] >= _MIN_STEP
+                   else "the log does not determine it: check that the measured velocities "
+                        "respond to the commands (units, signs, the frame of the odometry) "
+                        "and that the commands vary (see excitation())")
+            out.append(f"{THETA_NAMES[i]} = {theta[i]:.4g} s and {THETA_NAMES[i]}/{THETA_NAMES[j]} = "
+                       f"{theta[i] / theta[j]:.4g} s: a time constant over "
+                       f"{MAX_TIME_CONSTANT:g} s is implausible for a wheeled robot (tenths of a "
+                       f"second to seconds); {why}")
+    for i in (0, 1):
+        if theta[i] > 0 and 2 * stderr[i] > theta[i]:
+            out.append(f"{THETA_NAMES[i]} = {theta[i]:.3g} s has a standard error of "
+                       f"{stderr[i]:.2g} s: the log has too little acceleration to "
+                       f"identify it")
+    return out
