@@ -13,12 +13,10 @@ from pathlib import Path
 import numpy as np
 
 from ..results.folders import staged_output, write_atomic
-from ..model.parameters import RobotParameters
+from ..model.parameters import THETA_NAMES, RobotParameters
 
 __all__ = ["IdentificationResult", "ValidationReport"]
 
-#: The names of theta1..theta6, in order (the keys of theta.json).
-THETA_NAMES = ("theta1", "theta2", "theta3", "theta4", "theta5", "theta6")
 #: Every file an identification's folder may hold: the estimate, then the validation
 #: that ``unidyn identify`` adds (the names its manifest may list).
 IDENTIFY_FILES = ("theta.json", "validation.json", "validation.png")
