@@ -12,7 +12,7 @@ import numpy as np
 
 from . import equations as eq
 from .equations import SWITCH_TOL
-from .unicycle import _join, _pair, _parts, _scalar
+from .components import join, pair, parts, scalar
 
 __all__ = ["kinematic_control", "kinematic_control_rate", "kinematic_control_and_rate",
            "compensation_regressor", "compensation", "adaptation_rate", "leakage_rate",
@@ -54,8 +54,8 @@ def kinematic_control(h_d, h_d_dot, h, psi, a, k, l):
     :param l: saturation constants [l_x, l_y], m/s
     :return: v_d = [u_d, w_d], shape ``(..., 2)``
     """
-    return _pair(*eq.kinematic_control_components(*_parts(h_d), *_parts(h_d_dot), *_parts(h), _scalar(psi),
-                                   a, *_parts(k, 2), *_parts(l, 2)))
+    return pair(*eq.kinematic_control_components(*parts(h_d), *parts(h_d_dot), *parts(h), scalar(psi),
+                                   a, *parts(k, 2), *parts(l, 2)))
 
 
 def kinematic_control_rate(h_d, h_d_dot, h_d_ddot, h, psi, v, a, k, l):
@@ -79,9 +79,9 @@ def kinematic_control_and_rate(h_d, h_d_dot, h_d_ddot, h, psi, v, a, k, l):
     """Eq. (10) and its time derivative at once (:func:`kinematic_control`,
     :func:`kinematic_control_rate`): (v_d, v_d'), each shape ``(..., 2)``."""
     ud, wd, udd, wdd = eq.kinematic_control_and_rate_components(
-        *_parts(h_d), *_parts(h_d_dot), *_parts(h_d_ddot), *_parts(h), _scalar(psi), *_parts(v),
-        a, *_parts(k, 2), *_parts(l, 2))
-    return _pair(ud, wd), _pair(udd, wdd)
+        *parts(h_d), *parts(h_d_dot), *parts(h_d_ddot), *parts(h), scalar(psi), *parts(v),
+        a, *parts(k, 2), *parts(l, 2))
+    return pair(ud, wd), pair(udd, wdd)
 
 
 def compensation_regressor(v_d, v_d_dot, v, k, l):
@@ -103,8 +103,8 @@ def compensation_regressor(v_d, v_d_dot, v, k, l):
     :param l: saturation constants [l_u, l_w]
     :return: G, shape ``(..., 2, 6)``
     """
-    G = _join(*eq.compensation_regressor_components(*_parts(v_d), *_parts(v_d_dot), *_parts(v),
-                                         *_parts(k, 2), *_parts(l, 2)))
+    G = join(*eq.compensation_regressor_components(*parts(v_d), *parts(v_d_dot), *parts(v),
+                                         *parts(k, 2), *parts(l, 2)))
     return G.reshape(G.shape[:-1] + (2, 6))
 
 
@@ -112,7 +112,7 @@ def compensation(G, theta_hat):
     r"""The compensator's command, Eq. (12) in the linear form of Eq. (14):
     :math:`v_r = G\hat\theta`, shape ``(..., 2)``."""
     G = np.asarray(G, dtype=float)
-    return _pair(*eq.compensation_components(_parts(G.reshape(G.shape[:-2] + (12,))), _parts(theta_hat)))
+    return pair(*eq.compensation_components(parts(G.reshape(G.shape[:-2] + (12,))), parts(theta_hat)))
 
 
 def leakage_rate(gamma, sigma, leakage="paper"):
@@ -147,9 +147,9 @@ def adaptation_rate(G, v_tilde, theta_hat, gamma, sigma, leakage="paper"):
     :param gamma: diagonal of the adaptation gain, shape ``(6,)``
     :param sigma: diagonal of the leakage gain Sigma, shape ``(6,)``
     """
-    leak = _parts(leakage_rate(gamma, sigma, leakage), 6)
+    leak = parts(leakage_rate(gamma, sigma, leakage), 6)
     G = np.asarray(G, dtype=float)
-    g = _parts(G.reshape(G.shape[:-2] + (12,)))
-    ut, wt = _parts(v_tilde)
-    return _join(*(eq.adaptation_rate_components(g[j], g[6 + j], ut, wt, gj, leak[j], th)
-                   for j, (gj, th) in enumerate(zip(_parts(gamma, 6), _parts(theta_hat)))))
+    g = parts(G.reshape(G.shape[:-2] + (12,)))
+    ut, wt = parts(v_tilde)
+    return join(*(eq.adaptation_rate_components(g[j], g[6 + j], ut, wt, gj, leak[j], th)
+                   for j, (gj, th) in enumerate(zip(parts(gamma, 6), parts(theta_hat)))))

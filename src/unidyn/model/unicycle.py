@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import equations as eq
+from .components import join, pair, parts, scalar
 from .._validate import positive
 
 __all__ = ["Limits", "kinematics", "dynamics", "inertia", "coriolis", "damping",
@@ -87,45 +88,8 @@ PAPER_LIMITS = Limits(0.75, 1.745, 0.3, 1.745)
 NO_LIMITS = Limits()
 
 
-def _parts(a, n=None):
-    """The components of ``a`` along its last axis: Python floats for a single vector
-    (the blocks call it at every solver stage, and arithmetic on floats has none of
-    numpy's per-call overhead), else arrays. A scalar stands for ``n`` equal components
-    where n is given."""
-    a = np.asarray(a, dtype=float)
-    if a.ndim == 0 and n is not None:
-        return [float(a)] * n
-    if a.ndim == 1:
-        return a.tolist()
-    return [a[..., i] for i in range(a.shape[-1])]
-
-
-def _scalar(x):
-    """A float for a scalar (including a 0-d array), else an array."""
-    if isinstance(x, float):
-        return x
-    x = np.asarray(x, dtype=float)
-    return float(x) if x.ndim == 0 else x
-
-
-def _join(*parts):
-    """Components stacked along a new last axis, broadcasting them."""
-    if all(isinstance(p, float) for p in parts):
-        return np.array(parts)
-    arrays = np.broadcast_arrays(*parts)
-    out = np.empty(arrays[0].shape + (len(parts),))
-    for i, p in enumerate(arrays):
-        out[..., i] = p
-    return out
-
-
-def _pair(x, y):
-    """Two components stacked into shape + (2,)."""
-    return _join(x, y)
-
-
 def _th(theta):
-    return tuple(_parts(theta))
+    return tuple(parts(theta))
 
 
 def point_velocity(psi, v, a):
@@ -138,7 +102,7 @@ def point_velocity(psi, v, a):
     :param a: offset of h ahead of the axle centre, m
     :return: [x', y'], shape ``(..., 2)``
     """
-    return _pair(*eq.point_velocity_components(_scalar(psi), *_parts(v), a))
+    return pair(*eq.point_velocity_components(scalar(psi), *parts(v), a))
 
 
 def kinematics(x, a):
@@ -165,7 +129,7 @@ def dynamics(v, v_ref, theta):
         \dot u = \frac{\theta_3}{\theta_1} w^2 - \frac{\theta_4}{\theta_1} u + \frac{u_{ref}}{\theta_1},\quad
         \dot w = -\frac{\theta_5}{\theta_2} u w - \frac{\theta_6}{\theta_2} w + \frac{w_{ref}}{\theta_2}
     """
-    return _pair(*eq.dynamics_components(*_parts(v), *_parts(v_ref), *_th(theta)))
+    return pair(*eq.dynamics_components(*parts(v), *parts(v_ref), *_th(theta)))
 
 
 def inertia(theta):
@@ -216,7 +180,7 @@ def regressor(v, v_dot):
 
     :return: shape ``(..., 2, 6)``
     """
-    Y = _join(*eq.regressor_components(*_parts(v), *_parts(v_dot)))
+    Y = join(*eq.regressor_components(*parts(v), *parts(v_dot)))
     return Y.reshape(Y.shape[:-1] + (2, 6))
 
 
@@ -241,19 +205,19 @@ def unicycle_deriv(x, v_ref, theta, a, limits: Limits = NO_LIMITS, delta=None):
         added to x', y', u', w' (Eqs. 1-2; psi' has none)
     :return: x', shape ``(..., 5)``
     """
-    _, _, psi, u, w = _parts(x)
-    u_ref, w_ref = _parts(v_ref)
+    _, _, psi, u, w = parts(x)
+    u_ref, w_ref = parts(v_ref)
     speed, accel = limits.speed.tolist(), limits.accel.tolist()
     if limits.active:
         u_ref, w_ref = eq.saturate(u_ref, speed[0]), eq.saturate(w_ref, speed[1])
     du, dw = eq.dynamics_components(u, w, u_ref, w_ref, *_th(theta))
     dx, dy = eq.point_velocity_components(psi, u, w, a)
     if delta is not None:
-        ex, ey, eu, ew = _parts(delta)
+        ex, ey, eu, ew = parts(delta)
         dx, dy, du, dw = dx + ex, dy + ey, du + eu, dw + ew
     if limits.active:
         du, dw = eq.limited_acceleration(u, w, du, dw, *speed, *accel)
-    return _join(dx, dy, w, du, dw)
+    return join(dx, dy, w, du, dw)
 
 
 def kinematic_unicycle_deriv(q, v_ref, a, limits: Limits = NO_LIMITS):
@@ -264,9 +228,9 @@ def kinematic_unicycle_deriv(q, v_ref, a, limits: Limits = NO_LIMITS):
         have no meaning for a robot without velocity states and are ignored)
     :return: q', shape ``(..., 3)``
     """
-    _, _, psi = _parts(q)
-    u, w = _parts(v_ref)
+    _, _, psi = parts(q)
+    u, w = parts(v_ref)
     if limits.active:
         speed = limits.speed.tolist()
         u, w = eq.saturate(u, speed[0]), eq.saturate(w, speed[1])
-    return _join(*eq.point_velocity_components(psi, u, w, a), w)
+    return join(*eq.point_velocity_components(psi, u, w, a), w)
