@@ -31,11 +31,11 @@ def real(name: str, value, *, low: float | None = None, high: float | None = Non
     :param allow_inf: accept +/-inf (e.g. "no limit")
     """
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (Real, np.floating, np.integer)):
-        raise ValidationError(f"{name} must be a real number, got {_short(value)}")
+        raise ValidationError(f"{name} must be a real number, got {short_repr(value)}")
     try:
         v = float(value)
     except OverflowError:  # an integer too large for a float (TOML allows them)
-        raise ValidationError(f"{name} is too large: {_short(value)}") from None
+        raise ValidationError(f"{name} is too large: {short_repr(value)}") from None
     if math.isnan(v) or (math.isinf(v) and not allow_inf):
         raise ValidationError(f"{name} must be finite, got {v!r}")
     if low is not None and (v < low or (low_open and v == low)):
@@ -54,7 +54,7 @@ def integer(name: str, value, low: int | None = None, high: int | None = None) -
            else f" <= {high}" if low is None else f" in {low}..{high}")
     if (isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer))
             or (low is not None and value < low) or (high is not None and value > high)):
-        raise ValidationError(f"{name} must be an integer{rng}, got {_short(value)}")
+        raise ValidationError(f"{name} must be an integer{rng}, got {short_repr(value)}")
     return int(value)
 
 
@@ -91,22 +91,22 @@ def vector(name: str, value, length: int | tuple[int, ...], *, finite: bool = Tr
     lengths = (length,) if isinstance(length, int) else tuple(length)
     what = f"{name} must be a vector of {_or(lengths)} real numbers"
     if isinstance(value, (str, bytes, dict)) or value is None:
-        raise ValidationError(f"{what}, got {_short(value)}")
+        raise ValidationError(f"{what}, got {short_repr(value)}")
     try:
         raw = np.asarray(value)
     except (TypeError, ValueError, OverflowError, RecursionError):
-        raise ValidationError(f"{what}, got {_short(value)}") from None
+        raise ValidationError(f"{what}, got {short_repr(value)}") from None
     # only numbers: no strings ("1"), booleans, complex values or objects
     if raw.dtype.kind not in "iuf":
         if raw.dtype.kind == "O" and raw.ndim == 1:
             for v in raw.tolist():
                 real(f"each element of {name}", v, allow_inf=not finite)
         else:
-            raise ValidationError(f"{what}, got {_short(value)}")
+            raise ValidationError(f"{what}, got {short_repr(value)}")
     try:
         arr = np.asarray(raw, dtype=float)
     except (TypeError, ValueError, OverflowError):
-        raise ValidationError(f"{what}, got {_short(value)}") from None
+        raise ValidationError(f"{what}, got {short_repr(value)}") from None
     if arr.ndim == 0:
         arr = arr.reshape(1)
     if arr.ndim != 1 or arr.shape[0] not in lengths:
@@ -128,7 +128,7 @@ def positive_vector(name: str, value, length: int) -> np.ndarray:
 def flag(name: str, value) -> bool:
     """True or False (a Python or numpy boolean)."""
     if not isinstance(value, (bool, np.bool_)):
-        raise ValidationError(f"{name} must be True or False, got {_short(value)}")
+        raise ValidationError(f"{name} must be True or False, got {short_repr(value)}")
     return bool(value)
 
 
@@ -136,27 +136,32 @@ def choice(name: str, value, allowed) -> str:
     """One of a fixed set of strings."""
     if not isinstance(value, str) or value not in allowed:
         raise ValidationError(
-            f"{name} must be one of {', '.join(repr(a) for a in allowed)}; got {_short(value)}")
+            f"{name} must be one of {', '.join(repr(a) for a in allowed)}; got {short_repr(value)}")
     return value
 
 
 def string_keys(name: str, table) -> dict:
     """A mapping whose keys are all strings (as TOML and JSON tables are)."""
     if not isinstance(table, dict):
-        raise ValidationError(f"{name} must be a table, got {_short(table)}")
+        raise ValidationError(f"{name} must be a table, got {short_repr(table)}")
     bad = [k for k in table if not isinstance(k, str)]
     if bad:
-        raise ValidationError(f"{name}: keys must be strings, got {_short(bad[0])}")
+        raise ValidationError(f"{name}: keys must be strings, got {short_repr(bad[0])}")
     return table
 
 
-def _short(value, limit: int = 300) -> str:
-    """repr of a value, cut to ``limit`` characters (and safe for deep nesting)."""
+def short_repr(value, limit: int = 300) -> str:
+    """repr of a value, cut to ``limit`` characters (a string keeps its closing quote;
+    safe for deep nesting), for naming a bad value in a message."""
     try:
         text = repr(value)
     except RecursionError:
         text = f"<deeply nested {type(value).__name__}>"
-    return text if len(text) <= limit else text[: limit - 3] + "..."
+    if len(text) <= limit:
+        return text
+    if text[:1] in "'\"":
+        return text[: limit - 4] + "..." + text[0]
+    return text[: limit - 3] + "..."
 
 
 def _or(lengths: tuple[int, ...]) -> str:

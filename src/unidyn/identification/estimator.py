@@ -25,7 +25,8 @@ from .checks import check_excitation, check_memory, check_physical, estimate_war
 from .equation_error import SMOOTHING_METHODS, equation_error_fit, white_noise_std
 from .first_estimate import first_estimate
 from .intervals import JITTER_MIN, ci95, jitter_widening, lag_widening, measured_stamp_jitter
-from .logs import COLUMNS, IdentificationWarning, check_measured, join_logs, short_repr
+from .._validate import short_repr
+from .logs import COLUMNS, IdentificationWarning, check_measured, join_logs
 from .output_error import output_error_fit
 from .replay import COMMAND_CONVENTIONS
 from .results import THETA_NAMES, IdentificationResult

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._validate import ValidationError, real
+from .._validate import ValidationError, real, short_repr
 
 #: The canonical column names of a log.
 COLUMNS = ("t", "u_ref", "w_ref", "u", "w")
@@ -74,12 +74,6 @@ def _column_map(columns) -> dict:
                                   f"got {short_repr(v)}")
         out[k] = v.strip()
     return out
-
-
-def short_repr(x, n: int = 60) -> str:
-    """``repr(x)`` cut to at most ``n`` characters, for naming a bad value in a message."""
-    s = repr(x)
-    return s if len(s) <= n else s[:n - 5] + "...'" if s[:1] in "'\"" else s[:n - 3] + "..."
 
 
 def _decode(path: Path, raw: bytes) -> str:
