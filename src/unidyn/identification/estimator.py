@@ -18,14 +18,13 @@ from dataclasses import dataclass
 import numpy as np
 from tqdm import tqdm
 
-from .._validate import ValidationError, choice, integer, nonnegative, positive
+from .._validate import ValidationError, choice, integer, nonnegative, positive, short_repr
 from ..model.parameters import RobotParameters
 from .bags import row_commands
 from .checks import check_excitation, check_memory, check_physical, estimate_warnings
 from .equation_error import SMOOTHING_METHODS, equation_error_fit, white_noise_std
 from .first_estimate import first_estimate
 from .intervals import JITTER_MIN, ci95, jitter_widening, lag_widening, measured_stamp_jitter
-from .._validate import short_repr
 from .logs import COLUMNS, IdentificationWarning, check_measured, join_logs
 from .output_error import output_error_fit
 from .replay import COMMAND_CONVENTIONS
