@@ -29,6 +29,7 @@ release = version = unidyn.__version__
 extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.mathjax",
+    "sphinx-mathjax-offline",   # MathJax copied into the site, so the pages read offline
     "sphinxarg.ext",      # the command line, from its argparse parser
     "myst_nb",            # Markdown pages and the notebooks
     "unidyn_docs",        # the :blockname: role, the scenario-field table, build-time figures

@@ -8,20 +8,25 @@ public, and ``python -m sphinx -W`` builds it.
   ``import unidyn`` makes available), every block class of unidyn.blocks and every
   notebook of examples/ (fast: no build).
 - The site builds with warnings as errors, from the command the README and .ci/run
-  name, into a temporary folder, and the built pages hold every public name, every
-  block under its bdsim name, every subcommand of ``unidyn`` and every notebook, run by
-  the build, with its figures and printed output (slow tier; needs the ``docs`` extra).
+  name, into a temporary folder, from a regular install (a wheel of this checkout in a
+  fresh venv) and a folder outside the checkout that holds only the site's sources; the
+  built pages hold every public name, every block under its bdsim name, every
+  subcommand of ``unidyn`` and every notebook, run by the build, with its figures and
+  printed output, no error box, and MathJax served with the site (slow tier; needs
+  the ``docs`` extra).
 """
 
 import html
 import inspect
+import os
 import re
+import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
+import test_install as install
 import test_readme as readme
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -118,15 +123,54 @@ def test_cli_reference_is_generated_from_the_parser():
 
 # ------------------------------------------------------------------------ the build
 
+#: what the site is built from besides the installed package: its sources, the examples
+#: it shows and the notebooks it runs, the changelog it includes and the sample log a
+#: guide shows
+SITE_SOURCES = ("docs", "examples", "CHANGELOG.md", "src/unidyn/datasets/log.csv")
+
+
+def _copy_site_sources(dest: Path) -> None:
+    for pattern in SITE_SOURCES:
+        for src in ROOT.glob(pattern):
+            target = dest / src.relative_to(ROOT)
+            if src.is_dir():
+                # what a build made (docs/notebooks/*.ipynb: copies of the examples') left out
+                built = ("_build", "_generated", "*.ipynb") if src == DOCS else ()
+                shutil.copytree(src, target, ignore=shutil.ignore_patterns(
+                    *built, "__pycache__", ".ipynb_checkpoints"))
+            else:
+                target.parent.mkdir(parents=True, exist_ok=True)
+                shutil.copyfile(src, target)
+
+
 @pytest.fixture(scope="module")
 def built(tmp_path_factory):
+    """The README's docs build, run as a reader of a release would: unidyn installed from
+    a wheel built from this checkout into a fresh venv (as tests/test_install.py installs
+    it, offline), the build started in a folder outside the checkout that holds only the
+    site's sources. The notebooks it runs see the installed package and nothing of the
+    checkout, so a page that reads a checkout's file fails the build."""
     pytest.importorskip("sphinx", reason="the docs extra: pip install -e '.[docs]'")
     pytest.importorskip("myst_nb", reason="the docs extra: pip install -e '.[docs]'")
     pytest.importorskip("sphinxarg", reason="the docs extra: pip install -e '.[docs]'")
-    out = tmp_path_factory.mktemp("html")
+    tmp = tmp_path_factory.mktemp("docs")
+    _, wheel = install.build_distributions(tmp / "dist")
+    python = install._fresh_venv(tmp / "venv")
+    install._pip(python, wheel)
+    site = Path(install._in_venv(python, "import sysconfig; print(sysconfig.get_paths()['purelib'])")
+                .stdout.strip())
+    r = install._in_venv(python, "import unidyn; print(unidyn.__file__)")
+    assert Path(r.stdout.strip()).is_relative_to(site), r.stdout + r.stderr
+    sources = tmp / "sources"
+    _copy_site_sources(sources)
+    out = tmp / "html"
     args = readme.DOCS_BUILD[:-1] + [str(out)]       # the README's command, into a temporary folder
-    r = subprocess.run([sys.executable, *args], cwd=ROOT, capture_output=True, text=True,
-                       env=readme._env(), timeout=900)
+    # numba's cache is keyed on the compiled functions' files, which this install has
+    # anew: the batch engine compiles once for the build, into a folder of the build's own
+    env = {k: v for k, v in os.environ.items() if k not in ("BDSIMPATH", "PYTHONPATH")}
+    env.update(MPLBACKEND="Agg", NUMBA_CACHE_DIR=str(tmp / "numba"))
+    r = subprocess.run([str(python), *args], cwd=sources, capture_output=True, text=True,
+                       env=env, timeout=900)
     assert r.returncode == 0, (r.stdout[-3000:] + "\n" + r.stderr[-5000:])
     return out
 
@@ -193,3 +237,19 @@ def test_built_site_holds_every_notebook_and_guide(built):
         assert (built / "guides" / f"{g.stem}.html").is_file()
     assert (built / "_generated" / "step_responses.png").is_file() or \
         (built / "_images" / "step_responses.png").is_file()
+
+
+@pytest.mark.slow
+def test_the_site_serves_its_own_mathjax(built):
+    """The equations render offline: every page with mathematics loads MathJax from the
+    site's own files, none from the network."""
+    with_math = 0
+    for page in built.rglob("*.html"):
+        text = page.read_text(encoding="utf-8")
+        scripts = [s for s in re.findall(r'<script[^>]*src="([^"]*)"', text) if "mathjax" in s.lower()]
+        for src in scripts:
+            assert "://" not in src and not src.startswith("//"), \
+                f"{page.relative_to(built)} loads MathJax from the network: {src}"
+            assert (page.parent / src.split("?")[0]).is_file(), (page.relative_to(built), src)
+        with_math += bool(scripts)
+    assert with_math >= 5, "the pages with equations load no MathJax"

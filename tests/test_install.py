@@ -143,6 +143,17 @@ def test_a_run_on_the_batch_engine_loads_no_bdsim():
     assert r.stdout.splitlines()[-1] == "0 []", r.stdout
 
 
+def build_distributions(dist: Path) -> tuple:
+    """The sdist and the wheel of this checkout, built offline into ``dist`` (the wheel
+    from the sdist, as pip builds one downloaded): ``(sdist, wheel)``."""
+    pytest.importorskip("build")
+    r = subprocess.run([sys.executable, "-m", "build", "--no-isolation", "--sdist", "--wheel",
+                        "--outdir", str(dist), str(ROOT)], capture_output=True, text=True,
+                       timeout=600, cwd=dist.parent)
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
+    return next(dist.glob("unidyn-*.tar.gz")), next(dist.glob("unidyn-*.whl"))
+
+
 def _fresh_venv(path: Path) -> Path:
     """A new virtual environment whose own site-packages holds nothing but what is
     installed into it; the dependencies come from this interpreter's site-packages,
@@ -237,14 +248,8 @@ def test_sdist_and_wheel_pass_twine_and_the_wheel_behaves_as_the_editable_instal
     """The sdist and the wheel build offline and pass ``twine check``; the wheel
     installed into a fresh venv ships the hook and the icons and finds blocks the
     same way as the editable install."""
-    pytest.importorskip("build")
     pytest.importorskip("twine")
-    dist = tmp_path / "dist"
-    r = subprocess.run([sys.executable, "-m", "build", "--no-isolation", "--sdist", "--wheel",
-                        "--outdir", str(dist), str(ROOT)], capture_output=True, text=True,
-                       timeout=600, cwd=tmp_path)
-    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
-    sdist, wheel = next(dist.glob("unidyn-*.tar.gz")), next(dist.glob("unidyn-*.whl"))
+    sdist, wheel = build_distributions(tmp_path / "dist")
     r = subprocess.run([sys.executable, "-m", "twine", "check", "--strict", str(sdist), str(wheel)],
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 0 and r.stdout.count("PASSED") == 2, r.stdout + r.stderr

@@ -4,6 +4,8 @@ why). The converged solution is scipy's DOP853 at rtol 1e-10 on the loop's right
 side (unidyn.engine.rhs, the equations as arrays), restarted at every sample with the
 noise held, as bdsim restarts its solver at every clock tick."""
 
+import functools
+
 import numpy as np
 import pytest
 
@@ -51,7 +53,9 @@ def _errors(r, converged):
 
 @pytest.fixture(scope="module")
 def converged():
-    return {name: _converged(sc) for name, sc in SCENARIOS.items()}
+    """The converged solution of a scenario of SCENARIOS by its name, computed (seconds
+    each) once per process and only for the scenarios the tests that run there ask for."""
+    return functools.cache(lambda name: _converged(SCENARIOS[name]))
 
 
 @pytest.mark.parametrize("name", list(SCENARIOS))
@@ -64,7 +68,7 @@ def test_the_batch_engine_keeps_its_promise_or_says_it_does_not(name, converged)
             assert "rtol" in r.message  # what to change
             continue
         assert name not in SENSITIVE
-        iae, theta = _errors(r, converged[name])
+        iae, theta = _errors(r, converged(name))
         assert iae <= PROMISE and theta <= PROMISE, (backend, iae, theta)
 
 
@@ -78,7 +82,7 @@ def test_the_diagram_keeps_the_same_promise_or_says_it_does_not(name, converged)
         return
     r = unidyn.simulate(SCENARIOS[name])
     assert r.complete, r.message
-    iae, theta = _errors(r, converged[name])
+    iae, theta = _errors(r, converged(name))
     assert iae <= PROMISE and theta <= PROMISE, (iae, theta)
 
 
