@@ -228,6 +228,7 @@ def test_bad_set_exits_2_naming_the_key(tmp_path, capsys, item, words):
     ("robot = p3dx_laser  # no quotes\n", ["malformed TOML", "line 1",
                                           'text needs quotes: robot = "p3dx_laser"']),
     ("case = 'compensated'\nkz = 0.5\n", ["unknown scenario field 'kz'"]),
+    ("label = 'a sweep variant'\nT = 1\n", ["unknown scenario field 'label'"]),
     ("kx = 'fast'\n", ["kx must be a real number"]),
     ("kx = -0.5\n", ["kx must be > 0"]),
     ("x0 = [0, 0]\n", ["x0", "length 3"]),

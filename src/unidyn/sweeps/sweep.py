@@ -213,7 +213,8 @@ class Sweep:
                 params.update(zip(axes, combo))
                 layers = [("base", self.base)]
                 if v is not None:
-                    layers.append((f"variants[{v['label']}]", v))
+                    layers.append((f"variants[{v['label']}]",
+                                   {k: x for k, x in v.items() if k != "label"}))
                 layers.append(("grid", dict(zip(axes, combo))))
                 desc = ", ".join(f"{k}={text(x)}" for k, x in params.items())
                 if len(desc) > MAX_NAME:

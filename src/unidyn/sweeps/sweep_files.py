@@ -243,8 +243,6 @@ def _stacked(layers):
     fields, fields_from, special = {}, {}, {}
     for where, d in layers:
         for k, v in d.items():
-            if k == "label":
-                continue
             if k in SPECIAL_KEYS:
                 special[k] = (where, _special(where, k, v))
                 continue
