@@ -60,9 +60,13 @@ def _load(path):
 
 @functools.cache
 def _simulated_states(n, T):
-    """The same states from unidyn.simulate(Scenario.paper(n)), the library's own route
-    (once per process: the shipped file and bdrun are both checked against it)."""
-    res = unidyn.simulate(Scenario.paper(n, T=T), progress=False)
+    """The same states from unidyn.simulate(Scenario.paper(n, T=T)), the library's own
+    route (once per process: the shipped file and bdrun are both checked against it)."""
+    return _states(unidyn.simulate(Scenario.paper(n, T=T), progress=False), n)
+
+
+def _states(res, n):
+    """A Result's continuous states in the order of a Fig. 2 diagram's."""
     cols = [res.pose]
     if n != 1:
         cols.append(res.velocity)
@@ -125,10 +129,10 @@ def test_bdrun_runs_case4_headless(tmp_path):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("n", [1, 2, 3, 4])
-def test_bdrun_full_paper_run(n, tmp_path):
+def test_bdrun_full_paper_run(n, tmp_path, paper_run):
     """The paper's full 200 s, through bdrun, against unidyn.simulate(Scenario.paper(n))."""
     o = _bdrun(BD_DIR / PAPER_FILES[n], 200.0, tmp_path / "out.pkl", timeout=600)
-    t_ref, x_ref = _simulated_states(n, 200.0)
+    t_ref, x_ref = _states(paper_run(n), n)
     x = np.asarray(o.x)
     assert x.shape == x_ref.shape
     err = np.abs(x - x_ref).max()

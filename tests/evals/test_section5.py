@@ -10,8 +10,8 @@ pytestmark = pytest.mark.slow  # the whole-system tier (tests/README.md)
 
 
 @pytest.fixture(scope="module")
-def runs():
-    return [unidyn.simulate(unidyn.Scenario.paper(n)) for n in (1, 2, 3, 4)]
+def runs(paper_run):
+    return [paper_run(n) for n in (1, 2, 3, 4)]
 
 
 def test_every_section5_claim_holds(runs):
