@@ -27,8 +27,9 @@ def _fig11_cases(k, T, noise=None):
 def test_compiled_and_plain_kernels_agree(noise):
     if not _kernels.AVAILABLE:
         pytest.skip("numba not installed")
-    scs = [s for k in (0.5, 4.0) for s in _fig11_cases(k, T=30.0, noise=noise)]
-    scs.append(Scenario.paper(1, T=30.0, noise=noise))
+    # 10 s (100 samples) a run: the plain kernels are Python, a thousand times slower
+    scs = [s for k in (0.5, 4.0) for s in _fig11_cases(k, T=10.0, noise=noise)]
+    scs.append(Scenario.paper(1, T=10.0, noise=noise))
     a = simulate_batch(scs, backend="plain")
     b = simulate_batch(scs, backend="compiled")
     # the same source, compiled or not, agrees to rounding; with noise a rounding apart

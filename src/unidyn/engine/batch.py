@@ -71,7 +71,8 @@ def simulate_batch(scenarios, *, rtol: float = DEFAULT_RTOL, atol: float = DEFAU
     A run that diverges (non-finite, or beyond :meth:`~unidyn.Scenario.divergence_bounds`)
     or whose error cannot be held within the tolerances in :data:`MAX_STEPS` steps of a
     sample interval stops there, ``complete=False``, with the samples up to the failure
-    and a message naming the cause and what to change; the other runs continue. A run
+    and a message naming the cause and what to change; the other runs continue (a run
+    that stopped is not checked: its check would cost as much and tell nothing). A run
     that differs from its check (the same run at :data:`CHECK_FACTOR` times the
     tolerances) by more than :data:`PROMISE` in IAE (relative) or theta_hat is returned
     whole but ``complete=False``, its message giving the differences.
@@ -116,20 +117,24 @@ def simulate_batch(scenarios, *, rtol: float = DEFAULT_RTOL, atol: float = DEFAU
     interrupted = False
     try:
         for idx in groups.values():
-            passes = []
-            for factor in (1.0, CHECK_FACTOR):  # the result, then its check
-                loop = ClosedLoop([scs[i] for i in idx])
+            passes = [{}, {}]  # the results, then the checks of those that completed
+            todo = idx
+            for p, factor in enumerate((1.0, CHECK_FACTOR)):
+                if not todo:
+                    break
+                loop = ClosedLoop([scs[i] for i in todo])
                 runs, tol = _runs(engine, loop), (rtol * factor, atol * factor)
                 try:
                     _integrate(engine, loop, runs, tol, compiled, bar)
                 except KeyboardInterrupt:
                     interrupted = True
-                passes.append(_results(engine, loop, runs, *tol, label))
+                passes[p] = dict(zip(todo, _results(engine, loop, runs, *tol, label)))
                 if interrupted:
                     break
-            for n, i in enumerate(idx):
-                r = passes[0][n]
-                results[i] = r if interrupted else _checked(r, passes[1][n], rtol)
+                todo = [i for i in todo if passes[p][i].complete]
+            for i in idx:
+                r, check = passes[0][i], passes[1].get(i)
+                results[i] = r if interrupted or check is None else _checked(r, check, rtol)
             if interrupted:
                 break
     finally:
