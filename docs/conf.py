@@ -54,6 +54,7 @@ nb_execution_mode = "force"
 nb_execution_in_temp = True
 nb_execution_timeout = 180   # s per cell: the longest, compiling on a slow machine, stays far below
 nb_execution_raise_on_error = True
+nb_execution_show_tb = True  # a notebook that fails shows its traceback in the build's log
 
 # -- autodoc ------------------------------------------------------------------------
 autodoc_member_order = "bysource"

@@ -20,26 +20,77 @@ def sim():
 
 
 @pytest.fixture(scope="session")
-def paper_run(tmp_path_factory):
-    """``paper_run(n)`` = ``unidyn.simulate(Scenario.paper(n))``: one of the paper's four
-    200 s runs (Section 5), simulated once per test session and shared by the pytest-xdist
-    workers: the first worker to ask runs it under a lock and writes it next to the
-    session's temporary folders; the others read it. The Section 5 claims and the .bd files'
-    200 s reference both use it."""
-    import pickle
+def once(tmp_path_factory):
+    """``once(name, make)``: ``make(folder)`` run once a test session into a folder of
+    that name, shared by the pytest-xdist workers; returns the folder. The first worker
+    to ask makes it under a file lock, the others wait for it and read it; a make that
+    failed is tried again by the next to ask."""
+    import shutil
 
     from filelock import FileLock
-    root = tmp_path_factory.getbasetemp().parent  # shared by the workers of one session
+    base = tmp_path_factory.getbasetemp()
+    # under xdist each worker's folder lies in the session's; without, it is the session's
+    root = base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
+
+    def get(name: str, make) -> "os.PathLike":
+        folder = root / f"once-{name}"
+        with FileLock(str(folder) + ".lock"):
+            if not (folder / ".done").is_file():
+                shutil.rmtree(folder, ignore_errors=True)
+                folder.mkdir()
+                make(folder)
+                (folder / ".done").touch()
+        return folder
+    return get
+
+
+@pytest.fixture(scope="session")
+def paper_run(once):
+    """``paper_run(n)`` = ``unidyn.simulate(Scenario.paper(n))``: one of the paper's four
+    200 s runs (Section 5), simulated once a test session (:func:`once`). The Section 5
+    claims and the .bd files' 200 s reference both use it."""
+    import pickle
     done = {}
+
+    def make(n, folder):
+        run = unidyn.simulate(unidyn.Scenario.paper(n), progress=False)
+        (folder / "result.pickle").write_bytes(pickle.dumps(run))
 
     def get(n: int):
         if n not in done:
-            path = root / f"paper_run_{n}.pickle"
-            with FileLock(str(path) + ".lock"):
-                if path.is_file():
-                    done[n] = pickle.loads(path.read_bytes())
-                else:
-                    done[n] = unidyn.simulate(unidyn.Scenario.paper(n), progress=False)
-                    path.write_bytes(pickle.dumps(done[n]))
+            folder = once(f"paper-run-{n}", lambda f: make(n, f))
+            done[n] = pickle.loads((folder / "result.pickle").read_bytes())
         return done[n]
     return get
+
+
+@pytest.fixture(scope="session")
+def distributions(once):
+    """``(sdist, wheel)`` of this checkout, built once a test session (two builds at
+    once would share the checkout's build folders)."""
+    from test_install import build_distributions
+    folder = once("distributions", lambda f: build_distributions(f / "dist"))
+    return next(folder.glob("dist/unidyn-*.tar.gz")), next(folder.glob("dist/unidyn-*.whl"))
+
+
+#: the docs build's tests (tests/test_docs.py), whose build runs every notebook
+DOCS_BUILD_TESTS = "test_docs.py::test_built_"
+
+
+@pytest.hookimpl(trylast=True)  # after -m and -k have chosen the session's tests
+def pytest_collection_modifyitems(config, items):
+    """Each notebook runs once a session: where the docs build is among the session's
+    tests and can run (the docs extra installed), it runs every notebook as a reader's
+    install does, with ggplot set first, and checks what tests/test_notebooks.py checks
+    of a run; that module's runs are then skipped, naming the build."""
+    import importlib.util
+    if not any(DOCS_BUILD_TESTS in item.nodeid for item in items):
+        return
+    if any(importlib.util.find_spec(m) is None for m in ("sphinx", "myst_nb", "sphinxarg")):
+        return
+    skip = pytest.mark.skip(reason="run by the docs build of this session (tests/test_docs.py), "
+                                   "from a regular install, with ggplot set first")
+    for item in items:
+        if item.nodeid.split("::")[0].endswith("test_notebooks.py") \
+                and getattr(item, "originalname", "") == "test_notebook_runs":
+            item.add_marker(skip)

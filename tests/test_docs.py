@@ -13,7 +13,9 @@ public, and ``python -m sphinx -W`` builds it.
   built pages hold every public name, every block under its bdsim name, every
   subcommand of ``unidyn`` and every notebook, run by the build, with its figures and
   printed output, no error box, and MathJax served with the site (slow tier; needs
-  the ``docs`` extra).
+  the ``docs`` extra). The build's kernels start with ggplot set, and no notebook
+  figure may show it; the build is then the session's run of the notebooks
+  (tests/test_notebooks.py).
 """
 
 import html
@@ -143,18 +145,33 @@ def _copy_site_sources(dest: Path) -> None:
                 shutil.copyfile(src, target)
 
 
+def _ggplot_first(tmp: Path) -> Path:
+    """An IPython folder whose kernels start with matplotlib's ggplot style set, as
+    roboticstoolbox's plotting module sets it for a whole process when loaded: the
+    notebooks' figures must keep unidyn's style all the same
+    (:func:`test_notebook_figures_keep_unidyn_style`)."""
+    startup = tmp / "ipython" / "profile_default" / "startup"
+    startup.mkdir(parents=True)
+    (startup / "00-ggplot.py").write_text("import matplotlib.pyplot as plt\nplt.style.use('ggplot')\n")
+    return tmp / "ipython"
+
+
 @pytest.fixture(scope="module")
-def built(tmp_path_factory):
+def built(once, distributions):
     """The README's docs build, run as a reader of a release would: unidyn installed from
     a wheel built from this checkout into a fresh venv (as tests/test_install.py installs
     it, offline), the build started in a folder outside the checkout that holds only the
     site's sources. The notebooks it runs see the installed package and nothing of the
-    checkout, so a page that reads a checkout's file fails the build."""
+    checkout, so a page that reads a checkout's file fails the build. Built once a
+    session (the tests below may run in different workers)."""
     pytest.importorskip("sphinx", reason="the docs extra: pip install -e '.[docs]'")
     pytest.importorskip("myst_nb", reason="the docs extra: pip install -e '.[docs]'")
     pytest.importorskip("sphinxarg", reason="the docs extra: pip install -e '.[docs]'")
-    tmp = tmp_path_factory.mktemp("docs")
-    _, wheel = install.build_distributions(tmp / "dist")
+    return once("docs-build", lambda tmp: _build_site(tmp, distributions[1])) / "html"
+
+
+def _build_site(tmp: Path, wheel: Path) -> None:
+    """The site built into ``tmp / "html"`` from ``wheel`` installed in a fresh venv."""
     python = install._fresh_venv(tmp / "venv")
     install._pip(python, wheel)
     site = Path(install._in_venv(python, "import sysconfig; print(sysconfig.get_paths()['purelib'])")
@@ -163,16 +180,14 @@ def built(tmp_path_factory):
     assert Path(r.stdout.strip()).is_relative_to(site), r.stdout + r.stderr
     sources = tmp / "sources"
     _copy_site_sources(sources)
-    out = tmp / "html"
-    args = readme.DOCS_BUILD[:-1] + [str(out)]       # the README's command, into a temporary folder
+    args = readme.DOCS_BUILD[:-1] + [str(tmp / "html")]   # the README's command, into a temporary folder
     # numba's cache is keyed on the compiled functions' files, which this install has
     # anew: the batch engine compiles once for the build, into a folder of the build's own
     env = {k: v for k, v in os.environ.items() if k not in ("BDSIMPATH", "PYTHONPATH")}
-    env.update(MPLBACKEND="Agg", NUMBA_CACHE_DIR=str(tmp / "numba"))
+    env.update(MPLBACKEND="Agg", NUMBA_CACHE_DIR=str(tmp / "numba"), IPYTHONDIR=str(_ggplot_first(tmp)))
     r = subprocess.run([str(python), *args], cwd=sources, capture_output=True, text=True,
                        env=env, timeout=900)
     assert r.returncode == 0, (r.stdout[-3000:] + "\n" + r.stderr[-5000:])
-    return out
 
 
 def _text(path):
@@ -237,6 +252,19 @@ def test_built_site_holds_every_notebook_and_guide(built):
         assert (built / "guides" / f"{g.stem}.html").is_file()
     assert (built / "_generated" / "step_responses.png").is_file() or \
         (built / "_images" / "step_responses.png").is_file()
+
+
+@pytest.mark.slow
+def test_notebook_figures_keep_unidyn_style(built):
+    """The build's kernels start with ggplot set (:func:`_ggplot_first`): no figure a
+    notebook draws shows ggplot's grey axes."""
+    from test_notebooks import grey_fraction
+    for nb in NOTEBOOKS:
+        page = _text(built / "notebooks" / f"{nb.stem}.html")
+        pngs = sorted(set(re.findall(r'src="\.\./(_images/[0-9a-f]{64}\.png)"', page)))
+        assert pngs, f"{nb.name}: its page shows no figure"
+        grey = [round(grey_fraction((built / f).read_bytes()), 3) for f in pngs]
+        assert max(grey) < 0.05, (nb.name, grey)
 
 
 @pytest.mark.slow

@@ -244,12 +244,12 @@ def test_editable_install_finds_blocks_in_any_order_with_no_variable(tmp_path):
 
 
 @pytest.mark.slow
-def test_sdist_and_wheel_pass_twine_and_the_wheel_behaves_as_the_editable_install(tmp_path):
+def test_sdist_and_wheel_pass_twine_and_the_wheel_behaves_as_the_editable_install(tmp_path, distributions):
     """The sdist and the wheel build offline and pass ``twine check``; the wheel
     installed into a fresh venv ships the hook and the icons and finds blocks the
     same way as the editable install."""
     pytest.importorskip("twine")
-    sdist, wheel = build_distributions(tmp_path / "dist")
+    sdist, wheel = distributions
     r = subprocess.run([sys.executable, "-m", "twine", "check", "--strict", str(sdist), str(wheel)],
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 0 and r.stdout.count("PASSED") == 2, r.stdout + r.stderr

@@ -10,9 +10,15 @@ limit per cell. ``test_kernel_runs_this_python`` checks the kernel choice itself
 The runs are marked ``slow`` (about two minutes for all notebooks, a minute more
 where the batch engine is not compiled yet): deselect with ``-m "not slow"``. The
 public-name check reads the notebooks without running them (fast).
+
+Each notebook runs once a session: where the docs build runs too (the ``docs`` extra
+installed and tests/test_docs.py's build selected), the build runs every notebook,
+from a regular install and with the same ggplot style set first, and checks the same
+things of it; the runs here are then skipped, saying so (tests/conftest.py).
 """
 
 import ast
+import base64
 import json
 import os
 import sys
@@ -177,13 +183,13 @@ def test_kernel_runs_this_python(kernel_spec_dir, tmp_path):
 GGPLOT_GREY = 229
 
 
-def _grey_fraction(png_base64: str) -> float:
-    import base64
+def grey_fraction(png: bytes) -> float:
+    """The fraction of a PNG's pixels in ggplot's axes grey."""
     import io
 
     import matplotlib.image as mpimg
     import numpy as np
-    rgb = np.round(mpimg.imread(io.BytesIO(base64.b64decode(png_base64)))[..., :3] * 255)
+    rgb = np.round(mpimg.imread(io.BytesIO(png))[..., :3] * 255)
     return float(np.all(np.abs(rgb - GGPLOT_GREY) <= 1, axis=-1).mean())
 
 
@@ -206,6 +212,6 @@ def test_notebook_runs(path, kernel_spec_dir, tmp_path):
     pngs = [o["data"]["image/png"] for cell in nb.cells if cell.cell_type == "code"
             for o in cell.get("outputs", []) if "image/png" in o.get("data", {})]
     assert pngs, "no figure shown"
-    grey = [round(_grey_fraction(png), 3) for png in pngs]
+    grey = [round(grey_fraction(base64.b64decode(png)), 3) for png in pngs]
     assert max(grey) < 0.05, grey
     print(f"{path.name}: {elapsed:.1f} s")

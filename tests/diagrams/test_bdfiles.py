@@ -143,24 +143,25 @@ def test_bdrun_full_paper_run(n, tmp_path, paper_run):
 # the writer
 
 
+#: 5 s each: past the adaptation switched on at 2 s and the radius step at 4 s
 ROUND_TRIP = {
-    "paper 1": Scenario.paper(1, T=10.0),
-    "paper 2": Scenario.paper(2, T=10.0),
-    "paper 3": Scenario.paper(3, T=10.0),
-    "paper 4, adapting from 2 s": Scenario.paper(4, T=10.0, adapt_from=2.0),
+    "paper 1": Scenario.paper(1, T=5.0),
+    "paper 2": Scenario.paper(2, T=5.0),
+    "paper 3": Scenario.paper(3, T=5.0),
+    "paper 4, adapting from 2 s": Scenario.paper(4, T=5.0, adapt_from=2.0),
     # a robot that is not a preset, a circle whose radius steps, no noise, the derivative
     # filter (the string "filter", a Python builtin, must reach the block as a string)
     "circle, filter, custom robot": Scenario(
-        case="adaptive", T=10.0, noise=None, vd_dot="filter", adapt_from=0.0,
+        case="adaptive", T=5.0, noise=None, vd_dot="filter", adapt_from=0.0,
         robot=[0.3, 0.25, 0.001, 0.95, 0.002, 1.05],
         trajectory={"type": "circle", "radius": [[0, 1.2], [4, 1.0]], "omega": -0.3,
                     "phase": 0.5}),
     "line, fx44850 leakage, no limits": Scenario(
-        case="adaptive", T=10.0, leakage="fx44850", limits=unidyn.NO_LIMITS,
+        case="adaptive", T=5.0, leakage="fx44850", limits=unidyn.NO_LIMITS,
         trajectory={"type": "line", "start": [0.0, 0.5], "velocity": [0.2, 0.05]}),
     # the compensator with its own derivative filter, noise of another seed, a goal point
     "point, compensated, filter, noise seed 5": Scenario(
-        case="compensated", T=10.0, vd_dot="filter", noise={"seed": 5},
+        case="compensated", T=5.0, vd_dot="filter", noise={"seed": 5},
         trajectory={"type": "point", "x": 0.8, "y": -0.4}),
 }
 

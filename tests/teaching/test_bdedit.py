@@ -277,13 +277,15 @@ def _cpu_seconds(pid: int) -> float:
 
 @pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/stat").is_file(), reason="reads CPU time from /proc")
-def test_bdedit_command_opens_every_shipped_file_and_stays_open(bdedit_command):
-    """``bdedit FILE`` as a user types it, for every shipped file and with no file:
+def test_bdedit_command_opens_a_shipped_file_and_stays_open(bdedit_command):
+    """``bdedit FILE`` as a user types it, on the largest shipped file and with no file:
     each editor is still running after it has used 8 s of CPU time drawing its window
     (bdedit repaints continuously). Under PySide6 6.12.0 on Python 3.11 each aborted
-    after 3.5-4.2 s of CPU time; counted in CPU time, the check does not depend on
-    how busy the machine is."""
-    runs = [[bdedit_command, str(path)] for path in SHIPPED] + [[bdedit_command]]
+    after 3.5-4.2 s of CPU time, whatever the file; counted in CPU time, the check does
+    not depend on how busy the machine is. (Every shipped file is opened by the tests
+    above and below.)"""
+    largest = max(SHIPPED, key=lambda p: p.stat().st_size)
+    runs = [[bdedit_command, str(largest)], [bdedit_command]]
     procs = [subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                               env=ENV, cwd=ROOT) for cmd in runs]
     try:
