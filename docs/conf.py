@@ -49,7 +49,8 @@ myst_heading_anchors = 3
 # stale, and a notebook that fails fails the build. All seven take about a minute and a
 # half; where the batch engine's numba compilation is not cached yet (a fresh install, or
 # its sources changed), the first notebook that needs it compiles it, which adds some
-# seconds once. The test suite runs them too (tests/test_notebooks.py).
+# seconds once. The test suite runs them through this build (tests/test_docs.py), or
+# through tests/test_notebooks.py where the docs extra is not installed.
 nb_execution_mode = "force"
 nb_execution_in_temp = True
 nb_execution_timeout = 180   # s per cell: the longest, compiling on a slow machine, stays far below

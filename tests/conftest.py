@@ -23,8 +23,8 @@ def sim():
 def once(tmp_path_factory):
     """``once(name, make)``: ``make(folder)`` run once a test session into a folder of
     that name, shared by the pytest-xdist workers; returns the folder. The first worker
-    to ask makes it under a file lock, the others wait for it and read it; a make that
-    failed is tried again by the next to ask."""
+    to ask makes it under a file lock, the others wait for it and read it; where it
+    failed, they fail with its error instead of making it again."""
     import shutil
 
     from filelock import FileLock
@@ -34,11 +34,18 @@ def once(tmp_path_factory):
 
     def get(name: str, make) -> "os.PathLike":
         folder = root / f"once-{name}"
+        failed = root / f"once-{name}.failed"
         with FileLock(str(folder) + ".lock"):
+            if failed.is_file():
+                pytest.fail(f"{name} failed earlier in this session:\n{failed.read_text()}")
             if not (folder / ".done").is_file():
                 shutil.rmtree(folder, ignore_errors=True)
                 folder.mkdir()
-                make(folder)
+                try:
+                    make(folder)
+                except Exception as e:  # not a skip (the next to ask skips too)
+                    failed.write_text(f"{type(e).__name__}: {e}"[-5000:])
+                    raise
                 (folder / ".done").touch()
         return folder
     return get
