@@ -89,13 +89,13 @@ def test_shipped_files_are_what_the_script_writes(tmp_path):
 
 @pytest.mark.parametrize("n", [1, 2, 3, 4])
 def test_shipped_file_runs_to_simulate_numbers(n):
-    """bdload + run of the shipped file (20 s) = unidyn.simulate(Scenario.paper(n, T=20)),
+    """bdload + run of the shipped file (10 s) = unidyn.simulate(Scenario.paper(n, T=10)),
     with the paper's noise (same seeds, drawn by SENSORNOISE from the file's seed/stream)."""
-    T = 20.0
+    T = 10.0
     sim, bd = _load(BD_DIR / PAPER_FILES[n])
     t, x, names = _run(sim, bd, T)
     t_ref, x_ref = _simulated_states(n, T)
-    assert x.shape == x_ref.shape == (201, {1: 3, 2: 5, 3: 11, 4: 11}[n]), names
+    assert x.shape == x_ref.shape == (101, {1: 3, 2: 5, 3: 11, 4: 11}[n]), names
     np.testing.assert_allclose(t, t_ref, rtol=0, atol=1e-12)
     err = np.abs(x - x_ref).max()
     assert err <= 1e-9, f"case {n}: max |bd file - simulate| = {err:.3g}"
@@ -118,8 +118,8 @@ def _bdrun(path, T, out, timeout):
 @pytest.mark.parametrize("n", [1, 2, 3, 4])
 def test_bdrun_runs_each_shipped_file_headless(n, tmp_path):
     """The command line route: bdrun FILE.bd (a separate process, no display) with
-    simulate's solver settings gives simulate's numbers (20 s)."""
-    T = 20.0
+    simulate's solver settings gives simulate's numbers (10 s)."""
+    T = 10.0
     o = _bdrun(BD_DIR / PAPER_FILES[n], T, tmp_path / "out.pkl", timeout=180)
     t_ref, x_ref = _simulated_states(n, T)
     assert list(o.xnames) == ([f"robot:{s}" for s in ("x", "y", "psi", "u", "w")[:3 if n == 1 else 5]]
@@ -131,7 +131,7 @@ def test_bdrun_runs_each_shipped_file_headless(n, tmp_path):
 @pytest.mark.slow
 def test_bdrun_full_paper_run_4(tmp_path, paper_run):
     """The paper's full simulation 4 (200 s, the update switched on at 100 s: past the
-    20 s runs above), through bdrun, against unidyn.simulate(Scenario.paper(4))."""
+    10 s runs above), through bdrun, against unidyn.simulate(Scenario.paper(4))."""
     o = _bdrun(BD_DIR / PAPER_FILES[4], 200.0, tmp_path / "out.pkl", timeout=600)
     t_ref, x_ref = _states(paper_run(4), 4)
     x = np.asarray(o.x)
