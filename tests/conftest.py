@@ -32,7 +32,7 @@ def once(tmp_path_factory):
     # under xdist each worker's folder lies in the session's; without, it is the session's
     root = base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
 
-    def get(name: str, make) -> "os.PathLike":
+    def get(name: str, make):
         folder = root / f"once-{name}"
         failed = root / f"once-{name}.failed"
         with FileLock(str(folder) + ".lock"):
@@ -57,17 +57,14 @@ def paper_run(once):
     200 s runs (Section 5), simulated once a test session (:func:`once`). The Section 5
     claims and the .bd files' 200 s reference both use it."""
     import pickle
-    done = {}
 
     def make(n, folder):
         run = unidyn.simulate(unidyn.Scenario.paper(n), progress=False)
         (folder / "result.pickle").write_bytes(pickle.dumps(run))
 
     def get(n: int):
-        if n not in done:
-            folder = once(f"paper-run-{n}", lambda f: make(n, f))
-            done[n] = pickle.loads((folder / "result.pickle").read_bytes())
-        return done[n]
+        folder = once(f"paper-run-{n}", lambda f: make(n, f))
+        return pickle.loads((folder / "result.pickle").read_bytes())
     return get
 
 
@@ -80,10 +77,6 @@ def distributions(once):
     return next(folder.glob("dist/unidyn-*.tar.gz")), next(folder.glob("dist/unidyn-*.whl"))
 
 
-#: the docs build's tests (tests/test_docs.py), whose build runs every notebook
-DOCS_BUILD_TESTS = "test_docs.py::test_built_"
-
-
 @pytest.hookimpl(trylast=True)  # after -m and -k have chosen the session's tests
 def pytest_collection_modifyitems(config, items):
     """Each notebook runs once a session: where the docs build is among the session's
@@ -91,7 +84,8 @@ def pytest_collection_modifyitems(config, items):
     install does, with ggplot set first, and checks what tests/test_notebooks.py checks
     of a run; that module's runs are then skipped, naming the build."""
     import importlib.util
-    if not any(DOCS_BUILD_TESTS in item.nodeid for item in items):
+    if not any("built" in item.fixturenames for item in items  # tests/test_docs.py's build
+               if item.nodeid.split("::")[0].endswith("test_docs.py")):
         return
     if any(importlib.util.find_spec(m) is None for m in ("sphinx", "myst_nb", "sphinxarg")):
         return

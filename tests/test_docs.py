@@ -145,17 +145,6 @@ def _copy_site_sources(dest: Path) -> None:
                 shutil.copyfile(src, target)
 
 
-def _ggplot_first(tmp: Path) -> Path:
-    """An IPython folder whose kernels start with matplotlib's ggplot style set, as
-    roboticstoolbox's plotting module sets it for a whole process when loaded: the
-    notebooks' figures must keep unidyn's style all the same
-    (:func:`test_notebook_figures_keep_unidyn_style`)."""
-    startup = tmp / "ipython" / "profile_default" / "startup"
-    startup.mkdir(parents=True)
-    (startup / "00-ggplot.py").write_text("import matplotlib.pyplot as plt\nplt.style.use('ggplot')\n")
-    return tmp / "ipython"
-
-
 @pytest.fixture(scope="module")
 def built(once, distributions):
     """The README's docs build, run as a reader of a release would: unidyn installed from
@@ -184,7 +173,8 @@ def _build_site(tmp: Path, wheel: Path) -> None:
     # numba's cache is keyed on the compiled functions' files, which this install has
     # anew: the batch engine compiles once for the build, into a folder of the build's own
     env = {k: v for k, v in os.environ.items() if k not in ("BDSIMPATH", "PYTHONPATH")}
-    env.update(MPLBACKEND="Agg", NUMBA_CACHE_DIR=str(tmp / "numba"), IPYTHONDIR=str(_ggplot_first(tmp)))
+    from test_notebooks import ggplot_first
+    env.update(MPLBACKEND="Agg", NUMBA_CACHE_DIR=str(tmp / "numba"), IPYTHONDIR=str(ggplot_first(tmp)))
     r = subprocess.run([str(python), *args], cwd=sources, capture_output=True, text=True,
                        env=env, timeout=900)
     assert r.returncode == 0, (r.stdout[-3000:] + "\n" + r.stderr[-5000:])
@@ -256,15 +246,13 @@ def test_built_site_holds_every_notebook_and_guide(built):
 
 @pytest.mark.slow
 def test_notebook_figures_keep_unidyn_style(built):
-    """The build's kernels start with ggplot set (:func:`_ggplot_first`): no figure a
-    notebook draws shows ggplot's grey axes."""
-    from test_notebooks import grey_fraction
+    """The build's kernels start with ggplot set (test_notebooks.ggplot_first): no figure
+    a notebook draws shows ggplot's grey axes."""
+    from test_notebooks import assert_no_ggplot_grey
     for nb in NOTEBOOKS:
         page = _text(built / "notebooks" / f"{nb.stem}.html")
         pngs = sorted(set(re.findall(r'src="\.\./(_images/[0-9a-f]{64}\.png)"', page)))
-        assert pngs, f"{nb.name}: its page shows no figure"
-        grey = [round(grey_fraction((built / f).read_bytes()), 3) for f in pngs]
-        assert max(grey) < 0.05, (nb.name, grey)
+        assert_no_ggplot_grey([(built / f).read_bytes() for f in pngs], nb.name)
 
 
 @pytest.mark.slow
