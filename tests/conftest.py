@@ -79,14 +79,19 @@ def distributions(once):
 
 @pytest.hookimpl(trylast=True)  # after -m and -k have chosen the session's tests
 def pytest_collection_modifyitems(config, items):
-    """Each notebook runs once a session: where the docs build is among the session's
-    tests and can run (the docs extra installed), it runs every notebook as a reader's
-    install does, with ggplot set first, and checks what tests/test_notebooks.py checks
-    of a run; that module's runs are then skipped, naming the build."""
+    """The docs build, the session's longest task (minutes, on one worker), starts first:
+    begun last, it would keep one worker busy while the others, done, wait for it (or
+    for its result). And each notebook runs once a session: where the docs build is
+    among the session's tests and can run (the docs extra installed), it runs every
+    notebook as a reader's install does, with ggplot set first, and checks what
+    tests/test_notebooks.py checks of a run; that module's runs are then skipped,
+    naming the build."""
     import importlib.util
-    if not any("built" in item.fixturenames for item in items  # tests/test_docs.py's build
-               if item.nodeid.split("::")[0].endswith("test_docs.py")):
+    docs = [item for item in items  # tests/test_docs.py's build
+            if "built" in item.fixturenames and item.nodeid.split("::")[0].endswith("test_docs.py")]
+    if not docs:
         return
+    items[:] = docs + [item for item in items if item not in docs]
     if any(importlib.util.find_spec(m) is None for m in ("sphinx", "myst_nb", "sphinxarg")):
         return
     skip = pytest.mark.skip(reason="run by the docs build of this session (tests/test_docs.py), "
