@@ -208,12 +208,17 @@ def as_text(text: str, limit: int = 60) -> str:
 
 
 def _measure(fig) -> None:
-    """Lay ``fig`` out for measuring its artists, without rendering. A legend wider
-    than its axes, drawn only to be measured, can leave constrained layout no room for
+    """Put the axes of ``fig`` where a draw puts them (its layout engine, if any, then
+    each axes' aspect), for measuring its artists without drawing them. A legend wider
+    than its axes, placed only to be measured, can leave constrained layout no room for
     a moment; its warning is not the user's concern."""
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", "constrained_layout not applied")
-        fig.draw_without_rendering()
+    engine = fig.get_layout_engine()
+    if engine is not None:
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", "constrained_layout not applied")
+            engine.execute(fig)
+    for ax in fig.axes:
+        ax.apply_aspect()
 
 
 def legend(ax, *, outside=None, fallback="right", **kwargs):
