@@ -94,6 +94,27 @@ def test_legend_covers_no_data_point(seed):
     assert not inside.any()
 
 
+def test_legend_beside_equal_axes_covers_no_data_point():
+    """A path figure's equal axes take their shape when drawn: the legend is measured
+    against that shape, not the box constrained layout gives them (a flat path leaves no
+    corner where the legend fits, and the legend goes below)."""
+    with figstyle.style():
+        fig, ax = plt.subplots(figsize=figstyle.size(1, 1.05))
+        x = np.linspace(0.0, 0.2, 400)
+        y = 0.01 * np.sin(40 * x)
+        ax.plot(x, y, label="path of h")
+        ax.plot(x[::40], -y[::40], "o", ms=2, label="samples")
+        ax.set_aspect("equal", adjustable="box")
+        leg = figstyle.legend(ax, fallback="below")
+        fig.canvas.draw()
+        box = leg.get_window_extent()
+        pts = ax.transData.transform(np.column_stack([x, y]))
+    plt.close(fig)
+    inside = (pts[:, 0] >= box.x0) & (pts[:, 0] <= box.x1) & (pts[:, 1] >= box.y0) & (
+        pts[:, 1] <= box.y1)
+    assert not inside.any()
+
+
 def _overlap(a, b):
     return a.x0 < b.x1 and b.x0 < a.x1 and a.y0 < b.y1 and b.y0 < a.y1
 
