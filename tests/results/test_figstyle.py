@@ -70,6 +70,12 @@ def test_plain_log_tick_labels():
     assert not any(minor)
 
 
+def _covered(pts, box):
+    """Which display points ``pts`` (N, 2) lie within ``box`` (a matplotlib Bbox)."""
+    return (pts[:, 0] >= box.x0) & (pts[:, 0] <= box.x1) & (pts[:, 1] >= box.y0) & (
+        pts[:, 1] <= box.y1)
+
+
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_legend_covers_no_data_point(seed):
     rng = np.random.default_rng(seed)
@@ -89,9 +95,7 @@ def test_legend_covers_no_data_point(seed):
         box = leg.get_window_extent()
         pts = ax.transData.transform(np.column_stack([x[keep], y[keep]]))
     plt.close(fig)
-    inside = (pts[:, 0] >= box.x0) & (pts[:, 0] <= box.x1) & (pts[:, 1] >= box.y0) & (
-        pts[:, 1] <= box.y1)
-    assert not inside.any()
+    assert not _covered(pts, box).any()
 
 
 def test_legend_beside_equal_axes_covers_no_data_point():
@@ -110,9 +114,7 @@ def test_legend_beside_equal_axes_covers_no_data_point():
         box = leg.get_window_extent()
         pts = ax.transData.transform(np.column_stack([x, y]))
     plt.close(fig)
-    inside = (pts[:, 0] >= box.x0) & (pts[:, 0] <= box.x1) & (pts[:, 1] >= box.y0) & (
-        pts[:, 1] <= box.y1)
-    assert not inside.any()
+    assert not _covered(pts, box).any()
 
 
 def _overlap(a, b):
