@@ -3,10 +3,12 @@ r"""The batch engine: many continuous-control scenarios integrated at once
 
 Each noise interval [k Ts, (k+1) Ts) of a run is integrated on its own, the noise held
 over it as in the bdsim diagram, by the Dormand-Prince 5(4) pair with step-size control
-(:mod:`unidyn.engine.kernels`, compiled or plain: :func:`backend_for`): whatever makes a
-step inaccurate shortens it, so no rate of the loop has to be foreseen. Each run is
-checked against a second one at looser tolerances (:data:`PROMISE`). The runs'
-parameters, noise and initial state come from :class:`unidyn.engine.rhs.ClosedLoop`.
+(:mod:`unidyn.engine.kernels`, compiled or plain: :func:`backend_for`); the metrics are
+accumulated at every sample. Each run's numerical error is estimated from two more runs
+(:func:`simulate_batch`): its companion at :data:`CHECK_FACTOR` times the tolerances,
+and the same with the starting point moved by :data:`PERTURBATION`, which tells a run
+that amplifies perturbations (``Result.sensitive``). The runs' parameters, noise and
+initial state come from :class:`unidyn.engine.rhs.ClosedLoop`.
 """
 
 from __future__ import annotations
@@ -18,19 +20,33 @@ from concurrent.futures import ThreadPoolExecutor, wait
 import numpy as np
 
 from .._errors import SimulationInterrupted
-from .._validate import DEFAULT_ATOL, DEFAULT_RTOL, ValidationError, tolerances
+from .._validate import ValidationError, tolerances
 from ..model.equations import TRAJECTORY_KINDS
 from ..model.scenario import ALWAYS_LOGGED, Scenario
-from ..results.result import Result
+from ..results.result import INTEGRAL_NAMES, Result
 from .rhs import ClosedLoop
 
-__all__ = ["simulate_batch", "backend_for", "MAX_STEPS"]
+__all__ = ["simulate_batch", "backend_for", "MAX_STEPS", "ACCURACY", "STATUS_MESSAGES"]
 
-#: A complete result's IAE is within PROMISE (relative), its theta_hat within PROMISE,
-#: of its check: the run at CHECK_FACTOR times the tolerances, less accurate, whose
-#: difference bounds the result's error; else it is ``complete=False``, saying so.
-PROMISE = 1e-4
+#: The promise: a run that is not sensitive has a numerical error estimate of at most
+#: ACCURACY (relative) in each metric and in theta_hat, and its true error is within
+#: twice its estimate. Runs whose estimate is larger are run again at tolerances
+#: TIGHTEN times tighter, down to :data:`RTOL_FLOOR`.
+ACCURACY = 1e-4
+#: The batch engine's default tolerances: where the estimate meets :data:`ACCURACY`
+#: for most runs at the least cost (``benchmarks/engines.py --accuracy`` measures it).
+DEFAULT_RTOL, DEFAULT_ATOL = 1e-6, 1e-8
+#: The companion run's tolerances are CHECK_FACTOR times the run's.
 CHECK_FACTOR = 10.0
+#: The sensitivity probe: the run again, its starting point moved by this much (m,
+#: in x and y). A run whose metrics move by more than :data:`ACCURACY` under it is
+#: ``sensitive``: no tolerance converges it.
+PERTURBATION = 1e-12
+#: Runs are tightened by this factor while their estimate misses :data:`ACCURACY`
+#: (CHECK_FACTOR: the run before is the companion of the one after).
+TIGHTEN = CHECK_FACTOR
+#: The tightest rtol runs are tightened to (atol in proportion).
+RTOL_FLOOR = 1e-12
 #: The most steps (kept or not) a sample interval may take before its run stops.
 MAX_STEPS = 10_000
 BACKENDS = ("auto", "compiled", "plain")
@@ -62,35 +78,52 @@ def backend_for(scenarios, backend: str = "auto") -> str:
 def simulate_batch(scenarios, *, rtol: float = DEFAULT_RTOL, atol: float = DEFAULT_ATOL,
                    backend: str = "auto", progress=None) -> list:
     """Simulate many scenarios at once; returns one :class:`~unidyn.Result` per scenario,
-    in order.
+    in order, each with its metrics and their estimated numerical error.
 
     Scenarios are grouped by (T, Ts, log_every, log_dtype, log_series), each group in
     one call of the kernels; a run's numbers do not depend on which runs share its call
-    or on what the process ran before (bit for bit). Continuous control only.
+    or on what the process ran before (bit for bit). Continuous control only. The
+    metrics are accumulated at every sample: ``log_every`` thins the stored series only.
 
-    A run that diverges (non-finite, or beyond :meth:`~unidyn.Scenario.divergence_bounds`)
-    or whose error cannot be held within the tolerances in :data:`MAX_STEPS` steps of a
-    sample interval stops there, ``complete=False``, with the samples up to the failure
-    and a message naming the cause and what to change; the other runs continue (a run
-    that stopped is not checked: its check would cost as much and tell nothing). A run
-    that differs from its check (the same run at :data:`CHECK_FACTOR` times the
-    tolerances) by more than :data:`PROMISE` in IAE (relative) or theta_hat is returned
-    whole but ``complete=False``, its message giving the differences.
+    **Numerical error.** Each run is integrated at ``rtol``, ``atol``, and again with
+    its starting point moved by :data:`PERTURBATION` m (the probe). A run whose
+    metrics the probe moves by more than :data:`ACCURACY` is ``sensitive``: it amplifies
+    perturbations so that no tolerance converges it, its ``numerical_error`` is how far
+    the probe moved it, and its spread over noise seeds is the uncertainty to quote.
+    The others are integrated once more at :data:`CHECK_FACTOR` times the tolerances
+    (the companion): their ``numerical_error`` is the largest difference of the run
+    from its probe and its companion (the integral metrics together, the final error
+    and theta_hat each, relative to their size). The promise: a run that is not
+    sensitive has an estimate of at most :data:`ACCURACY` (runs that miss it are run
+    again :data:`TIGHTEN` times tighter, the run before as companion, down to rtol
+    :data:`RTOL_FLOOR`), and its true error is within twice its estimate; a run where
+    that cannot be reached says so in its ``message``.
 
-    :param rtol: relative tolerance, as ``solve_ivp``'s and :func:`unidyn.simulate`'s
+    **Runs that stop.** A run that diverges (non-finite, or beyond
+    :meth:`~unidyn.Scenario.divergence_bounds`) or whose error cannot be held within
+    the tolerances in :data:`MAX_STEPS` steps of a sample interval stops there,
+    ``complete=False``, with the samples and the metrics up to the stop and a message
+    naming the cause and what to change (:data:`STATUS_MESSAGES`); the other runs go
+    on. Its error is not estimated (``numerical_error`` None).
+
+    :param rtol: relative tolerance of the steps, as ``solve_ivp``'s (default 1e-6:
+        :data:`DEFAULT_RTOL`; the diagram's default is 1e-8, but here the estimate
+        tells, and tightens, what is not accurate enough)
     :param atol: absolute tolerance (m, rad, m/s, rad/s and theta's units alike)
     :param backend: ``"compiled"``, ``"plain"`` or ``"auto"`` (:func:`backend_for`;
         ``Result.backend`` says which ran; the two agree to the tolerance)
     :param progress: ``None`` (a tqdm bar on a terminal for long calls), ``False``,
-        ``True``, or a callable ``f(done_samples, total_samples)``
+        ``True``, or a callable ``f(done_samples, total_samples)`` (the total grows
+        where runs are tightened)
 
     A call's results share one log array per group (views, no copy): ``np.array(r.pose)``
     copies what is to outlive the rest. ``Result.steps`` counts the steps a run kept,
-    ``Result.rejected`` those taken again shorter.
+    ``Result.rejected`` those taken again shorter (of the run returned).
 
     :raises SimulationInterrupted: on Ctrl-C (a KeyboardInterrupt); its ``results``
         hold one entry per scenario: the computed part, marked incomplete (``None``
-        for a run not yet started); ``result`` is the first of them
+        for a run not yet started; a run computed whole keeps ``complete=True``, its
+        error not estimated if the interrupt came first); ``result`` is the first
     """
     scs = list(scenarios)
     if not scs:
@@ -111,54 +144,98 @@ def simulate_batch(scenarios, *, rtol: float = DEFAULT_RTOL, atol: float = DEFAU
     groups = {}
     for i, s in enumerate(scs):
         groups.setdefault((s.T, s.Ts, s.log_every, s.log_dtype, s.log_series), []).append(i)
-    bar = _Progress(progress, sum(s.steps for s in scs),
-                    2 * sum(scs[g[0]].steps for g in groups.values()))
+    work = sum(s.steps for s in scs)
+    bar = _Progress(progress, work, 3 * work)
     results = [None] * len(scs)
-    interrupted = False
     try:
         for idx in groups.values():
-            passes = [{}, {}]  # the results, then the checks of those that completed
-            todo = idx
-            for p, factor in enumerate((1.0, CHECK_FACTOR)):
-                if not todo:
-                    break
-                loop = ClosedLoop([scs[i] for i in todo])
-                runs, tol = _runs(engine, loop), (rtol * factor, atol * factor)
-                try:
-                    _integrate(engine, loop, runs, tol, compiled, bar)
-                except KeyboardInterrupt:
-                    interrupted = True
-                passes[p] = dict(zip(todo, _results(engine, loop, runs, *tol, label)))
-                if interrupted:
-                    break
-                todo = [i for i in todo if passes[p][i].complete]
-            for i in idx:
-                r, check = passes[0][i], passes[1].get(i)
-                results[i] = r if interrupted or check is None else _checked(r, check, rtol)
-            if interrupted:
-                break
-    finally:
-        bar.close()
-    if interrupted:
+            _group(engine, [scs[i] for i in idx], idx, rtol, atol, label, compiled, bar, results)
+    except KeyboardInterrupt:
         done = [r for r in results if r is not None]
         raise SimulationInterrupted(
             f"interrupted: {sum(r.complete for r in done)} of {len(scs)} run(s) complete; "
-            f"the computed part of the others is kept, marked incomplete", results=results)
+            f"the computed part of the others is kept, marked incomplete",
+            results=results) from None
+    finally:
+        bar.close()
     return results
+
+
+def _group(engine, scs, idx, rtol, atol, label, compiled, bar, results):
+    """Run one group (scenarios sharing the kernels' call) into ``results[idx]``: the
+    runs, their probes, the companions of those not sensitive; then the runs whose
+    estimate misses :data:`ACCURACY` again, :data:`TIGHTEN` times tighter, each with
+    its previous run as companion."""
+    tol = (rtol, atol)
+    main = _pass(engine, scs, tol, 0.0, label, compiled, bar, results, idx)
+    for i, r in zip(idx, main):
+        results[i] = r
+    done = [j for j, r in enumerate(main) if r.complete]
+    if not done:
+        return
+    probe = _pass(engine, [scs[j] for j in done], tol, PERTURBATION, label, compiled, bar)
+    steady = []  # not sensitive: their error is estimated from companions
+    for j, q in zip(done, probe):
+        judged = _sensitive(main[j], q)
+        if judged is not None:
+            results[idx[j]] = judged
+        else:
+            steady.append(j)
+    if not steady:
+        return
+    loose = (tol[0] * CHECK_FACTOR, tol[1] * CHECK_FACTOR)
+    check = _pass(engine, [scs[j] for j in steady], loose, 0.0, label, compiled, bar)
+    companions = {j: (c, q) for j, c, q in zip(steady, check, [probe[done.index(j)] for j in steady])}
+    while steady:
+        tighter = (tol[0] / TIGHTEN, tol[1] / TIGHTEN)
+        again = []
+        for j in steady:
+            judged = _estimated(results[idx[j]], companions[j], tol[0],
+                                can_tighten=tighter[0] >= RTOL_FLOOR)
+            if judged is None:
+                again.append(j)
+            else:
+                results[idx[j]] = judged
+        if not again:
+            return
+        bar.grow(sum(scs[j].steps for j in again))
+        rerun = _pass(engine, [scs[j] for j in again], tighter, 0.0, label, compiled, bar)
+        for j, r in zip(again, rerun):
+            companions[j] = (results[idx[j]] if r.complete else None,)
+            results[idx[j]] = r if r.complete else results[idx[j]]
+        steady, tol = [j for j in again if companions[j][0] is not None], tighter
+
+
+def _pass(engine, scs, tol, shift, label, compiled, bar, results=None, where=()):
+    """One pass of the kernels over ``scs`` at tolerances ``tol``, their starting
+    points moved by ``shift`` m in x and y; one Result per run. On Ctrl-C, the
+    computed part is put into ``results[where]`` (the run's own pass only) first."""
+    loop = ClosedLoop(scs)
+    runs = _runs(engine, loop, compiled)
+    if shift:
+        runs.state[:, 0:2] += shift
+    try:
+        _integrate(engine, loop, runs, tol, compiled, bar)
+    except KeyboardInterrupt:
+        if results is not None:
+            for i, r in zip(where, _results(engine, loop, runs, *tol, label)):
+                results[i] = r
+        raise
+    return _results(engine, loop, runs, *tol, label)
 
 
 class _Progress:
     """tqdm over samples, or a user callable, or nothing."""
 
-    def __init__(self, progress, work: int, total: int):
-        self.f, self.bar, self.done, self.total = None, None, 0, total
+    def __init__(self, progress, work: int, total: float):
+        self.f, self.bar, self.done, self.total = None, None, 0, int(total)
         if callable(progress) and not isinstance(progress, bool):
             self.f = progress
         elif progress is True or (progress is None and work >= PROGRESS_SAMPLES):
             import sys
 
             from tqdm import tqdm
-            self.bar = tqdm(total=total, unit="sample", desc="unidyn batch", leave=False,
+            self.bar = tqdm(total=self.total, unit="sample", desc="unidyn batch", leave=False,
                             disable=None if progress is None else False, file=sys.stderr,
                             mininterval=0.5)
 
@@ -169,12 +246,17 @@ class _Progress:
         if self.bar is not None:
             self.bar.update(n)
 
+    def grow(self, n: float):
+        self.total += int(n)
+        if self.bar is not None:
+            self.bar.total = self.total
+
     def close(self):
         if self.bar is not None:
             self.bar.close()
 
 
-def _runs(kernels, loop: ClosedLoop):
+def _runs(kernels, loop: ClosedLoop, compiled: bool):
     """The arrays of ``loop``'s runs (:data:`unidyn.engine.kernels.Runs`), at t = 0."""
     B, sc0 = loop.B, loop.scenarios[0]
     columns, _ = kernels.log_layout(ALWAYS_LOGGED + sc0.log_series)  # the series asked for
@@ -184,7 +266,10 @@ def _runs(kernels, loop: ClosedLoop):
         state=loop.initial_state(), params=loop.P, h=np.zeros(B), noise_pos=loop.pos_noise,
         noise_vel=loop.vel_noise, bounds=np.array([sc.divergence_bounds() for sc in loop.scenarios]),
         log_columns=columns, log=np.full((B, rows, len(columns)), np.nan, dtype=sc0.log_dtype),
-        status=count(), last=count(), steps=count(), rejected=count())
+        integrals=np.full((B, rows, len(kernels.INTEGRALS)), np.nan), acc=np.zeros((B, 7)),
+        status=count(), last=count(), steps=count(), rejected=count(),
+        # the Python-function references, for the plain copy (compiled code has none)
+        references=() if compiled else tuple(loop.trajectories))
 
 
 def _integrate(kernels, loop: ClosedLoop, runs, tol, compiled: bool, bar):
@@ -192,7 +277,6 @@ def _integrate(kernels, loop: ClosedLoop, runs, tol, compiled: bool, bar):
     sample intervals; compiled, a thread per core takes its share of the runs (the GIL
     released), and Ctrl-C waits for the slice to end, so every run's log stays whole."""
     n = loop.steps
-    kernels.PYTHON_REFERENCES[:] = loop.trajectories  # the plain copy's, for FunctionTrajectory
     threads = min(loop.B, os.cpu_count() or 1) if compiled else 1
     order = np.arange(loop.B)
     shares = [np.ascontiguousarray(order[j::threads]) for j in range(threads)]
@@ -216,79 +300,134 @@ def _integrate(kernels, loop: ClosedLoop, runs, tol, compiled: bool, bar):
                             f.result()
                     finally:
                         wait(slices)
-            bar.advance(k1 - k)
+            bar.advance((k1 - k) * loop.B)
             k = k1
-            if k >= n or not (runs.status == kernels.OK).any():
+            if k >= n or not (runs.status == kernels.Status.OK).any():
                 break
 
 
-_CAUSE = {
-    1: "non-finite state (diverged)",
-    6: "the error could not be held within rtol = {rtol:g}, atol = {atol:g} in "
-       + f"{MAX_STEPS:,}" + " steps of the sample interval from here (a loop too stiff for "
-       "an explicit method, or diverging); use a looser rtol and atol, a shorter Ts, or "
-       "unidyn.simulate(..., method='Radau') (the diagram with a stiff solver)",
+#: What a run that stopped says, by its :class:`unidyn.engine.kernels.Status` (the
+#: divergence bounds' messages are :meth:`unidyn.Scenario.divergence`'s).
+STATUS_MESSAGES = {
+    "NONFINITE": "non-finite state (diverged)",
+    "STEP": "the error could not be held within rtol = {rtol:g}, atol = {atol:g} in "
+            + f"{MAX_STEPS:,}" + " steps of the sample interval from here (a loop too stiff "
+            "for an explicit method, or diverging); use a looser rtol and atol, a shorter Ts, "
+            "or unidyn.simulate(..., method='Radau') (the diagram with a stiff solver)",
 }
+#: The state each divergence bound is on, by status: (its index in the bounds, what
+#: is measured from the last logged row).
+_BOUND = {"POSITION": (0, "position"), "SPEED_U": (1, "u"), "SPEED_W": (2, "w")}
 
 
-def _checked(r: Result, check: Result, rtol: float) -> Result:
-    """r, or r marked incomplete where its check (the same run at :data:`CHECK_FACTOR`
-    times the tolerances) differs from it by more than :data:`PROMISE`."""
-    if not r.complete:
-        return r
-    label = r.scenario.name or r.scenario.case
-    if not check.complete:
-        why = f"its check at rtol = {CHECK_FACTOR * rtol:g} stopped: {check.message}"
+def _relative(a: float, b: float, scale: float) -> float:
+    """|a - b| relative to ``scale`` (0 where both are equal, inf where only the scale
+    is 0)."""
+    d = abs(a - b)
+    return d / abs(scale) if scale else (0.0 if d == 0 else float("inf"))
+
+
+def _differences(r: Result, other: Result) -> dict:
+    """How far ``other``'s metrics and final theta_hat are from ``r``'s, relative to
+    their size: the integral metrics all by the largest of their differences (one
+    metric's difference may vanish by chance; all of them rarely do), the final error
+    relative to the largest error of the run."""
+    spread = max(_relative(r.metrics[k], other.metrics[k], r.metrics[k]) for k in INTEGRAL_NAMES)
+    out = {k: spread for k in INTEGRAL_NAMES}
+    out["error_final"] = _relative(r.metrics["error_final"], other.metrics["error_final"],
+                                   float(np.max(r.error, initial=0.0)))
+    if r.theta_hat is not None and len(r.t) and len(other.t):
+        a, b = np.asarray(r.theta_hat[-1], float), np.asarray(other.theta_hat[-1], float)
+        out["theta_hat"] = _relative(float(np.max(np.abs(a - b))), 0.0, float(np.max(np.abs(a))))
     else:
-        a, b = r.metrics["iae"], check.metrics["iae"]
-        iae = abs(a - b) / abs(a) if a else abs(a - b)
-        theta = (float(np.max(np.abs(r.theta_hat - check.theta_hat), initial=0.0))
-                 if r.theta_hat is not None else 0.0)
-        if iae <= PROMISE and theta <= PROMISE:
-            return r
-        why = (f"at rtol = {rtol:g} and {CHECK_FACTOR * rtol:g} its IAE differs by {iae:.1e} "
-               f"(relative) and theta_hat by {theta:.1e}")
-    message = (f"every sample computed, but not within {PROMISE:g} of a converged solution: "
-               f"{why}; a tighter rtol and atol may reach it (a loop sensitive to its initial "
-               f"state, as an adaptive one at high gains can be, reaches it at no tolerance) "
-               f"(scenario {label})")
-    return dataclasses.replace(r, complete=False, message=message)
+        out["theta_hat"] = 0.0
+    return out
+
+
+def _sensitive(r: Result, probe: Result):
+    """``r`` marked sensitive, its error the probe's differences, where the probe (the
+    run with its starting point moved by :data:`PERTURBATION`) moves a metric by more
+    than :data:`ACCURACY`; else None."""
+    if not probe.complete:
+        return dataclasses.replace(
+            r, message=f"every sample computed, its numerical error not estimated: the "
+                       f"same run with its start moved by {PERTURBATION:g} m stopped "
+                       f"({probe.message})")
+    moved = _differences(r, probe)
+    named = {k: abs(r.metrics[k] - probe.metrics[k]) / abs(r.metrics[k])
+             for k in INTEGRAL_NAMES if r.metrics[k]}
+    if max(moved.values()) <= ACCURACY:
+        return None
+    worst = max(named, key=named.get) if named else max(moved, key=moved.get)
+    amount = named.get(worst, moved[worst])
+    message = (f"sensitive: {worst.upper() if worst in INTEGRAL_NAMES else worst} moves "
+               f"{100 * amount:.2g} % under a {PERTURBATION:g} m perturbation of the starting "
+               f"point; no tolerance converges it, and the spread over noise seeds is the "
+               f"uncertainty to quote (scenario {r.scenario.name or r.scenario.case})")
+    return dataclasses.replace(r, numerical_error=moved, sensitive=True, message=message)
+
+
+def _estimated(r: Result, companions, rtol: float, can_tighten: bool):
+    """``r`` with its numerical error, the largest difference from its companions
+    (runs at looser tolerances); None where that misses :data:`ACCURACY` and it can
+    be tightened (it is then run again)."""
+    label = r.scenario.name or r.scenario.case
+    if any(not c.complete for c in companions):
+        stopped = next(c for c in companions if not c.complete)
+        return dataclasses.replace(
+            r, message=f"every sample computed, its numerical error not estimated: its "
+                       f"companion at looser tolerances stopped ({stopped.message})")
+    each = [_differences(r, c) for c in companions]
+    error = {k: max(d[k] for d in each) for k in each[0]}
+    message = ""
+    if max(error.values()) > ACCURACY:
+        if can_tighten:
+            return None
+        worst = max(error, key=error.get)
+        message = (f"numerical error of {worst} estimated at {error[worst]:.1e}, above "
+                   f"{ACCURACY:g} at rtol = {rtol:g}, the tightest the engine goes to "
+                   f"(scenario {label})")
+    return dataclasses.replace(r, numerical_error=error, sensitive=False, message=message)
 
 
 def _results(kernels, loop: ClosedLoop, runs, rtol: float, atol: float, backend: str) -> list:
-    """One Result per run; a run that stopped keeps its samples up to the stop (not a
-    non-finite one, nor the end of an interval that failed) and is incomplete."""
+    """One Result per run; a run that stopped keeps its samples and metrics up to the
+    stop (not a non-finite sample, nor the end of an interval that failed) and is
+    incomplete."""
+    Status = kernels.Status
     L = loop.scenarios[0].log_every
     _, layout = kernels.log_layout(ALWAYS_LOGGED + loop.scenarios[0].log_series)
     out = []
     for i, sc in enumerate(loop.scenarios):
-        status, last = int(runs.status[i]), int(runs.last[i])
+        status, last = Status(int(runs.status[i])), int(runs.last[i])
         nrow = last // L + 1
         t = np.arange(nrow) * (L * loop.Ts)
-        if status not in (kernels.OK, kernels.STEP) and last % L != 0:  # the sample it stopped at
+        if status not in (Status.OK, Status.STEP) and last % L != 0:  # the sample it stopped at
             nrow += 1
             t = np.r_[t, last * loop.Ts]
-        log = runs.log[i, :nrow]  # views of the log (no copy)
-        if status == kernels.NONFINITE:  # drop the non-finite sample
-            log, t = log[:-1], t[:-1]
+        log, integrals = runs.log[i, :nrow], runs.integrals[i, :nrow]  # views (no copy)
+        if status == Status.NONFINITE:  # drop the non-finite sample
+            log, integrals, t = log[:-1], integrals[:-1], t[:-1]
         # every sample computed: complete, even if Ctrl-C came after the last
-        complete = status == kernels.OK and last == loop.steps
+        complete = status == Status.OK and last == loop.steps
         label = sc.name or sc.case
         t_stop = last * loop.Ts
         if complete:
             message = ""
-        elif status == kernels.OK:
+        elif status == Status.OK:
             message = f"interrupted at t = {t_stop:.6g} s (scenario {label})"
-        else:
+        elif status.name in _BOUND:
+            which, what = _BOUND[status.name]
             last_row = runs.log[i, nrow - 1].astype(float)
             (x, y, _), (u, w) = last_row[layout["pose"]], last_row[layout["velocity"]]
-            v = {2: np.hypot(x, y) if nrow else np.nan, 3: abs(u), 4: abs(w)}.get(status, 0.0)
-            b = runs.bounds[i, status - 2] if 1 < status < 5 else 0.0
-            cause = (Scenario.divergence(status - 2, v, b) if 1 < status < 5
-                     else _CAUSE[status].format(rtol=rtol, atol=atol))
-            message = f"{cause} at t = {t_stop:.6g} s (scenario {label})"
+            value = {"position": np.hypot(x, y), "u": abs(u), "w": abs(w)}[what]
+            message = (f"{Scenario.divergence(which, value, runs.bounds[i, which])} "
+                       f"at t = {t_stop:.6g} s (scenario {label})")
+        else:
+            message = (f"{STATUS_MESSAGES[status.name].format(rtol=rtol, atol=atol)} "
+                       f"at t = {t_stop:.6g} s (scenario {label})")
         series = {k: log[:, layout[k]] if k in layout else None for k in kernels.LOG_SERIES}
         out.append(Result(scenario=sc, t=t, **series, engine="batch", complete=complete,
                           message=message, backend=backend, steps=int(runs.steps[i]),
-                          rejected=int(runs.rejected[i])))
+                          rejected=int(runs.rejected[i]), integrals=integrals))
     return out

@@ -12,7 +12,8 @@ from .. import __version__
 from . import plots
 from .folders import json_ready, staged_output, write_atomic
 
-__all__ = ["Result", "metrics", "distance", "write_atomic", "RESULT_FILES", "RUN_FILES"]
+__all__ = ["Result", "metrics", "integrals", "distance", "write_atomic", "RESULT_FILES",
+           "RUN_FILES", "METRIC_NAMES", "INTEGRAL_NAMES"]
 
 #: The files of a run's results (figures may join them: see :func:`unidyn.results.plots.save_figures`).
 RESULT_FILES = ("timeseries.csv", "summary.json")
@@ -22,20 +23,14 @@ RUN_FILES = RESULT_FILES + ("path.png", "error.png", "positions.png", "velocitie
                             "theta_hat.png", "animation.gif")
 
 
+#: The metrics that are integrals over the run, in the order of :func:`integrals`'
+#: columns; then :data:`METRIC_NAMES` adds the final error.
+INTEGRAL_NAMES = ("iae", "ise", "itae", "itse", "energy")
+METRIC_NAMES = INTEGRAL_NAMES + ("error_final",)
+
 #: Samples a metric is accumulated over at a time (float64), so that a long series
 #: in float32 needs no float64 copy of itself.
 _BLOCK = 1 << 16
-
-
-def _trapz(f, t) -> float:
-    """Trapezoidal integral of f(i0, i1) (float64 values of samples i0..i1-1) over t,
-    block by block."""
-    n, total = len(t), 0.0
-    for i0 in range(0, n - 1, _BLOCK):
-        i1 = min(n, i0 + _BLOCK + 1)
-        y = f(i0, i1)
-        total += float(np.sum(0.5 * (y[1:] + y[:-1]) * np.diff(t[i0:i1])))
-    return total
 
 
 def _floats(a) -> list:
@@ -58,8 +53,38 @@ def distance(a, b):
     return out
 
 
+def integrals(t, error, velocity) -> np.ndarray:
+    r"""The metrics' integrals from t[0] to each sample, (N, 5), float64, by the
+    trapezoidal rule on the samples given: the columns of :data:`INTEGRAL_NAMES`,
+    :math:`\int |\tilde h|`, :math:`\int |\tilde h|^2`, :math:`\int t|\tilde h|`,
+    :math:`\int t|\tilde h|^2`, :math:`\int (u^2 + \omega^2)` (see :func:`metrics`).
+    The engines accumulate the same at every sample whatever they log."""
+    t = np.asarray(t, dtype=float)
+    e, v = np.asarray(error), np.asarray(velocity)
+    out = np.zeros((len(t), len(INTEGRAL_NAMES)))
+    total = np.zeros(len(INTEGRAL_NAMES))
+    with np.errstate(over="ignore", invalid="ignore"):  # beyond floats: inf (null in files)
+        for i0 in range(0, max(len(t) - 1, 0), _BLOCK):  # a block at a time (float32 series)
+            i1 = min(len(t), i0 + _BLOCK + 1)
+            tb, eb = t[i0:i1], e[i0:i1].astype(float)
+            y = np.stack([eb, eb ** 2, tb * eb, tb * eb ** 2,
+                          np.sum(v[i0:i1].astype(float) ** 2, axis=-1)], axis=1)
+            steps = 0.5 * (y[1:] + y[:-1]) * np.diff(tb)[:, None]
+            out[i0 + 1:i1] = total + np.cumsum(steps, axis=0)
+            total = out[i1 - 1]
+    return out
+
+
+def _metrics_of(integrals_, error) -> dict:
+    """The metrics dict from integrals at the last sample and the error series."""
+    last = integrals_[-1] if len(integrals_) else np.full(len(INTEGRAL_NAMES), np.nan)
+    out = {k: float(v) for k, v in zip(INTEGRAL_NAMES, last)}
+    out["error_final"] = _floats(error[-1:])[0] if len(error) else float("nan")
+    return out
+
+
 def metrics(t, error, velocity) -> dict:
-    r"""The run's figures of merit (trapezoidal rule on the result grid).
+    r"""The run's figures of merit (trapezoidal rule on the samples given).
 
     - ``iae``: :math:`\int |\tilde h|\,dt`, the paper's IAE (Fig. 11), m·s
     - ``ise``: :math:`\int |\tilde h|^2 dt`, m²·s
@@ -67,19 +92,11 @@ def metrics(t, error, velocity) -> dict:
     - ``itse``: :math:`\int t\,|\tilde h|^2 dt`, m²·s² (FX44850's index)
     - ``energy``: :math:`\int (u^2 + \omega^2)\,dt` (mixed units, as a control-effort index)
     - ``error_final``: :math:`|\tilde h(T)|`, m
+
+    A :class:`Result`'s metrics are these over every sample of the run, whatever it
+    logged (:attr:`Result.integrals`).
     """
-    t = np.asarray(t, dtype=float)
-    e, v = np.asarray(error), np.asarray(velocity)
-    e64 = lambda i0, i1: e[i0:i1].astype(float)  # noqa: E731
-    with np.errstate(over="ignore", invalid="ignore"):  # beyond floats: inf (null in files)
-        return {
-            "iae": _trapz(e64, t),
-            "ise": _trapz(lambda i0, i1: e64(i0, i1) ** 2, t),
-            "itae": _trapz(lambda i0, i1: t[i0:i1] * e64(i0, i1), t),
-            "itse": _trapz(lambda i0, i1: t[i0:i1] * e64(i0, i1) ** 2, t),
-            "energy": _trapz(lambda i0, i1: np.sum(v[i0:i1].astype(float) ** 2, axis=-1), t),
-            "error_final": _floats(e[-1:])[0] if len(e) else float("nan"),
-        }
+    return _metrics_of(integrals(t, error, velocity), np.asarray(error))
 
 
 #: The unit of each metric, for printing.
@@ -107,12 +124,24 @@ class Result:
 
     ``v_d``, ``v_ref`` and ``theta_hat`` are ``None`` where the scenario's
     ``log_series`` leaves them out (the others are always there).
-    :ivar metrics: see :func:`metrics`; when the run did not complete every value is
-        ``None`` (metrics of a partial run are not a result)
-    :ivar partial_metrics: when the run did not complete, the metrics of the part that
-        was computed (``None`` for a complete run)
-    :ivar complete: False if the run stopped early (see ``message``)
-    :ivar message: why the run stopped early ("" for a complete run)
+    :ivar metrics: see :func:`metrics`, over every sample computed (``log_every``
+        thins the series, not the metrics); for a run that stopped, those of the part
+        computed (``complete`` says which)
+    :ivar integrals: the integral metrics from t = 0 at each logged sample, (N, 5),
+        float64 (:data:`INTEGRAL_NAMES`), accumulated at every sample: what
+        :meth:`window` subtracts
+    :ivar numerical_error: the estimated relative error of each metric and of the
+        final ``theta_hat`` (relative to its size; ``error_final`` relative to the
+        largest error of the run), from the batch engine's own estimate
+        (:func:`unidyn.simulate_batch`); ``None`` where not estimated (the diagram, a
+        run that stopped)
+    :ivar sensitive: True where the run amplifies perturbations so that no tolerance
+        converges it (the batch engine's probe; ``message`` says by how much): its
+        metrics are kept, and their spread over noise seeds is the uncertainty to quote
+    :ivar complete: True when every sample was computed; False if the run stopped
+        early (see ``message``)
+    :ivar message: why the run stopped early, or what limits its accuracy ("" when
+        nothing does)
     :ivar engine: ``"bdsim"`` (the diagram) or ``"batch"``
     :ivar backend: what actually integrated the run: ``"solve_ivp RK45"`` (or the
         solver method used) for the diagram, ``"compiled"`` or ``"plain"``
@@ -138,20 +167,20 @@ class Result:
     steps: int | None = None
     rejected: int | None = None
     backend: str = ""
+    integrals: np.ndarray | None = None
+    numerical_error: dict | None = None
+    sensitive: bool = False
     error: np.ndarray = field(init=False)
     metrics: dict = field(init=False)
-    partial_metrics: dict | None = field(init=False)
 
     def __post_init__(self):
         self.complete = bool(self.complete)
+        self.sensitive = bool(self.sensitive)
         self.message = str(self.message)
         self.error = distance(self.reference, self.pose)
-        computed = metrics(self.t, self.error, self.velocity)
-        if self.complete:
-            self.metrics, self.partial_metrics = computed, None
-        else:
-            self.metrics = {k: None for k in computed}
-            self.partial_metrics = computed
+        if self.integrals is None:  # from the series (every sample, where all are logged)
+            self.integrals = integrals(self.t, self.error, self.velocity)
+        self.metrics = _metrics_of(self.integrals, self.error)
 
     def __repr__(self) -> str:
         """A dozen lines: the run, its engine, whether it completed, its metrics and
@@ -164,14 +193,26 @@ class Result:
                  f"{len(self.t)} samples every {sc.Ts * sc.log_every:g} s",
                  f"  engine {self.engine}" + (f" ({self.backend})" if self.backend else "")
                  + (", complete" if self.complete else f", INCOMPLETE: {self.message}")]
-        m = self.metrics if self.complete else (self.partial_metrics or {})
+        if self.complete and self.message:
+            lines.append(f"  note: {self.message}")
         if not self.complete:
-            lines.append("  metrics of the part computed (not a result):")
-        for k, v in m.items():
+            lines.append(f"  metrics of the part computed, to t = {self.t[-1] if len(self.t) else 0:g} s:")
+        err = self.numerical_error or {}
+        for k, v in self.metrics.items():
             unit = _METRIC_UNITS.get(k, "")
-            lines.append(f"  {k:12s} {'-' if v is None else f'{v:.6g}'}" + (f" {unit}" if unit else ""))
+            line = f"  {k:12s} {'-' if v is None else f'{v:.6g}'}" + (f" {unit}" if unit else "")
+            if k in err:
+                line += f"  (numerical error {err[k]:.1e} relative)"
+            lines.append(line)
+        if self.numerical_error is None:
+            lines.append("  numerical error: not estimated" + (" (the diagram integrates once)"
+                                                              if self.engine == "bdsim" else ""))
+        elif self.sensitive:
+            lines.append("  sensitive: no tolerance converges it; quote the spread over seeds")
         if self.theta_hat is not None and len(self.t):
-            lines.append("  theta_hat(T) " + " ".join(f"{v:.4g}" for v in self.theta_hat[-1]))
+            lines.append("  theta_hat(T) " + " ".join(f"{v:.4g}" for v in self.theta_hat[-1])
+                         + (f"  (numerical error {err['theta_hat']:.1e} relative)"
+                            if "theta_hat" in err else ""))
         lines.append("  series: t, pose, velocity, reference, error"
                      + "".join(f", {k}" for k in ("v_d", "v_ref", "theta_hat")
                                if getattr(self, k) is not None)
@@ -180,9 +221,17 @@ class Result:
 
     # ------------------------------------------------------------------ #
     def window(self, t0: float, t1: float) -> dict:
-        """Metrics restricted to t0 <= t <= t1 (e.g. the paper's before/after windows)."""
-        m = (self.t >= t0 - 1e-9) & (self.t <= t1 + 1e-9)
-        return metrics(self.t[m], self.error[m], self.velocity[m])
+        """Metrics over t0 <= t <= t1 (e.g. the paper's before/after windows), from the
+        integrals accumulated at every sample: between the first and the last logged
+        sample in the window (with ``log_every`` 1, every sample)."""
+        m = np.flatnonzero((self.t >= t0 - 1e-9) & (self.t <= t1 + 1e-9))
+        if not len(m):
+            return {k: float("nan") for k in METRIC_NAMES}
+        i0, i1 = m[0], m[-1]
+        out = {k: float(self.integrals[i1, j] - self.integrals[i0, j])
+               for j, k in enumerate(INTEGRAL_NAMES)}
+        out["error_final"] = _floats(self.error[i1:i1 + 1])[0]
+        return out
 
     def summary(self) -> dict:
         """What ``summary.json`` holds: scenario, metrics, provenance."""
@@ -201,7 +250,8 @@ class Result:
             "samples": int(len(self.t)),
             "t_end": float(self.t[-1]) if len(self.t) else 0.0,
             "metrics": _finite_or_null(self.metrics, "metrics", notes),
-            "partial_metrics": _finite_or_null(self.partial_metrics, "partial_metrics", notes),
+            "numerical_error": _finite_or_null(self.numerical_error, "numerical_error", notes),
+            "sensitive": self.sensitive,
             "theta_hat_final": (_finite_or_null(_floats(self.theta_hat[-1]), "theta_hat_final", notes)
                                 if len(self.t) and self.theta_hat is not None else None),
         }
