@@ -28,8 +28,9 @@ LAYERS = {
     "results": ("unidyn.results",),
     # bdsim's blocks and diagrams, and the batch engine
     "simulation": ("unidyn.blocks", "unidyn.diagrams", "unidyn.engine"),
-    # identification, sweeps, teaching tools and bridges
-    "tools": ("unidyn.identification", "unidyn.sweeps", "unidyn.teaching"),
+    # the choice between the two engines, above both; identification, sweeps,
+    # teaching tools and bridges
+    "tools": ("unidyn.engines", "unidyn.identification", "unidyn.sweeps", "unidyn.teaching"),
     # the paper's reproductions
     "paper": ("unidyn.paper",),
     # the command line and the editor it starts

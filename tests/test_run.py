@@ -8,7 +8,7 @@ import pytest
 import unidyn
 from unidyn import Scenario, ValidationError
 from unidyn.cli import main
-from unidyn.engine.choice import choose
+from unidyn.engines import choose
 
 
 def test_auto_is_the_batch_engine_for_continuous_control_and_the_diagram_for_sampled():

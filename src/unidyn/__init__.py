@@ -43,7 +43,7 @@ _LAZY = {
     "Result": ("results.result", "Result"),
     # one run, the engine chosen as on the command line; the bdsim diagram of Fig. 2
     # (bdsim loads with it), and the batch engine
-    "run": ("engine.choice", "run"),
+    "run": ("engines", "run"),
     "simulate": ("diagrams.simulate", "simulate"),
     "SimulationError": ("_errors", "SimulationError"),
     "simulate_batch": ("engine.batch", "simulate_batch"),

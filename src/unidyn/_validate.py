@@ -63,9 +63,13 @@ def positive(name: str, value, *, allow_inf: bool = False) -> float:
     return real(name, value, low=0.0, low_open=True, allow_inf=allow_inf)
 
 
-#: Both engines' default tolerances, as ``solve_ivp``'s rtol and atol.
+#: The diagram's default tolerances, as ``solve_ivp``'s rtol and atol.
 DEFAULT_RTOL = 1e-8
 DEFAULT_ATOL = 1e-10
+#: The batch engine's: its runs start at these and are tightened where their estimated
+#: numerical error misses its promise (:func:`unidyn.simulate_batch`).
+BATCH_RTOL = 1e-6
+BATCH_ATOL = 1e-8
 
 
 def tolerances(rtol, atol) -> tuple:

@@ -14,7 +14,7 @@ from pathlib import Path
 from .._errors import (Interrupted, MissingDependency, SimulationError, SimulationInterrupted,
                        ValidationError)
 from .._validate import MAX_NAME
-from ..engine.choice import choose, run
+from ..engines import choose, run
 from ..model.scenario import Scenario
 from ..results.folders import check_manifest, staged_output
 from ..results.plots import save_figures

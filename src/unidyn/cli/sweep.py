@@ -23,12 +23,17 @@ def unidyn_sweep(args) -> int:
     """``unidyn sweep``: run a sweep file or the paper's Fig. 11 into --out."""
     if bool(args.sweep) == bool(args.paper_fig11):
         raise UsageError("give either a sweep file or --paper-fig11")
-    if args.gains is not None and not args.paper_fig11:
-        raise UsageError("--gains applies to --paper-fig11 only (a sweep file has its grid)")
+    for option, value in (("--gains", args.gains), ("--seeds", args.seeds)):
+        if value is not None and not args.paper_fig11:
+            raise UsageError(f"{option} applies to --paper-fig11 only (a sweep file has its grid)")
+    if args.seeds is not None and args.seeds < 1:
+        raise UsageError(f"--seeds must be at least 1, got {args.seeds}")
+    if args.seeds is not None and args.no_noise:
+        raise UsageError("--seeds with --no-noise: without noise every seed gives the same run")
     if args.paper_fig11:
         gains = _parse_gains(args.gains) if args.gains is not None else None
         spec = paper_fig11(T=250.0 if args.T is None else args.T, gains=gains,
-                           noise=None if args.no_noise else PAPER_NOISE,
+                           noise=None if args.no_noise else PAPER_NOISE, seeds=args.seeds,
                            **tolerance_options(args))
     else:
         spec = Sweep.from_toml(args.sweep)
@@ -61,12 +66,14 @@ def unidyn_sweep(args) -> int:
             close()
     print(f"ran {run.ran} points" + (f", {run.skipped} already done (resumed)"
                                      if run.skipped else "")
-          + f" in {run.seconds:.1f} s; written {out}/ (metrics.csv, sweep.json, metrics.png)")
+          + f" in {run.seconds:.1f} s; written {out}/ (metrics.csv, sweep.json, metrics.png"
+          + (", statistics.csv" if "seed" in spec.axes else "") + ")")
     if run.replaced:
         print(f"replaced   the previous sweep in {out}/ ({rows_named(run.replaced)})")
     if run.failed:
         print(f"incomplete {len(run.failed)} of {len(run.rows)} point(s) did not complete "
-              f"(complete = false, empty metrics; left out of summaries): points "
+              f"(complete = false, the metrics of the part computed; left out of "
+              f"summaries): points "
               f"{', '.join(map(str, run.failed[:10]))}" + (", ..." if len(run.failed) > 10
                                                            else ""))
         print(f"unidyn: warning: {len(run.failed)} point(s) did not complete: "
@@ -75,7 +82,9 @@ def unidyn_sweep(args) -> int:
         base = spec.points()[0].scenario
         noise = ("off" if base.noise is None else
                  f"position std {base.noise.position_std:g} m, velocity std "
-                 f"{base.noise.velocity_std:g}, seed {base.noise.seed}")
+                 f"{base.noise.velocity_std:g}, "
+                 + (f"{len(spec.grid['seed'])} seeds" if "seed" in spec.grid
+                    else f"seed {base.noise.seed}"))
         title = (f"Fig. 11 claims: T = {base.T:g} s, {len(spec.grid['kxy'])} gains "
                  f"{min(spec.grid['kxy']):g}..{max(spec.grid['kxy']):g}, noise {noise}, "
                  f"engine {args.engine}")
@@ -89,7 +98,8 @@ def unidyn_sweep(args) -> int:
                 + ("off" if base.noise is None else "on")))
         print()
         print(table)
-        print(f"\nwritten {out}/claims.md and {out}/fig11.png")
+        print(f"\nwritten {out}/claims.md and {out}/fig11.png"
+              + (f" and {out}/statistics.csv" if "seed" in spec.grid else ""))
     return 1 if run.failed else 0
 
 

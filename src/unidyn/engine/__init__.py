@@ -7,5 +7,5 @@ installed and also run as plain Python (:mod:`~unidyn.engine.jit`);
 :mod:`~unidyn.engine.rhs` the loop's right-hand side on arrays of runs, which the converged
 references integrate with scipy's ``solve_ivp``.
 
-:mod:`~unidyn.engine.choice` says which of the two engines, this one or the bdsim
-diagram of :mod:`unidyn.diagrams`, runs a scenario (:func:`unidyn.run`)."""
+Which of the two engines, this one or the bdsim diagram of :mod:`unidyn.diagrams`, runs
+a scenario is chosen above both, in :mod:`unidyn.engines` (:func:`unidyn.run`)."""

@@ -20,7 +20,7 @@ from concurrent.futures import ThreadPoolExecutor, wait
 import numpy as np
 
 from .._errors import SimulationInterrupted
-from .._validate import ValidationError, tolerances
+from .._validate import BATCH_ATOL, BATCH_RTOL, ValidationError, tolerances
 from ..model.equations import TRAJECTORY_KINDS
 from ..model.scenario import ALWAYS_LOGGED, Scenario
 from ..results.result import INTEGRAL_NAMES, Result
@@ -33,9 +33,6 @@ __all__ = ["simulate_batch", "backend_for", "MAX_STEPS", "ACCURACY", "STATUS_MES
 #: twice its estimate. Runs whose estimate is larger are run again at tolerances
 #: TIGHTEN times tighter, down to :data:`RTOL_FLOOR`.
 ACCURACY = 1e-4
-#: The batch engine's default tolerances: where the estimate meets :data:`ACCURACY`
-#: for most runs at the least cost (``benchmarks/engines.py --accuracy`` measures it).
-DEFAULT_RTOL, DEFAULT_ATOL = 1e-6, 1e-8
 #: The companion run's tolerances are CHECK_FACTOR times the run's.
 CHECK_FACTOR = 10.0
 #: The sensitivity probe: the run again, its starting point moved by this much (m,
@@ -75,7 +72,7 @@ def backend_for(scenarios, backend: str = "auto") -> str:
     return "plain"
 
 
-def simulate_batch(scenarios, *, rtol: float = DEFAULT_RTOL, atol: float = DEFAULT_ATOL,
+def simulate_batch(scenarios, *, rtol: float = BATCH_RTOL, atol: float = BATCH_ATOL,
                    backend: str = "auto", progress=None) -> list:
     """Simulate many scenarios at once; returns one :class:`~unidyn.Result` per scenario,
     in order, each with its metrics and their estimated numerical error.
@@ -106,9 +103,9 @@ def simulate_batch(scenarios, *, rtol: float = DEFAULT_RTOL, atol: float = DEFAU
     naming the cause and what to change (:data:`STATUS_MESSAGES`); the other runs go
     on. Its error is not estimated (``numerical_error`` None).
 
-    :param rtol: relative tolerance of the steps, as ``solve_ivp``'s (default 1e-6:
-        :data:`DEFAULT_RTOL`; the diagram's default is 1e-8, but here the estimate
-        tells, and tightens, what is not accurate enough)
+    :param rtol: relative tolerance of the steps, as ``solve_ivp``'s, to start from
+        (default 1e-6; the diagram's is 1e-8, but here the estimate tells, and
+        tightens, what is not accurate enough: the least work for the promise)
     :param atol: absolute tolerance (m, rad, m/s, rad/s and theta's units alike)
     :param backend: ``"compiled"``, ``"plain"`` or ``"auto"`` (:func:`backend_for`;
         ``Result.backend`` says which ran; the two agree to the tolerance)

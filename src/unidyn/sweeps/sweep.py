@@ -56,8 +56,9 @@ from .. import __version__
 from .cluster import connect_dask, run_on_dask
 from .._errors import Interrupted
 from .._validate import MAX_NAME, ValidationError, choice, flag, integer
-from .._validate import DEFAULT_ATOL, DEFAULT_RTOL, tolerances
+from .._validate import BATCH_ATOL, BATCH_RTOL, tolerances
 from ..engine.batch import simulate_batch
+from .statistics import seed_statistics, statistics_columns
 from .sweep_files import (ID_NAME, MAX_POINTS, METRICS, RECORD_NAME, cell, check_keys,
                           expand_range, finished_rows, is_number, plain, text, read_rows,
                           read_sweep_id, read_sweep_record, read_toml, rows_text,
@@ -66,11 +67,11 @@ from ..results.folders import (FolderLock, Ledger, check_manifest, foreign_files
                                output_folder, staged_output)
 from .plots import plot_metrics
 from ..diagrams.simulate import simulate
-from ..engine.choice import ENGINES
+from ..engines import ENGINES
 
 __all__ = ["Sweep", "SweepPoint", "SweepRun", "run_sweep", "sweep_id", "SWEEP_FILES"]
 
-#: Default points per chunk, by engine (:data:`unidyn.engine.choice.ENGINES`): ``"batch"``,
+#: Default points per chunk, by engine (:data:`unidyn.engines.ENGINES`): ``"batch"``,
 #: :func:`unidyn.engine.batch.simulate_batch` once per chunk (sampled-control points go
 #: through :func:`unidyn.simulate`); ``"bdsim"``, :func:`unidyn.simulate` per point.
 DEFAULT_CHUNK = {"batch": 40, "bdsim": 1}
@@ -113,8 +114,8 @@ class Sweep:
     grid: dict = field(default_factory=dict)
     variants: tuple = ()
     name: str = ""
-    rtol: float = DEFAULT_RTOL
-    atol: float = DEFAULT_ATOL
+    rtol: float = BATCH_RTOL
+    atol: float = BATCH_ATOL
 
     def __post_init__(self):
         s = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
@@ -193,7 +194,7 @@ class Sweep:
     def columns(self) -> list:
         """The columns of metrics.csv."""
         return (["index"] + self.axes + ([] if "case" in self.axes else ["case"])
-                + list(METRICS) + ["complete", "message"])
+                + list(METRICS) + ["numerical_error", "sensitive", "complete", "message"])
 
     def __len__(self) -> int:
         return len(self.points())
@@ -290,13 +291,23 @@ class SweepRun:
     replaced: tuple = ()
 
 
-def _row(index, params, case, metrics, complete, message="") -> dict:
-    """One row of metrics.csv. A point that did not complete has empty (``None``)
-    metrics: the metrics of a partial run are not a result; ``message`` says why."""
-    complete = bool(complete)
-    return {"index": index, **params, "case": case,
-            **{m: (_metric(metrics[m]) if complete else None) for m in METRICS},
-            "complete": complete, "message": message}
+def _row(index, params, result) -> dict:
+    """One row of metrics.csv: the point's metrics (of the part computed, for a run
+    that stopped: ``complete`` says which), the largest of their estimated numerical
+    errors (empty where not estimated), whether the run is sensitive, and ``message``."""
+    error = result.numerical_error
+    return {"index": index, **params, "case": result.scenario.case,
+            **{m: _metric(result.metrics[m]) for m in METRICS},
+            "numerical_error": None if not error else max(float(v) for v in error.values()),
+            "sensitive": bool(result.sensitive), "complete": bool(result.complete),
+            "message": result.message}
+
+
+def _failed_row(index, params, case, message) -> dict:
+    """The row of a point that failed before its first sample: no metrics."""
+    return {"index": index, **params, "case": case, **{m: None for m in METRICS},
+            "numerical_error": None, "sensitive": False, "complete": False,
+            "message": message}
 
 
 def _metric(v):
@@ -315,16 +326,15 @@ def _run_chunk(points, engine: str, rtol: float, atol: float) -> list:
             batch.append(j)
             continue
         try:
-            r = simulate(sc)
-            rows[j] = _row(index, params, sc.case, r.metrics, r.complete, r.message)
-        except (RuntimeError, ArithmeticError) as err:
+            rows[j] = _row(index, params, simulate(sc))
+        except (RuntimeError, ArithmeticError) as err:  # before its first sample
             print(f"unidyn: warning: sweep point {index} failed: {err}", file=sys.stderr)
-            rows[j] = _row(index, params, sc.case, {m: None for m in METRICS}, False, str(err))
+            rows[j] = _failed_row(index, params, sc.case, str(err))
     if batch:
         results = simulate_batch([points[j][2] for j in batch], rtol=rtol, atol=atol)
         for j, r in zip(batch, results):
-            index, params, sc = points[j]
-            rows[j] = _row(index, params, sc.case, r.metrics, r.complete, r.message)
+            index, params, _ = points[j]
+            rows[j] = _row(index, params, r)
     return rows
 
 
@@ -352,7 +362,8 @@ def _progress_bar(enabled, total, initial):
 #: Every file a sweep's folder may hold (the names its manifest may list): the rows, the
 #: record of the sweep, its figure, and the Fig. 11 claims and figure of ``unidyn sweep
 #: --paper-fig11``. None of them is carried over when a sweep starts over.
-SWEEP_FILES = ("metrics.csv", RECORD_NAME, ID_NAME, "metrics.png", "claims.md", "fig11.png")
+SWEEP_FILES = ("metrics.csv", RECORD_NAME, ID_NAME, "metrics.png", "statistics.csv", "claims.md",
+               "fig11.png")
 
 
 def sweep_id(sweep: Sweep) -> str:
@@ -446,7 +457,12 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
       never lose their record
     - ``metrics.csv``: one row per finished point (columns :attr:`Sweep.columns`),
       appended and flushed after each chunk, rewritten sorted by index at the end;
-      a point that did not complete has ``complete = false`` and empty metrics
+      each row with its metrics, the largest of their estimated numerical errors and
+      whether the run is sensitive (:func:`unidyn.simulate_batch`); a point that did not
+      complete has ``complete = false`` and the metrics of the part computed
+    - ``statistics.csv``, where the grid varies ``seed``: one row per point of the other
+      axes, each metric's mean, standard deviation and standard error over the seeds
+      (:func:`unidyn.sweeps.statistics.seed_statistics`)
     - ``metrics.png``: IAE against the first numeric axis (:func:`unidyn.sweeps.plots.plot_metrics`)
 
     Finished rows are never deleted without ``overwrite``:
@@ -623,6 +639,9 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
     failed = [r["index"] for r in rows if not r["complete"]]
     seconds = time.perf_counter() - t0
     ledger.write(RECORD_NAME, sweep_record_text(record, finished=True, failed=failed))
+    if "seed" in sweep.axes:
+        ledger.write("statistics.csv", rows_text(statistics_columns(sweep.axes),
+                                                 seed_statistics(rows, sweep.axes)))
     try:
         ledger.write_with("metrics.png", lambda path: plot_metrics(sweep, rows, path))
     except ImportError:  # no matplotlib: the data is what matters
