@@ -42,7 +42,7 @@ def test_kernel_rhs_equals_the_closed_loop_of_all_runs_as_arrays(rhs):
         ref = loop.rhs(t, X, k)
         for i in range(loop.B):
             dX = np.empty(13)
-            rhs(t, X[i], (loop.P[i], (*loop.pos_noise[i, k], *loop.vel_noise[i, k])), dX)
+            rhs(t, X[i], (loop.P[i], (*loop.pos_noise[i, k], *loop.vel_noise[i, k]), ()), dX)
             worst = max(worst, np.max(np.abs(dX - ref[i]) / (1.0 + np.abs(ref[i]))))
     assert worst < 1e-12
 

@@ -61,10 +61,10 @@ def test_the_engine_s_table_holds_the_schedule(reference):
     plain = Circle(radius=0.7, omega=-0.4, center=(0.5, -1.0), phase=0.3)
     table = ClosedLoop([Scenario(trajectory=tr, T=1.0) for tr in (stepped, plain)]).P
     for t in np.linspace(0.0, 30.0, 301):
-        np.testing.assert_allclose(reference(t, table[0]), np.concatenate(stepped.evaluate(t)),
+        np.testing.assert_allclose(reference(t, table[0], ()), np.concatenate(stepped.evaluate(t)),
                                    rtol=0, atol=1e-15)
         # a circle whose radius does not step: the circle's function, bit for bit
-        assert reference(t, table[1]) == eq.circle(t, 0.7, -0.4, 0.5, -1.0, 0.3)
+        assert reference(t, table[1], ()) == eq.circle(t, 0.7, -0.4, 0.5, -1.0, 0.3)
 
 
 STEPS = [(0, 1.0), (5, 0.8), (10, 1.0), (15, 0.8)]   # t, R: from t on, R
@@ -100,7 +100,7 @@ def before_each_step(r):
 
 @pytest.mark.parametrize("engine", ["batch", "bdsim"])
 def test_kinematic_loop_follows_each_step_as_the_closed_form_says(engine):
-    r = unidyn.run(scenario(), engine=engine)
+    r = unidyn.run(scenario(), engine=engine, rtol=1e-8, atol=1e-10)  # series to 1e-7
     assert r.complete, r.message
     np.testing.assert_allclose(r.error, kinematic_error(r.t), atol=1e-6)
     # each step throws h 0.2 m off (the start 0.36 m); it is back within 5 mm by the next
@@ -113,7 +113,7 @@ def test_dynamic_loop_the_circle_block_and_the_batch_engine_agree():
     limits: the CIRCLE block in the diagram and the batch engine's table agree, and h
     follows each new radius."""
     sc = scenario(case="compensated", limits=unidyn.PAPER_LIMITS, lx=0.5, ly=0.5)
-    batch = unidyn.run(sc, engine="batch")
+    batch = unidyn.run(sc, engine="batch", rtol=1e-8, atol=1e-10)  # series, as the diagram
     block = unidyn.simulate(sc, trajectory=lambda bd, sc: bd.CIRCLE(radius=STEPS, omega=W))
     assert batch.complete and block.complete, (batch.message, block.message)
     np.testing.assert_allclose(block.pose, batch.pose, atol=1e-6)

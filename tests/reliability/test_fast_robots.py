@@ -25,8 +25,8 @@ def test_the_batch_engine_shortens_its_steps_for_a_fast_robot_unasked(robot):
     """No time constant is looked up: the error control takes the steps the robot needs,
     more for the faster one, and the run is complete."""
     sc = Scenario.paper(2, robot=robot, T=2.0, noise=None)
-    r = simulate_batch([sc])[0]
-    slow = simulate_batch([sc.replace(robot="p3dx_laser")])[0]
+    r = simulate_batch([sc], rtol=1e-8, atol=1e-10)[0]
+    slow = simulate_batch([sc.replace(robot="p3dx_laser")], rtol=1e-8, atol=1e-10)[0]
     assert r.complete and r.steps > 2 * slow.steps
 
 
@@ -38,9 +38,11 @@ def test_fast_robots_agree_between_the_diagram_and_the_batch_engine(robot, n):
                         limits=unidyn.Limits(speed_max=0.5, steer_max=3.0))
     rd = unidyn.simulate(sc, rtol=1e-10, atol=1e-12)
     rb = simulate_batch([sc])[0]  # at the defaults: the steps are the engine's choice
-    assert rd.complete and rb.complete
+    assert rd.complete and rb.complete and not rb.sensitive
     assert np.all(np.isfinite(rb.pose)) and np.all(np.isfinite(rd.pose))
-    assert np.max(np.abs(rb.pose[:, :2] - rd.pose[:, :2])) < 1e-6
+    for k in ("iae", "ise", "itae", "itse", "energy"):  # within twice the engine's estimate
+        assert abs(rb.metrics[k] - rd.metrics[k]) <= 2 * rb.numerical_error[k] * rd.metrics[k]
+    assert np.max(np.abs(rb.pose[:, :2] - rd.pose[:, :2])) < 1e-4
     tight = simulate_batch([sc], rtol=1e-11, atol=1e-13)[0]
     assert np.max(np.abs(tight.pose[:, :2] - rd.pose[:, :2])) < 1e-8
 

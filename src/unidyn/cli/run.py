@@ -181,16 +181,19 @@ def _run_summary(sc, out, stage, result, wall, replaced, animation) -> int:
     print(f"engine     {result.engine}" + (f" ({backend})" if backend else "")
           + f", T = {sc.T:g} s, noise "
           + ("off" if sc.noise is None else f"seed {sc.noise.seed}"))
-    if result.complete:
-        m = result.metrics
-        print(f"IAE        {m['iae']:.6g} m·s")
-        print(f"error(T)   {m['error_final']:.6g} m")
-    else:
+    m, err = result.metrics, result.numerical_error or {}
+    if not result.complete:
         t_end = float(result.t[-1]) if len(result.t) else 0.0
         print(f"result     INCOMPLETE: stopped at t = {t_end:g} s of {sc.T:g} s: "
               f"{' '.join(str(result.message).split())}")
-        print("metrics    none (an incomplete run has no IAE; summary.json holds the partial "
-              "ones under partial_metrics)")
+    part = "" if result.complete else f" (to t = {float(result.t[-1]) if len(result.t) else 0:g} s)"
+    print(f"IAE        {m['iae']:.6g} m·s{part}" + (f"  (numerical error {err['iae']:.1e} relative)"
+                                                    if "iae" in err else ""))
+    print(f"error(T)   {m['error_final']:.6g} m{part}")
+    if result.sensitive:
+        print(f"sensitive  {result.message}")
+    elif result.complete and result.message:
+        print(f"note       {result.message}")
     print(f"wall time  {wall:.2f} s")
     print(f"written    {final}/ (timeseries.csv, summary.json, figures"
           + (", animation.gif" if animation is not None else "") + ")")
