@@ -3,6 +3,7 @@ subprocess (``python -m unidyn`` and the console script)."""
 
 import csv
 import json
+import re
 import os
 import subprocess
 import sys
@@ -138,13 +139,15 @@ DIVERGING = ["--set", 'trajectory={type = "circle", radius = 1e300, omega = 1e30
 
 @pytest.mark.filterwarnings("ignore::RuntimeWarning")
 def test_an_incomplete_run_says_so_and_never_replaces_a_complete_one(tmp_path, capsys):
-    # into an empty folder: written there, marked incomplete, no IAE printed
+    # into an empty folder: written there, marked incomplete, the IAE of the part computed
     code, text, err = run_cli(capsys, "run", *DIVERGING, "--out", tmp_path / "new")
     assert code == 1 and "unidyn: warning: the run stopped early" in err
     assert "INCOMPLETE: stopped at t = " in text and "non-finite" in text
-    assert "IAE" not in text.replace("no IAE", "")
+    t_stop = re.search(r"stopped at t = (\S+) s", text).group(1)
+    assert re.search(rf"IAE +\S+ m·s \(to t = {re.escape(t_stop)} s\)", text), text
     summary = json.loads((tmp_path / "new" / "summary.json").read_text())
-    assert summary["complete"] is False and set(summary["metrics"].values()) == {None}
+    assert summary["complete"] is False and summary["numerical_error"] is None
+    assert summary["metrics"]["iae"] is not None
     # beside complete results: those stay, the partial run goes to <out>.incomplete
     out = tmp_path / "X"
     assert run_cli(capsys, "run", "--set", "T=1", "--out", out)[0] == 0

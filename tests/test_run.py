@@ -38,3 +38,13 @@ def test_the_command_line_chooses_as_python_does(tmp_path):
                  "--out", str(tmp_path)]) == 0
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["engine"] == unidyn.run(sc).engine == "batch"
+
+
+def test_run_names_a_scenario_field_given_as_an_option():
+    sc = unidyn.Scenario.paper(3, T=0.5)
+    with pytest.raises(unidyn.ValidationError, match=r"'T' is a field of the scenario.*replace\(T="):
+        unidyn.run(sc, T=-5)
+    with pytest.raises(unidyn.ValidationError, match=r"takes rtol, atol, backend, progress; got 'rtl' \(did you mean 'rtol'\?\)"):
+        unidyn.run(sc, rtl=1e-6)
+    with pytest.raises(unidyn.ValidationError, match="'method'"):
+        unidyn.run(sc, engine="batch", method="Radau")  # the diagram's option

@@ -106,3 +106,25 @@ def test_the_error_estimate_is_of_fifth_order(dp):
         A, x = rng.normal(size=(n, n)), rng.normal(size=n)
         errs = [_step(step, linear, A, x, h)[1] for h in (0.02, 0.01)]
         assert 28 < errs[0] / errs[1] < 36
+
+
+def test_two_threads_with_their_own_python_references_each_get_their_own_answer():
+    """A reference that is a Python function travels with its call: two threads running
+    the batch engine at once, each with its own FunctionTrajectory, get what each gets
+    alone."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from unidyn.engine.batch import simulate_batch
+    from unidyn.model.trajectories import FunctionTrajectory
+
+    def line(vx):
+        return FunctionTrajectory(lambda t: (np.array([vx * t, 0.0]), np.array([vx, 0.0])),
+                                  acceleration=lambda t: np.zeros(2))
+    scs = [Scenario.paper(3, T=3.0, noise=None, trajectory=line(v)) for v in (0.1, 0.3)]
+    alone = [simulate_batch([sc])[0] for sc in scs]
+    with ThreadPoolExecutor(2) as pool:
+        for _ in range(3):
+            together = list(pool.map(lambda sc: simulate_batch([sc])[0], scs))
+            for a, b in zip(alone, together):
+                assert np.array_equal(a.pose, b.pose) and np.array_equal(a.reference, b.reference)
+    assert not np.allclose(alone[0].reference, alone[1].reference)

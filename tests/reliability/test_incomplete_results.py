@@ -1,5 +1,5 @@
-"""A run that did not complete never shows metrics that look like a result, and
-summary.json is strict JSON (no Infinity, no NaN)."""
+"""A run that did not complete keeps the metrics of the part computed, marked
+incomplete, and summary.json is strict JSON (no Infinity, no NaN)."""
 
 import json
 
@@ -7,6 +7,8 @@ import numpy as np
 import pytest
 
 import unidyn
+from unidyn.engine import batch, kernels
+from unidyn.engine.jit import plain_copy
 from unidyn.engine.batch import simulate_batch
 from unidyn.results.result import Result
 from unidyn.model.scenario import Scenario
@@ -22,22 +24,22 @@ def _strict(text):
     return json.loads(text, parse_constant=bad)
 
 
-def test_an_incomplete_batch_run_has_null_metrics_and_the_partial_ones_apart(tmp_path):
+def test_an_incomplete_batch_run_keeps_the_metrics_of_the_part_computed(tmp_path):
     bad = Scenario.paper(3, T=6.0, trajectory=_nan_after(2.0), name="bad")
     rb, = simulate_batch([bad], backend="plain")
-    assert rb.complete is False and rb.message
+    assert rb.complete is False and rb.message and rb.numerical_error is None
     assert set(rb.metrics) == {"iae", "ise", "itae", "itse", "energy", "error_final"}
-    assert all(v is None for v in rb.metrics.values())
-    # the partial metrics are those of a clean run over the part computed
-    clean, = simulate_batch([bad.replace(trajectory=F8, T=float(rb.t[-1]))], backend="plain")
-    assert clean.complete and clean.partial_metrics is None
+    # the metrics are those of a clean run over the part computed
+    clean, = batch._pass(plain_copy(kernels), [bad.replace(trajectory=F8, T=float(rb.t[-1]))],
+                         (1e-6, 1e-8), 0.0, "plain", False, batch._Progress(False, 0, 0))
+    assert clean.complete
     for k, v in clean.metrics.items():
-        assert rb.partial_metrics[k] == pytest.approx(v, rel=1e-12, abs=1e-15), k
+        assert rb.metrics[k] == pytest.approx(v, rel=1e-12, abs=1e-15), k
     rb.save(tmp_path)
     s = _strict((tmp_path / "summary.json").read_text())
     assert s["complete"] is False and s["message"] == rb.message
-    assert all(v is None for v in s["metrics"].values())
-    assert s["partial_metrics"]["iae"] == pytest.approx(clean.metrics["iae"], rel=1e-12)
+    assert s["metrics"]["iae"] == pytest.approx(clean.metrics["iae"], rel=1e-12)
+    assert s["numerical_error"] is None and s["sensitive"] is False
     assert s["engine"] == "batch" and s["backend"] == "plain"
 
 
@@ -62,7 +64,7 @@ def test_non_finite_numbers_are_written_as_null_with_a_note(tmp_path):
     text = (tmp_path / "summary.json").read_text()
     assert "Infinity" not in text and "NaN" not in text
     s = _strict(text)
-    assert s["partial_metrics"]["iae"] is None and s["partial_metrics"]["error_final"] is None
+    assert s["metrics"]["iae"] is None and s["metrics"]["error_final"] is None
     assert s["theta_hat_final"] == [None] * 6
     assert any("iae" in note and "inf" in note for note in s["notes"])
 

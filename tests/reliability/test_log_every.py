@@ -6,6 +6,7 @@ import pytest
 import unidyn
 from unidyn import Scenario
 from unidyn.engine.batch import simulate_batch
+from unidyn.results.result import metrics
 
 pytestmark = pytest.mark.reliability
 
@@ -208,3 +209,30 @@ def test_log_series_is_validated_and_read_back():
 def test_the_error_of_integer_arrays_is_a_float():
     from unidyn.results.result import distance
     assert distance(np.array([[0, 0], [1, 1]]), np.array([[3, 4], [1, 1]])).tolist() == [5.0, 0.0]
+
+
+@pytest.mark.parametrize("backend", ["compiled", "plain"])
+def test_the_metrics_and_their_windows_do_not_depend_on_log_every(backend):
+    """The metrics are accumulated at every sample, whatever is logged: the same bits at
+    log_every 1, 10 and 20, and at 1 they are the trapezoidal rule over the series."""
+    sc = Scenario.paper(4, T=10.0, adapt_from=2.0)
+    runs = [simulate_batch([sc.replace(log_every=L)], backend=backend)[0] for L in (1, 10, 20)]
+    assert [len(r.t) for r in runs] == [101, 11, 6]
+    for r in runs[1:]:
+        assert r.metrics == runs[0].metrics and r.numerical_error == runs[0].numerical_error
+        assert r.window(2.0, 8.0) == runs[0].window(2.0, 8.0)
+    full = runs[0]
+    by_rule = metrics(full.t, full.error, full.velocity)
+    inside = (full.t >= 2.0) & (full.t <= 8.0)
+    window = metrics(full.t[inside], full.error[inside], full.velocity[inside])
+    for k in by_rule:
+        assert full.metrics[k] == pytest.approx(by_rule[k], rel=1e-12), k
+        assert full.window(2.0, 8.0)[k] == pytest.approx(window[k], rel=1e-12), k
+
+
+def test_the_diagram_s_metrics_do_not_depend_on_log_every():
+    sc = Scenario.paper(3, T=2.0)
+    full = unidyn.simulate(sc)
+    thin = unidyn.simulate(sc.replace(log_every=10))
+    assert len(thin.t) == 3 and thin.metrics == full.metrics
+    assert thin.window(0.0, 1.0) == full.window(0.0, 1.0)

@@ -32,8 +32,18 @@ def test_a_result_prints_in_a_dozen_lines_with_its_metrics():
     assert str(_result()) == text and not np.array2string(np.zeros(3)) in text
 
 
-def test_an_incomplete_result_says_so_and_shows_no_metrics_as_a_result():
+def test_an_incomplete_result_says_so_and_shows_the_metrics_of_the_part_computed():
     text = repr(_result(complete=False, message="diverged at t = 3 s"))
     assert "INCOMPLETE: diverged at t = 3 s" in text
-    assert "metrics of the part computed (not a result)" in text
-    assert math.isclose(_result(complete=False).partial_metrics["iae"], 100.0)
+    assert "metrics of the part computed, to t = 20 s" in text
+    assert math.isclose(_result(complete=False).metrics["iae"], 100.0)
+
+
+def test_a_result_prints_its_numerical_error_beside_each_metric():
+    r = _result()
+    r.numerical_error = {"iae": 2e-5, "ise": 2e-5, "itae": 2e-5, "itse": 2e-5, "energy": 2e-5,
+                         "error_final": 1e-6, "theta_hat": 3e-6}
+    text = repr(r)
+    assert "iae          100 m·s  (numerical error 2.0e-05 relative)" in text
+    assert "(numerical error 3.0e-06 relative)" in text.splitlines()[-2]
+    assert "numerical error: not estimated" in repr(_result())

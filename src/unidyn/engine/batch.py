@@ -332,11 +332,12 @@ def _differences(r: Result, other: Result) -> dict:
     """How far ``other``'s metrics and final theta_hat are from ``r``'s, relative to
     their size: the integral metrics all by the largest of their differences (one
     metric's difference may vanish by chance; all of them rarely do), the final error
-    relative to the largest error of the run."""
+    relative to the mean error of the run (IAE / T: it may end near zero)."""
     spread = max(_relative(r.metrics[k], other.metrics[k], r.metrics[k]) for k in INTEGRAL_NAMES)
     out = {k: spread for k in INTEGRAL_NAMES}
+    mean_error = r.metrics["iae"] / r.t[-1] if len(r.t) > 1 else r.metrics["error_final"]
     out["error_final"] = _relative(r.metrics["error_final"], other.metrics["error_final"],
-                                   float(np.max(r.error, initial=0.0)))
+                                   mean_error)
     if r.theta_hat is not None and len(r.t) and len(other.t):
         a, b = np.asarray(r.theta_hat[-1], float), np.asarray(other.theta_hat[-1], float)
         out["theta_hat"] = _relative(float(np.max(np.abs(a - b))), 0.0, float(np.max(np.abs(a))))

@@ -132,7 +132,7 @@ class Result:
         :meth:`window` subtracts
     :ivar numerical_error: the estimated relative error of each metric and of the
         final ``theta_hat`` (relative to its size; ``error_final`` relative to the
-        largest error of the run), from the batch engine's own estimate
+        mean error of the run, IAE / T), from the batch engine's own estimate
         (:func:`unidyn.simulate_batch`); ``None`` where not estimated (the diagram, a
         run that stopped)
     :ivar sensitive: True where the run amplifies perturbations so that no tolerance
