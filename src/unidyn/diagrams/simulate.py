@@ -113,9 +113,9 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
     results are sampled every ``scenario.Ts``.
 
     :param timeout: wall-clock limit of the run, s (``None``: none). Whatever the
-        limit, the run stops with :class:`SimulationError` when the robot's state
-        leaves :meth:`~unidyn.Scenario.divergence_bounds` or the solver needs more
-        than :data:`MAX_RHS_PER_SAMPLE` evaluations in one sample interval
+        limit, the run stops (``complete=False``) when the robot's state leaves
+        :meth:`~unidyn.Scenario.divergence_bounds` or the solver needs more than
+        :data:`MAX_RHS_PER_SAMPLE` evaluations in one sample interval
     :param progress: ``None`` (default: a tqdm progress bar on stderr for runs of
         2000 samples or more, only when stderr is a terminal), ``True`` or ``False``
     :param builder_args: factories passed to :func:`unidyn.diagrams.build_fig2`
