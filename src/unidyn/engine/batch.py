@@ -46,6 +46,9 @@ TIGHTEN = 10.0
 #: worst on the Fig. 11 grid, ``benchmarks/engines.py --accuracy``): the estimate is
 #: twice the difference.
 SAFETY = 2.0
+#: A group of fewer runs than cores runs its probes beside them, in one pass, where
+#: their logs take at most this many bytes (the probes' logs are their copies).
+TOGETHER_BYTES = 100_000_000
 #: The tightest rtol runs are tightened to (atol in proportion).
 RTOL_FLOOR = 1e-13
 #: The most steps (kept or not) a sample interval may take before its run stops.
@@ -169,17 +172,25 @@ def _group(engine, scs, idx, rtol, atol, label, compiled, bar, results):
     runs at (rtol, atol) and their probes; the runs that are not sensitive again at
     tolerances :data:`TIGHTEN` times tighter, each returned with the difference from
     the run before as its estimate, until that is within :data:`ACCURACY`."""
-    tol = (rtol, atol)
-    main = _pass(engine, scs, tol, 0.0, label, compiled, bar, results, idx)
+    tol, B = (rtol, atol), len(scs)
+    if _together(scs):  # the runs and their probes in one pass, on cores otherwise idle
+        both = _pass(engine, scs + scs, tol, [0.0] * B + [PERTURBATION] * B, label, compiled,
+                     bar, results, idx, keep=B)
+        main, probe = both[:B], both[B:]
+    else:
+        main = _pass(engine, scs, tol, [0.0] * B, label, compiled, bar, results, idx, keep=B)
+        probe = [None] * B
+        done = [j for j, r in enumerate(main) if r.complete]
+        for j, q in zip(done, _pass(engine, [scs[j] for j in done], tol,
+                                    [PERTURBATION] * len(done), label, compiled, bar)):
+            probe[j] = q
     for i, r in zip(idx, main):
         results[i] = r
-    done = [j for j, r in enumerate(main) if r.complete]
-    if not done:
-        return
-    probe = _pass(engine, [scs[j] for j in done], tol, PERTURBATION, label, compiled, bar)
     steady = []  # not sensitive: their error is estimated by tightening
-    for j, q in zip(done, probe):
-        judged = _sensitive(main[j], q)
+    for j, (r, q) in enumerate(zip(main, probe)):
+        if not r.complete:
+            continue
+        judged = _sensitive(r, q)
         if judged is not None:
             results[idx[j]] = judged
         else:
@@ -191,7 +202,8 @@ def _group(engine, scs, idx, rtol, atol, label, compiled, bar, results):
                 results[idx[j]] = _beyond(results[idx[j]], tol[0] * TIGHTEN)
             return
         bar.grow(sum(scs[j].steps for j in steady))
-        tighter = _pass(engine, [scs[j] for j in steady], tol, 0.0, label, compiled, bar)
+        tighter = _pass(engine, [scs[j] for j in steady], tol, [0.0] * len(steady), label,
+                        compiled, bar)
         again = []
         for j, r in zip(steady, tighter):
             before = results[idx[j]]
@@ -207,19 +219,28 @@ def _group(engine, scs, idx, rtol, atol, label, compiled, bar, results):
         steady = again
 
 
-def _pass(engine, scs, tol, shift, label, compiled, bar, results=None, where=()):
-    """One pass of the kernels over ``scs`` at tolerances ``tol``, their starting
-    points moved by ``shift`` m in x and y; one Result per run. On Ctrl-C, the
-    computed part is put into ``results[where]`` (the run's own pass only) first."""
+def _together(scs) -> bool:
+    """Whether a group's runs and their probes go in one pass: where the runs alone
+    would leave cores idle (fewer runs than cores), and their logs are small
+    (:data:`TOGETHER_BYTES`)."""
+    sc = scs[0]
+    log = len(scs) * (sc.steps // sc.log_every + 2) * sc.logged_bytes()
+    return len(scs) < (os.cpu_count() or 1) and log <= TOGETHER_BYTES
+
+
+def _pass(engine, scs, tol, shifts, label, compiled, bar, results=None, where=(), keep=None):
+    """One pass of the kernels over ``scs`` at tolerances ``tol``, the starting point of
+    run i moved by ``shifts[i]`` m in x and y; one Result per run. On Ctrl-C, the
+    computed part of the first ``keep`` runs (the runs themselves, not their probes) is
+    put into ``results[where]`` first."""
     loop = ClosedLoop(scs)
     runs = _runs(engine, loop, compiled)
-    if shift:
-        runs.state[:, 0:2] += shift
+    runs.state[:, 0:2] += np.asarray(shifts, dtype=float)[:, None]
     try:
         _integrate(engine, loop, runs, tol, compiled, bar)
     except KeyboardInterrupt:
         if results is not None:
-            for i, r in zip(where, _results(engine, loop, runs, *tol, label)):
+            for i, r in zip(where, _results(engine, loop, runs, *tol, label)[:keep]):
                 results[i] = r
         raise
     return _results(engine, loop, runs, *tol, label)

@@ -178,7 +178,7 @@ def log_layout(series):
     return np.array(keep, dtype=np.int64), where
 
 
-@jit(inline=True)
+@jit
 def sample_row(t, X, p, noise, references, row):
     """The full log row (:data:`LOG_COLUMNS`) of the sample at (t, X) into row."""
     for i in range(11):
