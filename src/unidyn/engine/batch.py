@@ -1,14 +1,11 @@
-r"""The batch engine: many continuous-control scenarios integrated at once
-(:func:`simulate_batch`; ``docs/guides/batch-engine.md`` explains the method).
+r"""The batch engine: many continuous-control scenarios integrated at once, each with
+its metrics' estimated numerical error (:func:`simulate_batch`;
+``docs/guides/batch-engine.md`` explains the method and why).
 
-Each noise interval [k Ts, (k+1) Ts) of a run is integrated on its own, the noise held
-over it as in the bdsim diagram, by the Dormand-Prince 5(4) pair with step-size control
-(:mod:`unidyn.engine.kernels`, compiled or plain: :func:`backend_for`); the metrics are
-accumulated at every sample. Each run's numerical error is estimated from two more runs
-(:func:`simulate_batch`): the same run with its starting point moved by
-:data:`PERTURBATION`, which tells a run that amplifies perturbations
-(``Result.sensitive``), and for the others the run at tighter tolerances. The runs' parameters, noise and
-initial state come from :class:`unidyn.engine.rhs.ClosedLoop`.
+Each noise interval [k Ts, (k+1) Ts) is integrated on its own, the noise held over it as
+in the bdsim diagram, by the Dormand-Prince 5(4) pair with step-size control
+(:mod:`unidyn.engine.kernels`, compiled or plain: :func:`backend_for`). The runs'
+parameters, noise and initial state come from :class:`unidyn.engine.rhs.ClosedLoop`.
 """
 
 from __future__ import annotations
@@ -28,29 +25,21 @@ from .rhs import ClosedLoop
 
 __all__ = ["simulate_batch", "backend_for", "MAX_STEPS", "ACCURACY", "STATUS_MESSAGES"]
 
-#: The promise: a run that is not sensitive has a numerical error estimate of at most
-#: ACCURACY (relative) in each metric and in theta_hat, and its true error is within
-#: twice its estimate. Runs whose estimate is larger are run again at tolerances
-#: TIGHTEN times tighter, down to :data:`RTOL_FLOOR`.
+#: The promise: a run that is not sensitive has an estimate of at most ACCURACY
+#: (relative) and its true error is within twice its estimate (:func:`simulate_batch`).
 ACCURACY = 1e-4
-#: The sensitivity probe: the run again, its starting point moved by this much (m,
-#: in x and y). A run whose metrics move by more than :data:`ACCURACY` under it is
-#: ``sensitive``: no tolerance converges it.
+#: The probe's move of the starting point, m, in x and y.
 PERTURBATION = 1e-12
-#: A run that is not sensitive is run again this much tighter, and returned with its
-#: difference from the run before (times :data:`SAFETY`) as its estimate, until that
-#: is within :data:`ACCURACY`.
-TIGHTEN = 10.0
-#: Where steps span the kinks of the speed and acceleration limits, the error can fall
-#: more slowly than the tolerance over a decade (measured: 4 times the difference at
-#: worst on the Fig. 11 grid, ``benchmarks/engines.py --accuracy``): the estimate is
-#: twice the difference.
+#: A run that is not sensitive is run again this much tighter until its estimate is
+#: within ACCURACY, down to rtol RTOL_FLOOR (atol in proportion).
+TIGHTEN, RTOL_FLOOR = 10.0, 1e-13
+#: The estimate is SAFETY times the difference from the run before: across the limits'
+#: kinks the error can fall more slowly than the tolerance (``benchmarks/engines.py
+#: --accuracy`` measures how the estimate holds).
 SAFETY = 2.0
-#: A group of fewer runs than cores runs its probes beside them, in one pass, where
-#: their logs take at most this many bytes (the probes' logs are their copies).
+#: Fewer runs than cores run their probes beside them, in one pass, where their logs
+#: take at most this many bytes.
 TOGETHER_BYTES = 100_000_000
-#: The tightest rtol runs are tightened to (atol in proportion).
-RTOL_FLOOR = 1e-13
 #: The most steps (kept or not) a sample interval may take before its run stops.
 MAX_STEPS = 10_000
 BACKENDS = ("auto", "compiled", "plain")
@@ -90,31 +79,24 @@ def simulate_batch(scenarios, *, rtol: float = BATCH_RTOL, atol: float = BATCH_A
     metrics are accumulated at every sample: ``log_every`` thins the stored series only.
 
     **Numerical error.** Each run is integrated at ``rtol``, ``atol``, and again with
-    its starting point moved by :data:`PERTURBATION` m (the probe). A run whose
-    metrics the probe moves by more than :data:`ACCURACY` is ``sensitive``: it amplifies
-    perturbations so that no tolerance converges it, its ``numerical_error`` is how far
-    the probe moved it, and its spread over noise seeds is the uncertainty to quote.
-    The others are integrated again at :data:`TIGHTEN` times tighter tolerances, and
-    the tighter run is returned, its ``numerical_error`` :data:`SAFETY` times the
-    difference from the run before (the integral metrics together, by their largest
-    difference; the final error and theta_hat each; relative to their size): the error
-    of the looser run, which the tighter one's is within. Where that is above :data:`ACCURACY`, the
-    run is tightened again, down to rtol :data:`RTOL_FLOOR`. The promise: a run that
-    is not sensitive has an estimate of at most :data:`ACCURACY`, and its true error
-    is within twice its estimate; a run where that cannot be reached says so in its
-    ``message``. For a sensitive run the estimate is one sample of the spread, not a
-    bound. ``Result.steps`` and ``rejected`` count the run returned.
+    its start moved by :data:`PERTURBATION` m (the probe). Where the probe moves a metric
+    by more than :data:`ACCURACY`, the run is ``sensitive``: no tolerance converges it,
+    its ``numerical_error`` is how far the probe moved it (one sample of the spread, not
+    a bound), and its spread over noise seeds is the uncertainty to quote. The others
+    are run again :data:`TIGHTEN` times tighter, and the tighter run is returned, its
+    ``numerical_error`` :data:`SAFETY` times its difference from the run before; where
+    that is above :data:`ACCURACY` they are tightened again, down to
+    :data:`RTOL_FLOOR`. **The promise: a run that is not sensitive has an estimate of at
+    most 1e-4 (relative), and its true error is within twice its estimate; a run where
+    that cannot be reached says so in its** ``message``.
 
-    **Runs that stop.** A run that diverges (non-finite, or beyond
-    :meth:`~unidyn.Scenario.divergence_bounds`) or whose error cannot be held within
-    the tolerances in :data:`MAX_STEPS` steps of a sample interval stops there,
-    ``complete=False``, with the samples and the metrics up to the stop and a message
-    naming the cause and what to change (:data:`STATUS_MESSAGES`); the other runs go
-    on. Its error is not estimated (``numerical_error`` None).
+    **Runs that stop** (diverged, or the error not held within :data:`MAX_STEPS` steps
+    of an interval) are returned ``complete=False`` with the samples and metrics up to
+    the stop, ``numerical_error`` None, and a message naming the cause and what to change
+    (:data:`STATUS_MESSAGES`); the other runs go on.
 
     :param rtol: relative tolerance of the steps, as ``solve_ivp``'s, to start from
-        (default 1e-6; the diagram's is 1e-8, but here the estimate tells, and
-        tightens, what is not accurate enough: the least work for the promise)
+        (default 1e-6: the estimate tightens what needs it)
     :param atol: absolute tolerance (m, rad, m/s, rad/s and theta's units alike)
     :param backend: ``"compiled"``, ``"plain"`` or ``"auto"`` (:func:`backend_for`;
         ``Result.backend`` says which ran; the two agree to the tolerance)
@@ -123,8 +105,8 @@ def simulate_batch(scenarios, *, rtol: float = BATCH_RTOL, atol: float = BATCH_A
         where runs are tightened)
 
     A call's results share one log array per group (views, no copy): ``np.array(r.pose)``
-    copies what is to outlive the rest. ``Result.steps`` counts the steps a run kept,
-    ``Result.rejected`` those taken again shorter (of the run returned).
+    copies what is to outlive the rest. ``Result.steps`` and ``Result.rejected`` count
+    the steps the run returned kept and took again shorter.
 
     :raises SimulationInterrupted: on Ctrl-C (a KeyboardInterrupt); its ``results``
         hold one entry per scenario: the computed part, marked incomplete (``None``
@@ -288,7 +270,7 @@ def _runs(kernels, loop: ClosedLoop, compiled: bool):
         state=loop.initial_state(), params=loop.P, h=np.zeros(B), noise_pos=loop.pos_noise,
         noise_vel=loop.vel_noise, bounds=np.array([sc.divergence_bounds() for sc in loop.scenarios]),
         log_columns=columns, log=np.full((B, rows, len(columns)), np.nan, dtype=sc0.log_dtype),
-        integrals=np.full((B, rows, len(kernels.INTEGRALS)), np.nan), acc=np.zeros((B, 7)),
+        integrals=np.full((B, rows, len(INTEGRAL_NAMES)), np.nan), acc=np.zeros((B, 7)),
         status=count(), last=count(), steps=count(), rejected=count(),
         # the Python-function references, for the plain copy (compiled code has none)
         references=() if compiled else tuple(loop.trajectories))
@@ -337,9 +319,8 @@ STATUS_MESSAGES = {
             "for an explicit method, or diverging); use a looser rtol and atol, a shorter Ts, "
             "or unidyn.simulate(..., method='Radau') (the diagram with a stiff solver)",
 }
-#: The state each divergence bound is on, by status: (its index in the bounds, what
-#: is measured from the last logged row).
-_BOUND = {"POSITION": (0, "position"), "SPEED_U": (1, "u"), "SPEED_W": (2, "w")}
+#: The divergence bound of each status that stops at one: its index in the bounds.
+_BOUND = {"POSITION": 0, "SPEED_U": 1, "SPEED_W": 2}
 
 
 def _relative(a: float, b: float, scale: float) -> float:
@@ -368,25 +349,19 @@ def _differences(r: Result, other: Result) -> dict:
 
 
 def _sensitive(r: Result, probe: Result):
-    """``r`` marked sensitive, its error the probe's differences, where the probe (the
-    run with its starting point moved by :data:`PERTURBATION`) moves a metric by more
+    """``r`` marked sensitive, its error how far the probe moved it, where that is more
     than :data:`ACCURACY`; else None."""
     if not probe.complete:
-        return dataclasses.replace(
-            r, message=f"every sample computed, its numerical error not estimated: the "
-                       f"same run with its start moved by {PERTURBATION:g} m stopped "
-                       f"({probe.message})")
+        return dataclasses.replace(r, message=f"every sample computed, its numerical error not "
+                                              f"estimated: its probe stopped ({probe.message})")
     moved = _differences(r, probe)
-    named = {k: abs(r.metrics[k] - probe.metrics[k]) / abs(r.metrics[k])
-             for k in INTEGRAL_NAMES if r.metrics[k]}
     if max(moved.values()) <= ACCURACY:
         return None
-    worst = max(named, key=named.get) if named else max(moved, key=moved.get)
-    amount = named.get(worst, moved[worst])
-    message = (f"sensitive: {worst.upper() if worst in INTEGRAL_NAMES else worst} moves "
-               f"{100 * amount:.2g} % under a {PERTURBATION:g} m perturbation of the starting "
-               f"point; no tolerance converges it, and the spread over noise seeds is the "
-               f"uncertainty to quote (scenario {r.scenario.name or r.scenario.case})")
+    iae = _relative(r.metrics["iae"], probe.metrics["iae"], r.metrics["iae"])
+    message = (f"sensitive: IAE moves {100 * iae:.2g} % (its metrics up to "
+               f"{100 * max(moved.values()):.2g} %) under a {PERTURBATION:g} m perturbation of "
+               f"the starting point; no tolerance converges it, and the spread over noise seeds "
+               f"is the uncertainty to quote (scenario {r.scenario.name or r.scenario.case})")
     return dataclasses.replace(r, numerical_error=moved, sensitive=True, message=message)
 
 
@@ -440,10 +415,9 @@ def _results(kernels, loop: ClosedLoop, runs, rtol: float, atol: float, backend:
         elif status == Status.OK:
             message = f"interrupted at t = {t_stop:.6g} s (scenario {label})"
         elif status.name in _BOUND:
-            which, what = _BOUND[status.name]
-            last_row = runs.log[i, nrow - 1].astype(float)
+            which, last_row = _BOUND[status.name], runs.log[i, nrow - 1].astype(float)
             (x, y, _), (u, w) = last_row[layout["pose"]], last_row[layout["velocity"]]
-            value = {"position": np.hypot(x, y), "u": abs(u), "w": abs(w)}[what]
+            value = (np.hypot(x, y), abs(u), abs(w))[which]
             message = (f"{Scenario.divergence(which, value, runs.bounds[i, which])} "
                        f"at t = {t_stop:.6g} s (scenario {label})")
         else:

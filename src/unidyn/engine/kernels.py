@@ -22,7 +22,7 @@ from .jit import AVAILABLE, jit
 if AVAILABLE:
     from numba.extending import overload
 
-__all__ = ["AVAILABLE", "Runs", "Call", "LOG_COLUMNS", "LOG_SERIES", "INTEGRALS",
+__all__ = ["AVAILABLE", "Runs", "Call", "LOG_COLUMNS", "LOG_SERIES",
            "log_layout", "reference", "loop_rhs", "loop_limits", "advance", "dp_step",
            "integrate_interval", "Status"]
 
@@ -160,12 +160,6 @@ LOG_SERIES = {"pose": _columns("x", "psi"), "velocity": _columns("u", "w"),
               "v_ref": _columns("u_ref", "w_ref")}
 
 
-#: The metrics' integrals from t = 0, accumulated at every sample by the trapezoidal
-#: rule (:func:`unidyn.results.result.metrics`): logged at every logged sample, whatever
-#: ``log_every``, so a metric or a window of it never depends on the logging.
-INTEGRALS = ("iae", "ise", "itae", "itse", "energy")
-
-
 def log_layout(series):
     """(the columns of :data:`LOG_COLUMNS` kept for the named series, as an index array;
     where each kept series lies in a row)."""
@@ -194,8 +188,9 @@ def sample_row(t, X, p, noise, references, row):
 @jit(inline=True)
 def accumulate(k, Ts, row, acc):
     """Add the trapezoid from sample k - 1 to sample k (at t = k Ts, its row) to the
-    integrals acc[0:5] (:data:`INTEGRALS`); acc[5], acc[6] hold the last sample's
-    distance error and squared speed (set alone at k = 0)."""
+    integrals acc[0:5] (:data:`unidyn.results.result.INTEGRAL_NAMES`, by the rule of
+    :func:`unidyn.results.result.integrals`, at every sample whatever is logged);
+    acc[5], acc[6] hold the last sample's distance error and squared speed."""
     e = math.hypot(row[11] - row[S.x], row[12] - row[S.y])
     v2 = row[S.u] * row[S.u] + row[S.w] * row[S.w]
     if k > 0:
@@ -229,16 +224,14 @@ class Status(IntEnum):
     STEP = 5  #: the tolerance not met within ``max_steps`` steps of an interval
 
 
-OK, NONFINITE, POSITION, SPEED_U, SPEED_W, STEP = (
-    int(Status.OK), int(Status.NONFINITE), int(Status.POSITION), int(Status.SPEED_U),
-    int(Status.SPEED_W), int(Status.STEP))
+OK, NONFINITE, POSITION, SPEED_U, SPEED_W, STEP = (int(s) for s in Status)  # compiled code's
 
 #: The per-run arrays of a call (row i: run i): ``state`` (B, 13); ``params`` (rows of
 #: :data:`unidyn.model.equations.LOOP_PARAMETERS`); ``h``, the next step (carried across
 #: intervals, 0 at first); ``noise_pos``, ``noise_vel`` (B, rows, 2), the held noise from
 #: interval noise_first on; ``bounds`` (B, 3) on |(x, y)|, |u|, |w|; ``log_columns`` kept
 #: of :data:`LOG_COLUMNS`; ``log`` (B, rows, columns); ``integrals`` (B, rows, 5), float64,
-#: the :data:`INTEGRALS` at each logged sample; ``acc`` (B, 7), float64, the integrals so
+#: the metrics' integrals at each logged sample; ``acc`` (B, 7), float64, the integrals so
 #: far and the last sample's error and squared speed (:func:`accumulate`); ``status``,
 #: ``last`` (sample reached), ``steps`` (kept) and ``rejected`` (taken again shorter);
 #: ``references``, the call's Python-function references (a tuple; empty compiled).
