@@ -64,10 +64,12 @@ def test_batch_engine_agrees_with_the_bdsim_diagram_without_noise(k, i):
     assert rb.complete and rd.complete and r.complete
     assert np.max(np.abs(rb.pose[:, :2] - rd.pose[:, :2])) < 1e-6, sc.case
     assert abs(rb.metrics["iae"] - rd.metrics["iae"]) <= 1e-6 * rd.metrics["iae"], sc.case
-    # at the defaults (rtol 1e-8, as the diagram's) the IAE is within 3e-6 of the
-    # converged diagram's at k = 35, closer at lower gains: well within the promise
-    assert np.max(np.abs(r.pose[:, :2] - rd.pose[:, :2])) < 2e-6, sc.case
-    assert abs(r.metrics["iae"] - rd.metrics["iae"]) <= 1e-5 * rd.metrics["iae"], sc.case
+    # at the defaults the metrics are within twice the engine's estimate of the converged
+    # diagram's, and the estimate within the promise (none of these runs is sensitive)
+    assert not r.sensitive and max(r.numerical_error.values()) <= 1e-4, sc.case
+    for m in ("iae", "ise", "itae", "itse", "energy"):
+        assert abs(r.metrics[m] - rd.metrics[m]) <= 2 * r.numerical_error[m] * rd.metrics[m], (sc.case, m)
+    assert np.max(np.abs(r.pose[:, :2] - rd.pose[:, :2])) < 1e-4, sc.case
 
 
 def test_same_seed_gives_the_same_noise_in_both_engines():
@@ -117,9 +119,10 @@ def test_switching_adaptation_on_mid_run_is_resolved_at_the_defaults():
         sc = Scenario.paper(4, T=10.0, adapt_from=adapt_from, noise=None)
         rd = unidyn.simulate(sc, rtol=1e-12, atol=1e-14)
         r, = simulate_batch([sc])
-        assert r.complete, r.message
-        assert np.max(np.abs(r.pose[:, :2] - rd.pose[:, :2])) < 1e-6
+        assert r.complete and not r.sensitive, r.message
+        assert np.max(np.abs(r.pose[:, :2] - rd.pose[:, :2])) < 1e-5
         assert np.max(np.abs(r.theta_hat - rd.theta_hat)) < 1e-5
+        assert abs(r.metrics["iae"] - rd.metrics["iae"]) <= 2 * r.numerical_error["iae"] * rd.metrics["iae"]
 
 
 def test_batch_rejects_sampled_control_and_bad_arguments():
