@@ -24,11 +24,12 @@ from ._validate import DEFAULT_ATOL, DEFAULT_RTOL
 from .sweeps.sweep_files import read_metrics
 from .model.noise import PAPER_NOISE
 from .sweeps.sweep import Sweep
+from .results.windows import window_iae
 
 __all__ = ["Claim", "section5_claims", "format_claims", "paper_fig11", "fig11_claims",
            "format_fig11_claims", "fig11_table", "Fig11Claim", "FIG11_CASES", "plot_fig11",
            "experiment", "experiment_scenarios", "experiment_stats", "experiment_claims",
-           "format_experiment_claims", "plot_experiment", "write_experiment", "window_iae",
+           "format_experiment_claims", "plot_experiment", "write_experiment",
            "Experiment", "ExperimentRun", "EXPERIMENT_PAPER", "EXPERIMENT_WINDOWS",
            "EXPERIMENT_FILES"]
 
@@ -356,18 +357,6 @@ def experiment_scenarios(seeds=8, robot="p3dx_laser", noise=PAPER_NOISE) -> list
                 case=case, noise=ns, name=name,
                 theta_hat0=estimate if case == "adaptive" else None)))
     return out
-
-
-def window_iae(result, t0: float, t1: float) -> float:
-    r"""IAE over [t0, t1], :math:`\int_{t_0}^{t_1} |\tilde h|\,dt` (m·s; the paper's
-    IAE of Section 5 over a window), by the trapezoidal rule on the result's samples
-    (whose ends must fall on samples)."""
-    t = np.asarray(result.t, dtype=float)
-    m = (t >= t0 - 1e-9) & (t <= t1 + 1e-9)
-    if m.sum() < 2 or abs(t[m][0] - t0) > 1e-6 or abs(t[m][-1] - t1) > 1e-6:
-        raise ValidationError(f"the window {t0:g}-{t1:g} s is not covered by the result's "
-                              f"samples ({t[0]:g}-{t[-1]:g} s)")
-    return float(np.trapezoid(np.asarray(result.error, dtype=float)[m], t[m]))
 
 
 def _seed_stats(values) -> tuple:

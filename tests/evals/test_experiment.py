@@ -13,8 +13,8 @@ import pytest
 from unidyn import ValidationError
 from unidyn.cli import main
 from unidyn.paper import (EXPERIMENT_FILES, EXPERIMENT_PAPER, ExperimentRun, experiment,
-                          experiment_claims, experiment_scenarios, experiment_stats,
-                          window_iae)
+                          experiment_claims, experiment_scenarios, experiment_stats)
+from unidyn.results.windows import window_iae
 
 
 def _fake(error, T=60.0, Ts=0.1, u=0.3, w=0.5):
