@@ -33,11 +33,12 @@ PICKUP_CONTROLLERS = {"uncompensated": "kinematic controller (Eq. 10)",
 
 
 def pickup_scenarios(mass: float = 2.0, at: float = 100.0, T: float = 200.0, noise=None,
-                     robot="p3dx_laser") -> dict:
+                     robot="p3dx_laser", **changes) -> dict:
     """The three runs of a load of ``mass`` times the empty robot's mass picked up at
     ``at`` s, on the paper's figure eight for ``T`` s (the paper's gains and limits;
-    ``noise`` None, a NoiseSpec or a dict): controller case -> Scenario."""
-    base = Scenario(robot=robot, T=T, noise=noise, payload=[[at, mass]])
+    ``noise`` None, a NoiseSpec or a dict; other Scenario fields in ``changes``):
+    controller case -> Scenario."""
+    base = Scenario(robot=robot, T=T, noise=noise, payload=[[at, mass]], **changes)
     return {case: base.replace(case=case, adapt_from=0.0, theta_hat0=base.robot,
                                name=f"{desc}, load x{mass:g} at {at:g} s")
             for case, desc in PICKUP_CONTROLLERS.items()}
@@ -83,13 +84,13 @@ def plot_pickup(results: dict, path, at: float):
 
 
 def pickup_sweep(masses, at: float = 100.0, T: float = 200.0, noise=None,
-                 window: float = 25.0) -> dict:
+                 window: float = 25.0, **changes) -> dict:
     """The IAE over the last ``window`` s against the load's mass scale, for each
     controller (one batch of runs): controller case -> array of IAE, m·s, in the order
-    of ``masses``."""
+    of ``masses`` (``changes``: other Scenario fields, as :func:`pickup_scenarios`)."""
     masses = [float(m) for m in masses]
     cases = list(PICKUP_CONTROLLERS)
-    scs = [pickup_scenarios(m, at, T, noise)[c] for m in masses for c in cases]
+    scs = [pickup_scenarios(m, at, T, noise, **changes)[c] for m in masses for c in cases]
     results = simulate_batch(scs, progress=False)
     iae = np.array([window_iae(r, T - window, T) for r in results]).reshape(len(masses),
                                                                            len(cases))
