@@ -465,9 +465,13 @@ def experiment_stats(runs, engine: str = "batch") -> dict:
 
 
 def _pm(stat, digits=2) -> str:
+    """mean ± standard error, with at least ``digits`` decimals and the error's first
+    two significant digits."""
     mean, se, n = stat
-    if n < 2:
+    if n < 2 or not math.isfinite(se):
         return f"{mean:.{digits}f}"
+    if se > 0:
+        digits = max(digits, 1 - math.floor(math.log10(se)))
     return f"{mean:.{digits}f} ± {se:.{digits}f}"
 
 
