@@ -180,7 +180,9 @@ def _run_staged(staging, sc, engine, out, animation, **options):
 def _run_summary(sc, out, stage, result, wall, replaced, animation) -> int:
     final = shown(out, stage.final)
     print(f"case       {sc.case}" + (f"  ({short_name(sc.name)})" if sc.name else ""))
-    print(f"robot      {sc.robot.name}")
+    print(f"robot      {sc.robot.name}" + (
+        "; payload " + ", ".join(f"x{m:g} from {t:g} s" for t, m in sc.payload)
+        if sc.payload else ""))
     backend = getattr(result, "backend", "")
     print(f"engine     {result.engine}" + (f" ({backend})" if backend else "")
           + f", T = {sc.T:g} s, noise "
