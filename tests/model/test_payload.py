@@ -138,3 +138,21 @@ def test_both_engines_agree_on_a_load_picked_up_mid_run():
     k = int(round(6.0 / sc.Ts))
     np.testing.assert_allclose(rb.pose[:k + 1], empty.pose[:k + 1], atol=1e-9)
     assert np.abs(rb.pose[k + 10:] - empty.pose[k + 10:]).max() > 1e-3
+
+
+def test_block_takes_the_schedule():
+    """DYNAMICUNICYCLE's state derivative is Eq. (2) of the empty robot before the load
+    and of the loaded robot after it (the model's own unicycle_deriv, given each theta)."""
+    from unidyn.blocks import DynamicUnicycle
+    from unidyn.model import robots, unicycle
+    empty = robots.get("p3dx_laser")
+    block = DynamicUnicycle(robot=empty, a=0.2, payload=[[1.0, 2.0]])
+    x = np.array([0.1, 0.2, 0.3, 0.25, 0.4])
+    v_ref = [0.35, -0.2]
+    for t, theta in ((0.5, empty.theta), (1.5, empty.with_mass(2.0).theta)):
+        got = block.deriv(t, [v_ref[0], v_ref[1]], x)
+        want = unicycle.unicycle_deriv(x, np.array(v_ref), theta, 0.2, block.limits, None)
+        np.testing.assert_allclose(got, want, rtol=1e-14)
+    assert block.arguments["payload"] == [[1.0, 2.0]]
+    with pytest.raises(ValidationError, match="payload: a schedule's times increase"):
+        DynamicUnicycle(payload=[[2.0, 2.0], [1.0, 1.0]])
