@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._validate import ValidationError, nonnegative, positive, real, vector
+from .schedules import step_rows
 
 __all__ = ["RobotParameters", "THETA_NAMES", "MASS_PARAMETERS", "PAYLOAD_STEPS",
            "payload_schedule"]
@@ -205,18 +206,7 @@ def payload_schedule(value, name: str = "payload") -> tuple:
         raise ValidationError(f"{what}, got {value!r:.120}")
     if not isinstance(value, (list, tuple)):
         return ((0.0, positive(f"{name} mass scale", value)),)
-    rows = list(value)
-    if not all(isinstance(r, (list, tuple, np.ndarray)) and len(r) == 2 for r in rows):
-        raise ValidationError(f"{what}, got {value!r:.120}")
-    if len(rows) > PAYLOAD_STEPS:
+    if len(value) > PAYLOAD_STEPS:
         raise ValidationError(f"{name}: a schedule has at most {PAYLOAD_STEPS} rows, got "
-                              f"{len(rows)}")
-    out = []
-    for k, (t, m) in enumerate(rows):
-        t = real(f"{name}[{k}] t", t, low=0.0)
-        m = positive(f"{name}[{k}] mass scale", m)
-        if out and t <= out[-1][0]:
-            raise ValidationError(f"{name}: a schedule's times increase; row {k} has "
-                                  f"t = {t:g} s after t = {out[-1][0]:g} s")
-        out.append((t, m))
-    return tuple(out)
+                              f"{len(value)}")
+    return step_rows(name, value, what, "mass scale")
