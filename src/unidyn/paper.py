@@ -12,8 +12,11 @@
 
 from __future__ import annotations
 
+import csv
+import json
 import math
 import os
+from pathlib import Path
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,13 +28,12 @@ from .sweeps.sweep_files import read_metrics
 from .model.noise import PAPER_NOISE
 from .sweeps.sweep import Sweep
 from .results.windows import window_iae
+from .model.scenario import Scenario
+from .diagrams.simulate import simulate
+from .engine.batch import simulate_batch
 
 __all__ = ["Claim", "section5_claims", "format_claims", "paper_fig11", "fig11_claims",
-           "format_fig11_claims", "fig11_table", "Fig11Claim", "FIG11_CASES", "plot_fig11",
-           "experiment", "experiment_scenarios", "experiment_stats", "experiment_claims",
-           "format_experiment_claims", "plot_experiment", "write_experiment",
-           "Experiment", "ExperimentRun", "EXPERIMENT_PAPER", "EXPERIMENT_WINDOWS",
-           "EXPERIMENT_FILES"]
+           "format_fig11_claims", "fig11_table", "Fig11Claim", "FIG11_CASES", "plot_fig11"]
 
 
 @dataclass(frozen=True)
@@ -314,6 +316,10 @@ def plot_fig11(metrics, path, title: str | None = None):
 # --------------------------------------------------------------------------- #
 # Section 5's experiment on a real Pioneer 3-DX, as simulated scenarios
 
+__all__ += ["experiment", "experiment_scenarios", "experiment_stats", "experiment_claims",
+            "format_experiment_claims", "plot_experiment", "write_experiment", "Experiment",
+            "ExperimentRun", "EXPERIMENT_PAPER", "EXPERIMENT_WINDOWS", "EXPERIMENT_FILES"]
+
 #: The experiment's numbers (Section 5, last paragraphs): IAE of the distance error,
 #: m·s as printed, over 15-30 s (compensation with estimates about 20 % off, no
 #: updating), over 45-60 s (15 s after the update of Eq. 20 started at t = 30 s), and
@@ -341,8 +347,6 @@ def experiment_scenarios(seeds=8, robot="p3dx_laser", noise=PAPER_NOISE) -> list
 
     :return: list of (seed or None, controller case, Scenario)
     """
-    from .model.scenario import Scenario
-
     if isinstance(seeds, bool) or not isinstance(seeds, (int, np.integer)) or seeds < 0:
         raise ValidationError(f"seeds must be an integer >= 0 (the noise seeds 0..seeds-1), "
                               f"got {seeds!r}")
@@ -405,9 +409,6 @@ def experiment(seeds: int = 8, engines=("batch", "bdsim"), robot="p3dx_laser",
     :param robot: the simulated robot (a preset name or RobotParameters)
     :param noise: the measurement noise (a NoiseSpec; its seed is replaced), or None
     """
-    from .diagrams.simulate import simulate
-    from .engine.batch import simulate_batch
-
     engines = tuple(engines)
     if not engines or any(e not in ("batch", "bdsim") for e in engines):
         raise ValidationError(f"engines must be some of 'batch', 'bdsim', got {engines!r}")
@@ -642,10 +643,6 @@ def write_experiment(exp: Experiment, folder, robot_name: str = "") -> list:
     controller, seed, t, pose, velocity, reference, distance error, theta_hat) and
     ``experiment.json`` (each run's scenario and windowed IAEs, the statistics) into
     ``folder``, an existing folder (the command line writes into a staged one)."""
-    import csv
-    import json
-    from pathlib import Path
-
     folder = Path(folder)
     (folder / "claims.md").write_text(format_experiment_claims(exp, robot_name), encoding="utf-8")
     plot_experiment(exp, folder / "experiment.png")

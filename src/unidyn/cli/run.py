@@ -16,6 +16,7 @@ from .._errors import (Interrupted, MissingDependency, SimulationError, Simulati
 from .._validate import MAX_NAME
 from ..engine.choice import choose, run
 from ..model.scenario import Scenario
+from ..paper import EXPERIMENT_FILES, EXPERIMENT_PAPER, experiment, write_experiment
 from ..results.folders import check_manifest, staged_output
 from ..results.plots import save_figures
 from ..results.result import RUN_FILES
@@ -216,8 +217,6 @@ def _run_experiment(args) -> int:
     (:func:`unidyn.paper.experiment`) in both engines (or the one --engine names) over
     --seeds noise seeds; writes claims.md, experiment.png, runs.csv and experiment.json
     into --out, staged as a run's files are."""
-    from ..paper import EXPERIMENT_FILES, EXPERIMENT_PAPER, experiment, write_experiment
-
     given = [flag for flag, value in (
         ("a scenario file", args.scenario), ("--from", args.from_), ("--case", args.case),
         ("--T", args.T), ("--set", args.set), ("--animate", args.animate),
