@@ -122,11 +122,13 @@ def test_the_loop_sees_the_loaded_robot():
         np.testing.assert_allclose(d[3:5], [du, dw], rtol=1e-12)
 
 
-def test_both_engines_agree_on_a_load_picked_up_mid_run():
+@pytest.mark.parametrize("payload", [[[6.0, 2.5]], [[6.037, 2.5], [9.0, 0.7]]])
+def test_both_engines_agree_on_a_load_picked_up_mid_run(payload):
     """The diagram (DYNAMICUNICYCLE with the schedule) and the batch engine, with noise,
-    a load of 2.5 times the mass at 6 s and adaptation from 3 s: the same IAE."""
+    a load of 2.5 times the mass at 6 s (on a sample; or between samples, and set down
+    to 0.7 times the mass at 9 s) and adaptation from 3 s: the same IAE."""
     from unidyn import simulate, simulate_batch
-    sc = Scenario.paper(4, T=12.0, adapt_from=3.0, payload=[[6.0, 2.5]])
+    sc = Scenario.paper(4, T=12.0, adapt_from=3.0, payload=payload)
     rd = simulate(sc)
     rb, = simulate_batch([sc], progress=False)
     empty, = simulate_batch([sc.replace(payload=())], progress=False)

@@ -113,9 +113,10 @@ class Scenario:
         from t (s) on the robot's mass is that multiple of the empty robot's
         (``robot``), which scales theta1, theta2, theta3, theta5
         (:func:`unidyn.model.equations.payload_theta`, Section 2); increasing times,
-        scales > 0, at most 8 rows; a number m is ``[[0, m]]``; default none. The
-        compensator keeps its own estimate: exact compensation uses the empty robot's
-        theta, adaptive compensation follows the change (Eq. 20).
+        scales > 0, at most 8 rows; a number m is ``[[0, m]]``; default none; no effect
+        on a kinematic robot (case ``kinematic``). The compensator keeps its own
+        estimate: exact compensation uses the empty robot's theta, adaptive
+        compensation follows the change (Eq. 20).
     """
 
     case: str = "adaptive"
