@@ -205,7 +205,7 @@ def payload_schedule(value, name: str = "payload") -> tuple:
     if isinstance(value, (str, bytes, dict, bool, np.bool_)):
         raise ValidationError(f"{what}, got {value!r:.120}")
     if not isinstance(value, (list, tuple)):
-        return ((0.0, positive(f"{name} mass scale", value)),)
+        return ((0.0, positive(name, value)),)
     if len(value) > PAYLOAD_STEPS:
         raise ValidationError(f"{name}: a schedule has at most {PAYLOAD_STEPS} rows, got "
                               f"{len(value)}")
