@@ -79,6 +79,8 @@ def test_scenarios_are_the_papers_settings():
     assert sc.T == 60.0 and sc.adapt_from == 30.0 and sc.x0 == (0.2, 0.0, 0.0)
     np.testing.assert_allclose(sc.theta_hat_initial, 0.8 * sc.robot.theta)
     assert sc.noise.seed == 0 and specs[0][2].noise is None
+    np.testing.assert_allclose(experiment_scenarios(seeds=0, estimate=1.2)[0][2]
+                               .theta_hat_initial, 1.2 * sc.robot.theta)
     with pytest.raises(ValidationError, match="seeds must be an integer"):
         experiment_scenarios(seeds=-1)
 

@@ -239,7 +239,7 @@ def _run_experiment(args) -> int:
     try:
         with staging as stage:
             exp = experiment(seeds=seeds, engines=engines, robot=robot)
-            write_experiment(exp, stage.path, robot_name=str(robot))
+            write_experiment(exp, stage.path)
     except KeyboardInterrupt:
         raise Interrupted(f"{out} is as it was before this run") from None
     st = exp.stats
