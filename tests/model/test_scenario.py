@@ -425,6 +425,8 @@ BAD_VALUES = [
     ("log_series", ("theta",), "log_series"),
     ("log_series", 3, "log_series"),
     ("log_series", [None], "log_series"),
+    ("payload", [[30.0, 2.0], [10.0, 1.0]], "payload"),
+    ("payload", [[30.0, 0.0]], "payload"),
     ("x0", (1e300, 0.0, 0.0), "x0"),
     ("x0", (0.0, 0.0, 1e300), "x0"),
 ]

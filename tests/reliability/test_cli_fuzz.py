@@ -176,6 +176,11 @@ def wrong_type(field):
                              for x in s.split(","))),
                          st.lists(numbers, min_size=1, max_size=3),
                          st.dictionaries(st.text(max_size=4), numbers, max_size=2))
+    if field == "payload":  # a list of numbers is rows that are not [t, mass scale] pairs
+        return st.one_of(st.text(max_size=8), st.booleans(), st.lists(numbers, min_size=1,
+                                                                       max_size=4),
+                         st.dictionaries(st.text(max_size=4), numbers, max_size=2),
+                         st.dates(min_value=dt.date(1, 1, 1)))
     if field in ("noise", "limits"):
         return st.one_of(numbers.filter(lambda x: x != 0), st.just(True),
                          st.text(max_size=8).filter(lambda s: s not in ("none", "off")),

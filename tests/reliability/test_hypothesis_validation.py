@@ -285,6 +285,19 @@ INVALID = {
                  max_size=2),
         small_ints, finite, st.booleans(), st.none(), st.builds(object),
         st.dictionaries(st.sampled_from(OPTIONAL_SERIES), st.booleans(), max_size=2)),
+    # a payload schedule: junk, a bad number, a row of another shape, a bad time or mass
+    # in one row, times that do not increase, more rows than the engines hold
+    "payload": st.one_of(
+        texts, st.booleans(), st.builds(object), st.dictionaries(texts, finite, max_size=2),
+        zero, negative, nan, inf, neg_inf,
+        st.lists(st.lists(finite, max_size=3).filter(lambda r: len(r) != 2), min_size=1,
+                 max_size=3),
+        st.tuples(st.one_of(negative, nan, inf, not_a_number.filter(lambda v: v is not None)),
+                  st.just(2.0)).map(lambda r: [[1.0, 1.5], list(r)]),
+        st.tuples(st.just(5.0), st.one_of(zero, negative, nan, inf, neg_inf)).map(
+            lambda r: [list(r)]),
+        st.floats(0.0, 5.0).map(lambda t: [[5.0, 2.0], [t, 1.0]]),
+        st.integers(9, 20).map(lambda n: [[float(k), 1.5] for k in range(n)])),
     "vd_dot": st.one_of(bad_choice(VD_DOT_METHODS, none_ok=True), st.just("difference")),
     "vd_dot_continuous": bad_choice(("input", "filter")),
     "vd_dot_sampled": bad_choice(("input", "difference")),
@@ -339,7 +352,7 @@ SCENARIO_FIELDS = {"case": "case", "robot": "robot", "a": "positive", "x0": "vec
                    "adapt_from": "nonnegative", "leakage": "leakage", "noise": "noise",
                    "limits": "limits_table", "control": "control", "vd_dot": "vd_dot",
                    "name": "name", "log_every": "positive_int", "log_dtype": "log_dtype",
-                   "log_series": "log_series",
+                   "log_series": "log_series", "payload": "payload",
                    **{k: "positive" for k in ("kx", "ky", "lx", "ly", "ku", "kw", "lu", "lw",
                                               "T", "Ts", "tau")}}
 
@@ -383,7 +396,8 @@ BLOCK_PARAMETERS = {
                              "steer_max": "positive_or_inf",
                              "angular_accel_max": "positive_or_inf",
                              "limits": "limits_object", "disturbance": "flag",
-                             "velocity_output": "flag", "w": "positive_or_none"}),
+                             "velocity_output": "flag", "w": "positive_or_none",
+                             "payload": "payload"}),
     "KinematicUnicycle": ({}, {"a": "nonnegative", "x0": "vector3or5_or_none",
                                "speed_max": "positive_or_inf", "steer_max": "positive_or_inf",
                                "limits": "limits_object"}),

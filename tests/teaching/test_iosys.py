@@ -411,3 +411,11 @@ def test_params_python_control_cannot_honour_are_refused(make, params, match):
     u = np.full(sys_.ninputs, 0.1)
     with pytest.raises(ValidationError, match=match):
         sys_.output(0.0, x, u, params=params)
+
+
+def test_fig2_loop_refuses_a_payload_schedule():
+    """The python-control loop's robot has constant theta: a load that changes during
+    the run is refused in one line, not ignored."""
+    with pytest.raises(ValidationError, match="payload schedule") as err:
+        iosys.fig2_loop(unidyn.Scenario.paper(3, payload=[[50.0, 2.0]]))
+    assert "\n" not in str(err.value)

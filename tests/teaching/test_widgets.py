@@ -95,7 +95,7 @@ def test_unknown_payload_hurts_exact_compensation():
 def test_bad_settings_are_refused_and_keep_the_drawing(explorer):
     before = explorer.drawn["error"].copy()
     for bad in (dict(case=5), dict(case=True), dict(k=-1.0), dict(noise="yes"),
-                dict(payload=0.0)):
+                dict(payload=0.0), dict(load_time=-1.0), dict(load_time=1e4)):
         with pytest.raises(ValidationError):
             explorer.update(**bad)
     np.testing.assert_array_equal(explorer.drawn["error"], before)
@@ -113,3 +113,19 @@ def test_widget_controls_drive_the_callback():
     np.testing.assert_array_equal(ex.drawn["path"], r.pose[:, :2])
     sliders["case"].value = 2
     assert ex.settings["case"] == 2 and ex.result.scenario.case == "uncompensated"
+    sliders["payload x"].value = 2.0
+    sliders["load at t ="].value = 50.0
+    assert ex.result.scenario.payload == ((50.0, 2.0),)
+
+
+def test_load_picked_up_mid_run_is_the_scenarios_payload_schedule():
+    """The load slider's time: the run is the paper's with the empty robot carrying
+    twice its mass from 100 s on; before 100 s it is the empty robot's run."""
+    ex = LoopExplorer(case=3, noise=False, payload=2.0, load_time=100.0, figure=False)
+    sc = unidyn.Scenario.paper(3, noise=None, payload=[[100.0, 2.0]])
+    (r,) = unidyn.simulate_batch([sc], progress=False, backend=ex.result.backend)
+    np.testing.assert_array_equal(ex.result.error, r.error)
+    empty = LoopExplorer(case=3, noise=False, payload=1.0, figure=False).result
+    before, after = ex.result.t < 100.0, ex.result.t >= 150.0
+    np.testing.assert_array_equal(ex.result.error[before], empty.error[before])
+    assert ex.result.error[after].mean() > 10 * empty.error[after].mean()

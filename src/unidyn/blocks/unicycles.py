@@ -7,10 +7,10 @@ from collections.abc import Sequence
 import numpy as np
 from bdsim.components import ContinuousBlock
 
-from ..model import robots, unicycle
+from ..model import equations, robots, unicycle
 from unidyn._validate import ValidationError, flag, positive, real, vector
 from unidyn.model.unicycle import Limits
-from unidyn.model.parameters import RobotParameters
+from unidyn.model.parameters import RobotParameters, payload_schedule
 
 from .arguments import (check_blockargs, check_fixed_blockargs, limits_from_args,
                         optional_limit, records_arguments)
@@ -101,7 +101,8 @@ class DynamicUnicycle(ContinuousBlock):
                  accel_max: float = np.inf, steer_max: float = np.inf,
                  angular_accel_max: float = np.inf, limits: Limits | None = None,
                  disturbance: bool = False, velocity_output: bool = False,
-                 w: float | None = None, **blockargs):
+                 w: float | None = None, payload: Sequence | float | None = None,
+                 **blockargs):
         r"""
         :param robot: preset name (see ``unidyn.model.robots.names()``), ``RobotParameters``
             or six numbers theta1..theta6, defaults to ``"p3dx_laser"``
@@ -131,11 +132,18 @@ class DynamicUnicycle(ContinuousBlock):
             its ω input by ``w``, unlike its docstring, so a diagram built with ``w != 1``
             turns at a different rate after the swap.)
         :type w: float, optional
+        :param payload: a load that changes during the run: rows ``[t, mass scale]``,
+            from t (s) on the mass is that multiple of ``robot``'s (the empty robot),
+            which multiplies theta1, theta2, theta3, theta5 in Eq. (2)
+            (:func:`unidyn.model.equations.payload_theta`); increasing times, scales
+            > 0, at most 8 rows; a number m is ``[[0, m]]``; defaults to none
+        :type payload: list of [float, float], float or None
         :param blockargs: common block options (``name``, ``inputs``, ...)
         :type blockargs: dict
         """
         self.params = robots.resolve(robot)
         self.theta = self.params.theta
+        self.payload = payload_schedule(payload)
         self.a = real("a", a, low=0.0)
         self.limits = limits_from_args(limits, speed_max, steer_max, accel_max, angular_accel_max)
         self.width = None if w is None else positive("w", w)
@@ -201,11 +209,17 @@ class DynamicUnicycle(ContinuousBlock):
             x[3:5] = np.clip(x[3:5], -self.limits.speed, self.limits.speed)
         return x
 
+    def theta_at(self, t: float) -> np.ndarray:
+        """theta1..theta6 of the robot at time t, s, under its ``payload`` schedule
+        (:func:`unidyn.model.equations.payload_theta`)."""
+        steps = tuple(v for row in self.payload for v in row)
+        return np.array(equations.payload_theta(float(t), *self.theta, steps))
+
     def deriv(self, t, inports, x):
         v_ref = np.array([as_vector(inports[0], 1, self, "v", t)[0],
                           as_vector(inports[1], 1, self, "ω", t)[0]])
         delta = as_vector(inports[2], 4, self, "delta", t) if self.disturbance else None
-        xd = unicycle.unicycle_deriv(self.within_limits(x), v_ref, self.theta, self.a,
+        xd = unicycle.unicycle_deriv(self.within_limits(x), v_ref, self.theta_at(t), self.a,
                                      self.limits, delta)
         return check_finite(xd, self, "state derivative", t)
 
@@ -386,7 +400,7 @@ class DynamicUnicycleWithVelocity(DynamicUnicycle):
                  a: float = 0.0, x0: Sequence[float] = (0.0, 0.0, 0.0),
                  speed_max: float | None = None, accel_max: float | None = None,
                  steer_max: float | None = None, angular_accel_max: float | None = None,
-                 **blockargs):
+                 payload: Sequence | float | None = None, **blockargs):
         r"""
         :param robot: preset name (``unidyn.model.robots.names()``) or six numbers theta1..theta6, defaults to p3dx_laser
         :type robot: str, RobotParameters or array_like(6)
@@ -402,6 +416,9 @@ class DynamicUnicycleWithVelocity(DynamicUnicycle):
         :type steer_max: float or None
         :param angular_accel_max: max \|w'\|, rad/s², > 0, or None for no limit, defaults to None
         :type angular_accel_max: float or None
+        :param payload: rows ``[t, mass scale]``: from t (s) on the mass is that multiple
+            of the empty robot's (see :class:`DynamicUnicycle`), defaults to none
+        :type payload: list of [float, float], float or None
         :param blockargs: common block options (``name``, ``inputs``, ...)
         :type blockargs: dict
         """
@@ -411,4 +428,4 @@ class DynamicUnicycleWithVelocity(DynamicUnicycle):
                          accel_max=optional_limit("accel_max", accel_max),
                          steer_max=optional_limit("steer_max", steer_max),
                          angular_accel_max=optional_limit("angular_accel_max", angular_accel_max),
-                         velocity_output=True, **blockargs)
+                         velocity_output=True, payload=payload, **blockargs)

@@ -66,11 +66,16 @@ def parser() -> argparse.ArgumentParser:
                            "unidyn run examples/scenario.toml --out out/circle",
                            "unidyn run --case compensated --robot p3dx --set kx=1 --set ky=1 "
                            "--set noise=off --T 15 --out out/c",
-                           "unidyn run --paper 2 --T 10 --engine bdsim --out out/p2-diagram"))
+                           "unidyn run --paper 2 --T 10 --engine bdsim --out out/p2-diagram",
+                           "unidyn run --paper experiment --out out/experiment"))
     r.add_argument("scenario", nargs="?", metavar="SCENARIO.toml",
                    help="scenario fields (top level or a [scenario] table)")
-    r.add_argument("--paper", type=int, choices=(1, 2, 3, 4),
-                   help="start from the paper's simulation N (Section 5)")
+    r.add_argument("--paper", type=_paper_choice, choices=(1, 2, 3, 4, "experiment"),
+                   help="start from the paper's simulation N (Section 5); 'experiment': "
+                        "Section 5's experiment, both controllers over several noise seeds, "
+                        "with claims.md beside the paper's numbers")
+    r.add_argument("--seeds", type=int, metavar="N",
+                   help="with --paper experiment: noise seeds 0..N-1 (default 8)")
     r.add_argument("--from", dest="from_", metavar="SUMMARY.json",
                    help="rebuild the scenario (and engine) of a previous run's summary.json")
     r.add_argument("--case", help="kinematic, uncompensated, compensated or adaptive")
@@ -217,3 +222,9 @@ def parser() -> argparse.ArgumentParser:
                            "unidyn edit examples/bd/fig2_case3_compensated.bd"))
     e.add_argument("file", metavar="FILE.bd", help="the block-diagram file")
     return p
+
+
+def _paper_choice(text: str):
+    """--paper: a simulation number 1-4, or "experiment" (argparse checks the choices)."""
+    text = text.strip()
+    return int(text) if text.isdigit() else text

@@ -174,7 +174,8 @@ def build_fig2(sim, scenario: Scenario, *, robot: Callable | None = None,
         R = DynamicUnicycleWithVelocity(
             robot=sc.robot, a=sc.a, x0=sc.x0, speed_max=_limit(lim.speed_max),
             accel_max=_limit(lim.accel_max), steer_max=_limit(lim.steer_max),
-            angular_accel_max=_limit(lim.angular_accel_max), bd=bd, name="robot")
+            angular_accel_max=_limit(lim.angular_accel_max),
+            payload=[list(row) for row in sc.payload] or None, bd=bd, name="robot")
     else:
         R = KinematicUnicycle(a=sc.a, x0=sc.x0, speed_max=sc.limits.speed_max,
                               steer_max=sc.limits.steer_max, bd=bd, name="robot")

@@ -144,6 +144,9 @@ class ClosedLoop:
                 path = ()
             for j, v in enumerate(path):
                 values[f"path{j + 1}"] = v
+            load = list(s.payload) + [(np.inf, 1.0)] * (equations.PAYLOAD_STEPS - len(s.payload))
+            for j, (t_load, m_load) in enumerate(load):
+                values[f"payload_time{j + 1}"], values[f"payload_mass{j + 1}"] = t_load, m_load
             for name, v in values.items():
                 table[i, getattr(P, name)] = v
         return table

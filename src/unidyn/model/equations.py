@@ -33,14 +33,14 @@ from collections import namedtuple
 
 import numpy as np
 
-from .parameters import THETA_NAMES
+from .parameters import PAYLOAD_STEPS, THETA_NAMES
 
 __all__ = ["select", "sin", "cos", "tanh", "point_velocity_components", "dynamics_components",
            "regressor_components", "saturate", "limited_acceleration", "kinematic_control_components",
            "kinematic_control_and_rate_components", "compensation_regressor_components", "compensation_components", "adaptation_rate_components",
-           "figure_eight", "circle", "stepped_radius", "line", "loop_signals", "loop_rates",
+           "figure_eight", "circle", "stepped_radius", "mass_scale", "payload_theta", "line", "loop_signals", "loop_rates",
            "loop_derivative", "loop_adaptation_rates", "STATE", "S", "NSTATE", "LOOP_PARAMETERS", "P", "TRAJECTORY_KINDS",
-           "RADIUS_STEPS", "SWITCH_TOL"]
+           "RADIUS_STEPS", "PAYLOAD_STEPS", "SWITCH_TOL"]
 
 #: Adaptation is on for t >= adapt_from - SWITCH_TOL (s): the switch then falls on
 #: the same side of a solver stage that lands on adapt_from up to rounding, in
@@ -92,6 +92,38 @@ def regressor_components(u, w, du, dw):
     (:func:`unidyn.model.unicycle.regressor`)."""
     return (du, 0.0, -w * w, u, 0.0, 0.0,
             0.0, dw, 0.0, 0.0, u * w, w)
+
+
+def mass_scale(t, steps):
+    r"""The robot's mass at time t relative to the empty robot's: 1 before the first
+    row of the payload schedule, :math:`m_k` from :math:`t_k` on
+    (:math:`t \ge t_k - ` :data:`SWITCH_TOL`, the side of the switch every engine
+    takes). ``steps`` = (t_1, m_1, t_2, m_2, ...) with increasing times, s, and
+    scales > 0; a pair with t_k = inf never applies. With no step it is 1."""
+    m = 1.0
+    for k in range(0, len(steps), 2):
+        m = select(t >= steps[k] - SWITCH_TOL, steps[k + 1], m)
+    return m
+
+
+def payload_theta(t, th1, th2, th3, th4, th5, th6, steps):
+    r"""The robot's parameters at time t under the payload schedule ``steps``
+    (:func:`mass_scale`, scale :math:`\mu`): (theta1..theta6) with theta1, theta2,
+    theta3, theta5 multiplied by :math:`\mu` and theta4, theta6 kept.
+
+    Section 2 writes the parameters from the physical ones:
+    :math:`\theta_1 = \frac{R_a}{k_a}\frac{m r^2 + 2 I_e + 2 r k_{DT}}{2 r k_{PT}}`,
+    :math:`\theta_2 = \frac{R_a}{k_a}\frac{I_e d^2 + 2 r^2 (I_z + m b^2) + 2 r d k_{DR}}{2 r d k_{PR}}`,
+    :math:`\theta_3 = \frac{R_a}{k_a}\frac{m b r}{2 k_{PT}}`,
+    :math:`\theta_5 = \frac{R_a}{k_a}\frac{m b r}{d k_{PR}}`, while theta4 and theta6
+    hold only the motors' and the friction's constants. A load that multiplies the
+    mass m and the inertia I_z by :math:`\mu` (carried with the robot's own
+    distribution of mass, b unchanged) multiplies theta3 and theta5 exactly, and
+    theta1 and theta2 where the rotors' inertia I_e and the servos' derivative gains
+    are small against the body's terms (the approximation this makes); theta4 and
+    theta6 do not change. Eq. (2) then sees the loaded robot."""
+    m = mass_scale(t, steps)
+    return th1 * m, th2 * m, th3 * m, th4, th5 * m, th6
 
 
 def saturate(x, limit):
@@ -239,14 +271,17 @@ NSTATE = len(STATE)
 #: 0/1; ``leak1..6`` are the leakage rates of :func:`adaptation_rate_components`; ``adapt_from`` is
 #: inf where the estimate is not adapted; ``path1..6`` are the reference's
 #: parameters, in the order of the function of its kind; ``step_time1``,
-#: ``step_radius1``, ... a circle's radius steps (:func:`stepped_radius`; inf: unused).
+#: ``step_radius1``, ... a circle's radius steps (:func:`stepped_radius`; inf: unused);
+#: ``payload_time1``, ``payload_mass1``, ... the robot's payload schedule
+#: (:func:`payload_theta`; theta1..6 are the empty robot's; time inf: unused).
 LOOP_PARAMETERS = (
     THETA_NAMES + ("a", "kx", "ky", "lx", "ly", "ku", "kw", "lu", "lw")
     + tuple(f"gamma{j}" for j in range(1, 7)) + tuple(f"leak{j}" for j in range(1, 7))
     + ("adapt_from", "tau", "filtered", "dynamic", "compensated",
        "speed_u", "speed_w", "accel_u", "accel_w", "trajectory")
     + tuple(f"path{j}" for j in range(1, 7))
-    + tuple(f"step_{v}{j}" for j in range(1, RADIUS_STEPS + 1) for v in ("time", "radius")))
+    + tuple(f"step_{v}{j}" for j in range(1, RADIUS_STEPS + 1) for v in ("time", "radius"))
+    + tuple(f"payload_{v}{j}" for j in range(1, PAYLOAD_STEPS + 1) for v in ("time", "mass")))
 #: Index of each parameter by name (P.kx, P.gamma1, ...).
 P = namedtuple("LoopParameter", LOOP_PARAMETERS)(*range(len(LOOP_PARAMETERS)))
 
@@ -284,7 +319,9 @@ def loop_rates(t, X, ref, p, noise):
     r"""dX/dt of the Fig. 2 loop, as a tuple of the 13 rates in the order of :data:`S`.
 
     The commands are clipped to the speed limits; the robot follows Eqs. (1)-(2)
-    with the acceleration limits (:func:`limited_acceleration`), or Eq. (1) with
+    with its parameters at time t under the payload schedule (:func:`payload_theta`;
+    the compensator keeps its own estimate) and the acceleration limits
+    (:func:`limited_acceleration`), or Eq. (1) with
     v = the clipped command for a kinematic robot; the estimate follows
     Eqs. (18)/(20) from ``adapt_from`` on (:func:`adaptation_rate_components`, with the velocity
     error v_d - v_meas); the derivative filter integrates v_d'. Arguments as
@@ -296,8 +333,10 @@ def loop_rates(t, X, ref, p, noise):
     wc = saturate(w_ref, p[P.speed_w])
     u = X[S.u]
     w = X[S.w]
-    du, dw = dynamics_components(u, w, uc, wc, p[P.theta1], p[P.theta2], p[P.theta3],
-                                p[P.theta4], p[P.theta5], p[P.theta6])
+    th1, th2, th3, th4, th5, th6 = payload_theta(
+        t, p[P.theta1], p[P.theta2], p[P.theta3], p[P.theta4], p[P.theta5], p[P.theta6],
+        p[P.payload_time1:P.payload_time1 + 2 * PAYLOAD_STEPS])
+    du, dw = dynamics_components(u, w, uc, wc, th1, th2, th3, th4, th5, th6)
     du, dw = limited_acceleration(u, w, du, dw, p[P.speed_u], p[P.speed_w],
                                   p[P.accel_u], p[P.accel_w])
     dynamic = p[P.dynamic] != 0.0

@@ -12,11 +12,19 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._validate import ValidationError, nonnegative, positive, real, vector
+from .schedules import step_rows
 
-__all__ = ["RobotParameters", "THETA_NAMES"]
+__all__ = ["RobotParameters", "THETA_NAMES", "MASS_PARAMETERS", "PAYLOAD_STEPS",
+           "payload_schedule"]
 
 #: The six parameters by name, in the order of the vector theta (Eq. 2).
 THETA_NAMES = ("theta1", "theta2", "theta3", "theta4", "theta5", "theta6")
+#: Indices (0-based) of the parameters that scale with the robot's mass: theta1,
+#: theta2, theta3, theta5 (Section 2; see :meth:`RobotParameters.with_mass`).
+MASS_PARAMETERS = (0, 1, 2, 4)
+#: The most rows a payload schedule holds (:func:`payload_schedule`; the table entries
+#: ``payload_time1``, ``payload_mass1``, ... of the engines).
+PAYLOAD_STEPS = 8
 _POSITIVE = ("theta1", "theta2", "theta4", "theta6")
 
 
@@ -85,6 +93,17 @@ class RobotParameters:
         initial estimate of Section 5)."""
         f = positive("factor", factor)
         return RobotParameters.from_vector(self.theta * f, name=name or f"{self.name} x {f:g}")
+
+    def with_mass(self, scale: float, name: str | None = None) -> "RobotParameters":
+        r"""The robot whose mass is ``scale`` (> 0) times this one's, the load carried
+        with the robot's own distribution of mass: theta1, theta2, theta3 and theta5
+        multiplied by ``scale``, theta4 and theta6 kept
+        (:func:`unidyn.model.equations.payload_theta` writes out why, from the
+        expressions of Section 2)."""
+        f = positive("payload", scale)
+        th = self.theta
+        th[list(MASS_PARAMETERS)] *= f
+        return RobotParameters.from_vector(th, name=name or f"{self.name} x{f:g} mass")
 
     def as_dict(self) -> dict:
         """theta1..theta6 by name (for JSON and TOML)."""
@@ -165,3 +184,29 @@ class RobotParameters:
     def __str__(self) -> str:
         vals = ", ".join(f"{k}={v:.6g}" for k, v in zip(THETA_NAMES, self.theta))
         return f"RobotParameters({self.name}: {vals})"
+
+
+def payload_schedule(value, name: str = "payload") -> tuple:
+    """A payload schedule validated: rows ``(t, mass scale)``, from time t (s, >= 0) on
+    the robot's mass is ``mass scale`` (> 0) times the empty robot's; before the first
+    row it is the empty robot's. Times increase strictly; at most
+    :data:`PAYLOAD_STEPS` rows. A number m is the schedule ``[[0, m]]`` (loaded from
+    the start); ``None`` or an empty list is no payload, ``()``.
+
+    :raises ValidationError: one line naming ``name`` and what is allowed
+    """
+    what = (f"{name} must be a mass scale > 0 or a schedule of [t, mass scale] rows "
+            f"(t >= 0 in s, increasing; mass scale > 0, 1 = the empty robot; at most "
+            f"{PAYLOAD_STEPS} rows)")
+    if value is None:
+        return ()
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if isinstance(value, (str, bytes, dict, bool, np.bool_)):
+        raise ValidationError(f"{what}, got {value!r:.120}")
+    if not isinstance(value, (list, tuple)):
+        return ((0.0, positive(name, value)),)
+    if len(value) > PAYLOAD_STEPS:
+        raise ValidationError(f"{name}: a schedule has at most {PAYLOAD_STEPS} rows, got "
+                              f"{len(value)}")
+    return step_rows(name, value, what, "mass scale")

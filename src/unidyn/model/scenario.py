@@ -20,7 +20,7 @@ from .._validate import (ValidationError, choice, nonnegative, positive, positiv
 from .laws import LEAKAGE_FORMS, PAPER_GAMMA, PAPER_SIGMA
 from .unicycle import Limits, PAPER_LIMITS
 from .noise import NoiseSpec, PAPER_NOISE
-from .parameters import RobotParameters
+from .parameters import RobotParameters, payload_schedule
 
 __all__ = ["Scenario", "CASES", "CONTROL_MODES", "VD_DOT_METHODS", "PAPER_GAMMA", "PAPER_SIGMA"]
 
@@ -109,6 +109,14 @@ class Scenario:
         string (default all three; the others are ``None`` in the result).
         ``log_series=()`` logs 72 bytes a sample in float64, 40 in float32
         (:meth:`logged_bytes`). The integration is the same.
+    :param payload: a load that changes during the run: rows ``[t, mass scale]``,
+        from t (s) on the robot's mass is that multiple of the empty robot's
+        (``robot``), which scales theta1, theta2, theta3, theta5
+        (:func:`unidyn.model.equations.payload_theta`, Section 2); increasing times,
+        scales > 0, at most 8 rows; a number m is ``[[0, m]]``; default none; no effect
+        on a kinematic robot (case ``kinematic``). The compensator keeps its own
+        estimate: exact compensation uses the empty robot's theta, adaptive
+        compensation follows the change (Eq. 20).
     """
 
     case: str = "adaptive"
@@ -140,6 +148,7 @@ class Scenario:
     log_every: int = 1
     log_dtype: str = "float64"
     log_series: tuple = OPTIONAL_SERIES
+    payload: tuple = ()
 
     def __post_init__(self):
         s = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
@@ -225,6 +234,7 @@ class Scenario:
                 + (f", or {' or '.join(other)}" if other else ""))
         if not isinstance(self.name, str):
             raise ValidationError(f"name must be a string, got {self.name!r}")
+        s("payload", payload_schedule(self.payload))
 
     # ------------------------------------------------------------------ #
     @property

@@ -16,6 +16,7 @@ import numpy as np
 
 from . import equations as eq
 from .._validate import ValidationError, positive, real, string_keys, vector
+from .schedules import step_rows
 
 __all__ = ["Trajectory", "FigureEight", "Circle", "Line", "Point", "FunctionTrajectory", "from_spec",
            "KINDS"]
@@ -190,25 +191,16 @@ def _radius_schedule(value) -> tuple:
         value = value.tolist()  # a 0-d array: its number
     if not isinstance(value, (list, tuple)):
         return ((0.0, positive("radius", value)),)
-    rows = list(value)
-    if not rows or not all(isinstance(r, (list, tuple)) and len(r) == 2
-                           for r in rows):
+    if not value:
         raise ValidationError(f"{what}, got {value!r:.120}")
-    if len(rows) > eq.RADIUS_STEPS + 1:
+    if len(value) > eq.RADIUS_STEPS + 1:
         raise ValidationError(f"radius: a schedule has at most {eq.RADIUS_STEPS} steps after "
-                              f"its row at t = 0, got {len(rows) - 1}")
-    out = []
-    for k, (t, r) in enumerate(rows):
-        t = real(f"radius[{k}] t", t, low=0.0)
-        r = positive(f"radius[{k}] R", r)
-        if k == 0 and t != 0.0:
-            raise ValidationError(f"radius: a schedule starts with the radius at t = 0, "
-                                  f"[0, R]; its first row has t = {t:g}")
-        if k > 0 and t <= out[-1][0]:
-            raise ValidationError(f"radius: a schedule's times increase; row {k} has "
-                                  f"t = {t:g} after t = {out[-1][0]:g}")
-        out.append((t, r))
-    return tuple(out)
+                              f"its row at t = 0, got {len(value) - 1}")
+    rows = step_rows("radius", value, what, "R")
+    if rows[0][0] != 0.0:
+        raise ValidationError(f"radius: a schedule starts with the radius at t = 0, "
+                              f"[0, R]; its first row has t = {rows[0][0]:g}")
+    return rows
 
 
 @dataclass(frozen=True)

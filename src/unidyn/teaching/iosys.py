@@ -410,6 +410,9 @@ def fig2_loop(scenario=None, *, reference: bool = True, **changes):
     if sc.control != "continuous" or sc.derivative != "analytic":
         raise ValidationError("fig2_loop builds continuous control with the exact v_d' "
                               "(control='continuous', vd_dot='analytic')")
+    if sc.payload:
+        raise ValidationError("fig2_loop builds a robot of constant theta; a scenario with a "
+                              "payload schedule runs in unidyn.simulate or simulate_batch")
     case = sc.case
     dynamic = case != "kinematic"
     compensated = case in ("compensated", "adaptive")

@@ -3,18 +3,21 @@ r"""Live sliders over the paper's Section 5 loop (Fig. 2), driving the batch eng
 :class:`LoopExplorer` runs the paper's 200 s figure-eight simulation through
 :func:`unidyn.simulate_batch` and draws the path of h and the distance error. Its
 :meth:`~LoopExplorer.update` is a plain function of the settings (kinematic gain
-kx = ky of Eq. 10, payload, noise on or off, case 1-4), so scripts, tests and
+kx = ky of Eq. 10, payload and the time it is picked up, noise on or off, case
+1-4), so scripts, tests and
 headless notebooks call it directly; :meth:`~LoopExplorer.widget` wires the same
 function to ``ipywidgets`` controls (the optional dependency ``ipywidgets``,
 ``pip install unidyn[teach]``; this module imports it only there).
 
-The payload scales the robot's mass: theta1, theta2, theta3 and theta5 grow in
-proportion (Section 2: each is proportional to the mass m, or to I_z + m b^2, when
-the rotors' inertia I_e and the servos' derivative gains are small against the
-body's), while theta4 and theta6 (motor and friction terms) do not depend on the
-mass. The compensator keeps the empty robot's estimate (case 3: the preset's
-theta; case 4: the paper's theta/1.5 of the preset), so a payload is something it
-does not know about, as on a real robot.
+The payload scales the robot's mass from the time it is picked up (the scenario's
+``payload`` schedule, :func:`unidyn.model.equations.payload_theta`): theta1, theta2,
+theta3 and theta5 grow in proportion (Section 2: each is proportional to the mass m,
+or to I_z + m b^2, when the rotors' inertia I_e and the servos' derivative gains are
+small against the body's), while theta4 and theta6 (motor and friction terms) do not
+depend on the mass. The compensator keeps the empty robot's estimate (case 3: the
+preset's theta; case 4: the paper's theta/1.5 of the preset), so a payload is
+something it does not know about, as on a real robot; case 4's update (Eq. 20)
+follows it.
 """
 
 from __future__ import annotations
@@ -25,17 +28,13 @@ import numpy as np
 
 from ..results import figstyle
 from ..model import robots
-from .._validate import ValidationError, positive
+from .._validate import ValidationError, positive, real
 from ..engine.batch import simulate_batch
 from ..model.noise import PAPER_NOISE
-from ..model.parameters import RobotParameters
+from ..model.parameters import MASS_PARAMETERS, RobotParameters
 from ..model.scenario import Scenario
 
 __all__ = ["LoopExplorer", "with_payload", "MASS_PARAMETERS"]
-
-#: Indices (0-based) of the parameters proportional to the robot's mass (Section 2).
-MASS_PARAMETERS = (0, 1, 2, 4)
-
 
 def with_payload(robot, payload: float) -> RobotParameters:
     """The robot carrying a payload: theta1, theta2, theta3, theta5 multiplied by
@@ -44,11 +43,7 @@ def with_payload(robot, payload: float) -> RobotParameters:
     :param robot: a preset name, RobotParameters or six numbers
     :param payload: mass scale, > 0 (1: the robot as identified)
     """
-    p = robots.resolve(robot, "robot")
-    f = positive("payload", payload)
-    th = p.theta
-    th[list(MASS_PARAMETERS)] *= f
-    return RobotParameters.from_vector(th, name=f"{p.name} x{f:g} mass")
+    return robots.resolve(robot, "robot").with_mass(payload)
 
 
 class LoopExplorer:
@@ -56,7 +51,8 @@ class LoopExplorer:
     the distance error |h_d - h| (the paper's Figs. 3-10, a and b).
 
     :param k: kinematic gain kx = ky of Eq. (10), 1/s, > 0 (the paper: 0.1)
-    :param payload: mass scale of the robot, > 0 (see :func:`with_payload`)
+    :param payload: mass scale of the robot with its load, > 0 (see :func:`with_payload`)
+    :param load_time: when the load is picked up, s, >= 0 (0: carried from the start)
     :param noise: the paper's measurement noise on (True) or off (False)
     :param case: the paper's simulation 1-4 (kinematic, uncompensated, exact
         compensation, adaptive)
@@ -70,7 +66,8 @@ class LoopExplorer:
     PAYLOAD_RANGE = (0.5, 3.0)
 
     def __init__(self, k: float = 0.1, payload: float = 1.0, noise: bool = True, case: int = 4,
-                 robot="p3dx_laser", T: float = 200.0, figure: bool = True):
+                 robot="p3dx_laser", T: float = 200.0, figure: bool = True,
+                 load_time: float = 0.0):
         self.robot = robots.resolve(robot, "robot")
         self.T = positive("T", T)
         self.settings = {}
@@ -79,34 +76,41 @@ class LoopExplorer:
         self.fig = None
         if figure:
             self._make_figure()
-        self.update(k=k, payload=payload, noise=noise, case=case)
+        self.update(k=k, payload=payload, noise=noise, case=case, load_time=load_time)
 
     # ------------------------------------------------------------------ #
-    def scenario(self, k: float, payload: float, noise: bool, case: int):
+    def scenario(self, k: float, payload: float, noise: bool, case: int,
+                 load_time: float = 0.0):
         """The :class:`~unidyn.Scenario` of one setting: ``Scenario.paper(case)`` with
-        kx = ky = k, the loaded robot and the empty robot's estimate."""
+        kx = ky = k, the empty robot carrying ``payload`` times its mass from
+        ``load_time`` on (the scenario's ``payload`` schedule), and the empty robot's
+        estimate."""
         if isinstance(case, bool) or case not in (1, 2, 3, 4):
             raise ValidationError(f"case must be 1, 2, 3 or 4, got {case!r}")
         if not isinstance(noise, (bool, np.bool_)):
             raise ValidationError(f"noise must be True or False, got {noise!r}")
         k = positive("k", k)
-        loaded = with_payload(self.robot, payload)
+        payload = positive("payload", payload)
+        load_time = real("load_time", load_time, low=0.0, high=self.T)
         theta_hat0 = None
         if case == 3:
             theta_hat0 = self.robot
         elif case == 4:
             theta_hat0 = self.robot.scaled(1 / 1.5)
-        return Scenario.paper(int(case), robot=loaded, theta_hat0=theta_hat0, kx=k, ky=k,
+        return Scenario.paper(int(case), robot=self.robot, payload=[[load_time, payload]],
+                              theta_hat0=theta_hat0, kx=k, ky=k,
                               noise=PAPER_NOISE if noise else None, T=self.T,
-                              name=f"case {case}, k = {k:g}, payload x{payload:g}")
+                              name=f"case {case}, k = {k:g}, payload x{payload:g} from "
+                                   f"{load_time:g} s")
 
-    def update(self, k=None, payload=None, noise=None, case=None):
+    def update(self, k=None, payload=None, noise=None, case=None, load_time=None):
         """Run the loop with the given settings (those left ``None`` keep their
         current value) on the batch engine and redraw; returns the
         :class:`~unidyn.Result`. ``seconds`` holds the time it took to simulate and to
         draw."""
         new = dict(self.settings)
-        for name, value in (("k", k), ("payload", payload), ("noise", noise), ("case", case)):
+        for name, value in (("k", k), ("payload", payload), ("noise", noise), ("case", case),
+                            ("load_time", load_time)):
             if value is not None:
                 new[name] = value
         sc = self.scenario(**new)
@@ -141,6 +145,7 @@ class LoopExplorer:
         ax_path.set_aspect("equal", adjustable="box")
         ax_path.legend(loc="lower right")
         err, = ax_err.plot([], [], color="C0")
+        self._load_line = ax_err.axvline(0.0, color="C3", lw=0.8, ls=":", visible=False)
         ax_err.set(xlabel=figstyle.label("t", "s"), ylabel=figstyle.label("distance error", "m"))
         self.fig, self._axes = fig, (ax_path, ax_err)
         self._lines = {"path": path, "reference": ref, "error": err}
@@ -159,13 +164,17 @@ class LoopExplorer:
         ax_path.set_xlim(lo[0] - pad, hi[0] + pad)
         ax_path.set_ylim(lo[1] - pad, hi[1] + pad)
         ax_err.set_xlim(0, self.T)
+        self._load_line.set_xdata([s["load_time"], s["load_time"]])
+        self._load_line.set_visible(s["payload"] != 1.0 and s["load_time"] > 0)
         emax = float(np.nanmax(r.error)) if len(r.error) else 1.0
         ax_err.set_ylim(0, 1.05 * emax if emax > 0 else 1.0)
         iae = r.metrics["iae"]
         names = {1: "kinematic", 2: "uncompensated", 3: "exact compensation", 4: "adaptive"}
         ax_path.set_title(f"case {s['case']}: {names[s['case']]}", fontsize="medium")
         ax_err.set_title(
-            f"k = {s['k']:g} 1/s, payload x{s['payload']:g}, noise {'on' if s['noise'] else 'off'}"
+            f"k = {s['k']:g} 1/s, payload x{s['payload']:g}"
+            + (f" from {s['load_time']:g} s" if s["load_time"] > 0 else "")
+            + f", noise {'on' if s['noise'] else 'off'}"
             + (f": IAE = {iae:.2f} m·s" if iae is not None else ": did not complete"),
             fontsize="medium")
         self.fig.canvas.draw()
@@ -186,6 +195,8 @@ class LoopExplorer:
         payload = w.FloatSlider(value=s["payload"], min=self.PAYLOAD_RANGE[0],
                                 max=self.PAYLOAD_RANGE[1], step=0.1, description="payload x",
                                 continuous_update=False)
+        load_time = w.FloatSlider(value=s["load_time"], min=0.0, max=self.T, step=5.0,
+                                  description="load at t =", continuous_update=False)
         noise = w.Checkbox(value=bool(s["noise"]), description="measurement noise")
         case = w.ToggleButtons(options=[("1 kinematic", 1), ("2 uncompensated", 2),
                                         ("3 compensated", 3), ("4 adaptive", 4)],
@@ -198,10 +209,11 @@ class LoopExplorer:
                 display(self.fig)
 
         def changed(_):
-            self.update(k=k.value, payload=payload.value, noise=noise.value, case=case.value)
+            self.update(k=k.value, payload=payload.value, noise=noise.value, case=case.value,
+                        load_time=load_time.value)
             show()
 
-        for c in (k, payload, noise, case):
+        for c in (k, payload, load_time, noise, case):
             c.observe(changed, names="value")
         show()
-        return w.VBox([w.HBox([k, payload, noise]), case, out])
+        return w.VBox([w.HBox([k, payload, load_time, noise]), case, out])
