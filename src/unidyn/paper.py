@@ -27,7 +27,6 @@ from ._validate import BATCH_ATOL, BATCH_RTOL
 from .sweeps.sweep_files import read_metrics
 from .model.noise import PAPER_NOISE
 from .sweeps.sweep import Sweep
-from .results.windows import window_iae
 from .model.scenario import Scenario
 from .diagrams.simulate import simulate
 from .engine.batch import simulate_batch
@@ -530,7 +529,7 @@ def experiment(seeds: int = 8, engines=("batch", "bdsim"), robot="p3dx_laser",
                 raise ValidationError(f"the experiment's run {r.scenario.name!r} did not "
                                       f"complete ({engine}): {r.message}")
             runs.append(ExperimentRun(seed, case, engine, r, {
-                w: window_iae(r, *span) for w, span in EXPERIMENT_WINDOWS.items()}))
+                w: r.window(*span)["iae"] for w, span in EXPERIMENT_WINDOWS.items()}))
     stats = experiment_stats(runs, engines[0])
     gap = math.nan
     if len(engines) > 1:

@@ -14,7 +14,8 @@ from unidyn import ValidationError
 from unidyn.cli import main
 from unidyn.paper import (EXPERIMENT_FILES, EXPERIMENT_PAPER, ExperimentRun, experiment,
                           experiment_claims, experiment_scenarios, experiment_stats)
-from unidyn.results.windows import window_iae
+from unidyn import Scenario
+from unidyn.results.result import Result
 
 
 def _fake(error, T=60.0, Ts=0.1, u=0.3, w=0.5):
@@ -24,13 +25,23 @@ def _fake(error, T=60.0, Ts=0.1, u=0.3, w=0.5):
     return SimpleNamespace(t=t, error=err, velocity=vel, complete=True)
 
 
-def test_window_iae_integrates_the_distance_error():
+def _result(error, T=60.0, Ts=0.1):
+    """A Result whose distance error is ``error(t)``: the reference that far ahead in x."""
+    t = np.arange(round(T / Ts) + 1) * Ts
+    err = error(t) if callable(error) else np.full_like(t, error)
+    zeros = np.zeros((len(t), 2))
+    return Result(scenario=Scenario.paper(4, T=T), t=t, pose=np.zeros((len(t), 3)),
+                  velocity=zeros, reference=np.column_stack([err, np.zeros(len(t))]),
+                  v_d=None, v_ref=None, theta_hat=None)
+
+
+def test_the_windowed_iae_integrates_the_distance_error():
     """A linear error e = 0.01 t (trapezoidal rule exact): over 15-30 s,
     0.01 (30^2 - 15^2)/2 = 3.375 m·s; a constant 0.1 m over 15 s: 1.5 m·s."""
-    assert window_iae(_fake(lambda t: 0.01 * t), 15.0, 30.0) == pytest.approx(3.375, rel=1e-12)
-    assert window_iae(_fake(0.1), 45.0, 60.0) == pytest.approx(1.5, rel=1e-12)
+    assert _result(lambda t: 0.01 * t).window(15.0, 30.0)["iae"] == pytest.approx(3.375, rel=1e-12)
+    assert _result(0.1).window(45.0, 60.0)["iae"] == pytest.approx(1.5, rel=1e-12)
     with pytest.raises(ValidationError, match="45-70 s is not covered"):
-        window_iae(_fake(0.1), 45.0, 70.0)
+        _result(0.1).window(45.0, 70.0)
 
 
 def _runs(values):

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
+from .._validate import ValidationError
 from . import plots
 from .folders import json_ready, staged_output, write_atomic
 
@@ -221,12 +222,17 @@ class Result:
 
     # ------------------------------------------------------------------ #
     def window(self, t0: float, t1: float) -> dict:
-        """Metrics over t0 <= t <= t1 (e.g. the paper's before/after windows), from the
-        integrals accumulated at every sample: between the first and the last logged
-        sample in the window (with ``log_every`` 1, every sample)."""
+        """Metrics over t0 <= t <= t1 (e.g. the paper's before/after windows, Section 5's
+        IAE over 15-30 s), from the integrals accumulated at every sample: between the
+        first and the last logged sample in the window (with ``log_every`` 1, every
+        sample).
+
+        :raises ValidationError: the window is not within the run's samples"""
         m = np.flatnonzero((self.t >= t0 - 1e-9) & (self.t <= t1 + 1e-9))
-        if not len(m):
-            return {k: float("nan") for k in METRIC_NAMES}
+        if len(m) < 2 or t0 < self.t[0] - 1e-9 or t1 > self.t[-1] + 1e-9:
+            span = f"{self.t[0]:g}-{self.t[-1]:g} s" if len(self.t) else "no samples"
+            raise ValidationError(f"the window {t0:g}-{t1:g} s is not covered by the run's "
+                                  f"samples ({span})")
         i0, i1 = m[0], m[-1]
         out = {k: float(self.integrals[i1, j] - self.integrals[i0, j])
                for j, k in enumerate(INTEGRAL_NAMES)}

@@ -21,7 +21,6 @@ import numpy as np
 from ..engine.batch import simulate_batch
 from ..model.scenario import Scenario
 from ..results import figstyle
-from ..results.windows import window_iae
 
 __all__ = ["PICKUP_CONTROLLERS", "pickup_scenarios", "pickup_iae", "plot_pickup",
            "pickup_sweep"]
@@ -47,7 +46,7 @@ def pickup_scenarios(mass: float = 2.0, at: float = 100.0, T: float = 200.0, noi
 def pickup_iae(results: dict, at: float, window: float = 25.0) -> dict:
     """Controller case -> (IAE over the ``window`` s before the load, IAE over the last
     ``window`` s of the run), m·s; 25 s is one lap of the figure eight, 8 pi s, rounded."""
-    return {case: (window_iae(r, at - window, at), window_iae(r, r.t[-1] - window, r.t[-1]))
+    return {case: (r.window(at - window, at)["iae"], r.window(r.t[-1] - window, r.t[-1])["iae"])
             for case, r in results.items()}
 
 
@@ -92,6 +91,6 @@ def pickup_sweep(masses, at: float = 100.0, T: float = 200.0, noise=None,
     cases = list(PICKUP_CONTROLLERS)
     scs = [pickup_scenarios(m, at, T, noise, **changes)[c] for m in masses for c in cases]
     results = simulate_batch(scs, progress=False)
-    iae = np.array([window_iae(r, T - window, T) for r in results]).reshape(len(masses),
+    iae = np.array([r.window(T - window, T)["iae"] for r in results]).reshape(len(masses),
                                                                            len(cases))
     return {c: iae[:, i] for i, c in enumerate(cases)}
