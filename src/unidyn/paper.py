@@ -256,7 +256,7 @@ def _kl(ks, limit=6) -> str:
     return s + (f", ... ({len(ks)} in all)" if len(ks) > limit else "")
 
 
-def _pm(p: Fig11Point) -> str:
+def _point_text(p: Fig11Point) -> str:
     return f"{p.iae:.3f} ± {p.error:.2g}"
 
 
@@ -292,7 +292,7 @@ def fig11_claims(metrics) -> list:
         p = a[1.0]
         above = 1 if p.iae - BARS * p.error > 8 else (-1 if p.iae + BARS * p.error < 8 else 0)
         out.append(claim("(a) IAE above 8 at k = 1", "IAE_a(k = 1) > 8",
-                         f"IAE_a(1) = {_pm(p)}", _verdict([above])))
+                         f"IAE_a(1) = {_point_text(p)}", _verdict([above])))
     elif ("a", 1.0) in skipped:
         out.append(Fig11Claim("(a) IAE above 8 at k = 1", "IAE_a(k = 1) > 8",
                               "the run at k = 1 did not complete" + left_out("a", 1.0), None))
@@ -307,7 +307,7 @@ def fig11_claims(metrics) -> list:
         where = " (the smallest k swept)"
     # the gains whose IAE cannot be told apart from the minimum's
     flat = [k for k in sorted(a) if _below(a[ka], a[k]) == 0]
-    at23 = f"; IAE_a(23) = {_pm(a[23.0])}" if 23.0 in a else ""
+    at23 = f"; IAE_a(23) = {_point_text(a[23.0])}" if 23.0 in a else ""
     covers = min(a) <= 23 <= max(a)
     swept = set(a) | {k for lab, k in skipped if lab == "a"}
     gap = (" (k = 23 is outside the sweep)" if not min(swept) <= 23 <= max(swept)
@@ -322,7 +322,7 @@ def fig11_claims(metrics) -> list:
     out.append(Fig11Claim(
         "(a) smallest IAE, 1.24, at k = 23",
         "minimum of (a) at 18 <= k <= 28, value within 1.24 ± 25 %",
-        f"minimum {_pm(a[ka])} at k = {ka:g}{where}"
+        f"minimum {_point_text(a[ka])} at k = {ka:g}{where}"
         + (f"; within the error bars of it: k = {_kl(flat)}" if len(flat) > 1 else "")
         + at23 + ("" if covers else gap) + left_out("a"),
         holds, {True: "holds", False: "does not hold"}.get(holds, apart if covers else "not covered")))
@@ -359,8 +359,8 @@ def fig11_claims(metrics) -> list:
     out.append(claim(
         "(d) lowest for every k", "IAE_d(k) < IAE of (a), (b) and (c) at every k swept",
         f"lowest at {len(ks) - len(bad) - len(even)} of {len(ks)} k"
-        + (f"; not at k = {_kl(bad)} (at k = {worst:g}: d {_pm(d[worst])}, "
-           f"best other {_pm(best[worst])})" if bad else "")
+        + (f"; not at k = {_kl(bad)} (at k = {worst:g}: d {_point_text(d[worst])}, "
+           f"best other {_point_text(best[worst])})" if bad else "")
         + (f"; {apart} at k = {_kl(even)}" if even else "")
         + left_out("abcd"),
         _verdict(signs.values())))
