@@ -9,6 +9,7 @@ import pytest
 import unidyn
 from unidyn.engine import batch, kernels
 from unidyn.engine.jit import plain_copy
+from unidyn.progress import Progress
 from unidyn.engine.batch import simulate_batch
 from unidyn.results.result import Result
 from unidyn.model.scenario import Scenario
@@ -31,7 +32,7 @@ def test_an_incomplete_batch_run_keeps_the_metrics_of_the_part_computed(tmp_path
     assert set(rb.metrics) == {"iae", "ise", "itae", "itse", "energy", "error_final"}
     # the metrics are those of a clean run over the part computed
     clean, = batch._pass(plain_copy(kernels), [bad.replace(trajectory=F8, T=float(rb.t[-1]))],
-                         (1e-6, 1e-8), [0.0], "plain", False, batch._Progress(False, 0, 0))
+                         (1e-6, 1e-8), [0.0], "plain", False, Progress(False, 0))
     assert clean.complete
     for k, v in clean.metrics.items():
         assert rb.metrics[k] == pytest.approx(v, rel=1e-12, abs=1e-15), k

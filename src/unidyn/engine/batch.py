@@ -17,6 +17,7 @@ from concurrent.futures import ThreadPoolExecutor, wait
 import numpy as np
 
 from .._errors import SimulationInterrupted
+from ..progress import Progress
 from .._validate import BATCH_ATOL, BATCH_RTOL, ValidationError, tolerances
 from ..model.equations import TRAJECTORY_KINDS
 from ..model.scenario import ALWAYS_LOGGED, Scenario
@@ -133,7 +134,7 @@ def simulate_batch(scenarios, *, rtol: float = BATCH_RTOL, atol: float = BATCH_A
     for i, s in enumerate(scs):
         groups.setdefault((s.T, s.Ts, s.log_every, s.log_dtype, s.log_series), []).append(i)
     work = sum(s.steps for s in scs)
-    bar = _Progress(progress, work, 2 * work)
+    bar = Progress(progress, 2 * work, show=work >= PROGRESS_SAMPLES, desc="unidyn batch")
     results = [None] * len(scs)
     try:
         for idx in groups.values():
@@ -226,38 +227,6 @@ def _pass(engine, scs, tol, shifts, label, compiled, bar, results=None, where=()
                 results[i] = r
         raise
     return _results(engine, loop, runs, *tol, label)
-
-
-class _Progress:
-    """tqdm over samples, or a user callable, or nothing."""
-
-    def __init__(self, progress, work: int, total: float):
-        self.f, self.bar, self.done, self.total = None, None, 0, int(total)
-        if callable(progress) and not isinstance(progress, bool):
-            self.f = progress
-        elif progress is True or (progress is None and work >= PROGRESS_SAMPLES):
-            import sys
-
-            from tqdm import tqdm
-            self.bar = tqdm(total=self.total, unit="sample", desc="unidyn batch", leave=False,
-                            disable=None if progress is None else False, file=sys.stderr,
-                            mininterval=0.5)
-
-    def advance(self, n: int):
-        self.done += n
-        if self.f is not None:
-            self.f(self.done, self.total)
-        if self.bar is not None:
-            self.bar.update(n)
-
-    def grow(self, n: float):
-        self.total += int(n)
-        if self.bar is not None:
-            self.bar.total = self.total
-
-    def close(self):
-        if self.bar is not None:
-            self.bar.close()
 
 
 def _runs(kernels, loop: ClosedLoop, compiled: bool):
