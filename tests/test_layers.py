@@ -17,9 +17,9 @@ PACKAGE = "unidyn"
 #: Lowest first. A module may import its own layer or a lower one. A package's
 #: submodules sit in the package's layer unless listed themselves.
 LAYERS = {
-    # what every part shares: the package's namespace, its exceptions and validators, progress bars,
-    # how bdsim finds the blocks, signals and exit status, the sample data (standard
-    # library only)
+    # what every part shares: the package's namespace, its exceptions and validators,
+    # progress bars, how bdsim finds the blocks, signals and exit status, the sample
+    # data (standard library only)
     "base": ("unidyn", "unidyn._errors", "unidyn._validate", "unidyn._bdsim_path",
              "unidyn.process", "unidyn.progress", "unidyn.datasets"),
     # the paper's science, free of bdsim and of files

@@ -16,6 +16,7 @@ from .._validate import (DEFAULT_ATOL, DEFAULT_RTOL, NonFiniteSignalError, Valid
 from ..model.equations import saturate
 from ..results.result import Result, distance, integrals
 from ..model.scenario import Scenario
+from ..progress import Progress
 
 __all__ = ["simulate", "SimulationError", "SimulationInterrupted"]
 
@@ -68,7 +69,7 @@ class _Guard:
         k = int(t / sc.Ts + 1e-9)
         if k > self.k:  # a new sample interval (a probe of its end counts as the next)
             if self.bar is not None and self.k >= 0:
-                self.bar.update(min(k, sc.steps) - min(self.k, sc.steps))
+                self.bar.advance(min(k, sc.steps) - min(self.k, sc.steps))
             self.k, self.count = k, 0
         self.count += 1
         if self.count > MAX_RHS_PER_SAMPLE:
@@ -117,7 +118,8 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
         :meth:`~unidyn.Scenario.divergence_bounds` or the solver needs more than
         :data:`MAX_RHS_PER_SAMPLE` evaluations in one sample interval
     :param progress: ``None`` (default: a tqdm progress bar on stderr for runs of
-        2000 samples or more, only when stderr is a terminal), ``True`` or ``False``
+        2000 samples or more, only when stderr is a terminal), ``True``, ``False``, or a
+        callable ``f(done_samples, total_samples)``
     :param builder_args: factories passed to :func:`unidyn.diagrams.build_fig2`
         (``robot=``, ``controller=``, ``compensator=``, ``trajectory=``)
     :return: :class:`Result`, its metrics over every sample computed (``log_every``
@@ -142,13 +144,7 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
     fig = build_fig2(sim, scenario, **builder_args)
     roles = list(fig.watch)
     sc = scenario
-    bar = None
-    if progress is True or (progress is None and sc.steps >= 2000):
-        import sys
-
-        from tqdm import tqdm
-        bar = tqdm(total=sc.steps, unit="sample", desc="unidyn bdsim", leave=False,
-                   disable=None if progress is None else False, file=sys.stderr, mininterval=0.5)
+    bar = Progress(progress, sc.steps, show=sc.steps >= 2000, desc="unidyn bdsim")
     # the run guard is a block of the diagram: bdsim evaluates it with the others at
     # every solver evaluation, and hands it the run state (whose tlist and plist log
     # the watched signals) when the run starts, so a run that fails gives back its log
@@ -172,11 +168,9 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
                           solver=method, solver_args=dict(rtol=rtol, atol=atol, max_step=sc.Ts))
         t = np.asarray(out.t, dtype=float)
         y = out[".ywatch"]
-        if bar is not None:
-            bar.close()
+        bar.close()
     except (Exception, KeyboardInterrupt) as err:  # keep what bdsim logged before the failure
-        if bar is not None:
-            bar.close()
+        bar.close()
         interrupted = isinstance(err, KeyboardInterrupt)
         simstate = guard.simstate
         if getattr(simstate, "tlist", None) is None:  # failed while bdsim started the blocks
