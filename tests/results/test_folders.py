@@ -235,16 +235,106 @@ def test_partial_results_go_into_an_empty_target(tmp_path):
     assert st.final == out.absolute() and _generations(out) == {1}
 
 
-def test_what_a_killed_process_left_is_removed_by_the_next_writer(tmp_path):
+def _killed_while_writing(out, generation):
+    """A writer that dies (as by ``kill -9``: no clean-up runs) with its private
+    folder full: a forked process that leaves by ``os._exit``."""
+    pid = os.fork()
+    if pid == 0:  # pragma: no cover - the child
+        try:
+            with staged(out, overwrite=True) as st:
+                _write(st.path, generation)
+                os._exit(0)
+        finally:
+            os._exit(1)
+    assert os.waitpid(pid, 0)[1] == 0
+
+
+def test_what_a_killed_process_left_is_removed_by_the_next_writer_and_nothing_else(tmp_path):
     out = tmp_path / "out"
     _save(out, 1)
-    left = out / ".unidyn-results-new-abc"  # kill -9 while writing
-    left.mkdir()
-    _write(left, 2)
+    # a user's folders named as unidyn names its private ones, and its lock's twin
+    for name in (".unidyn-results-new-abc", ".unidyn-results-new-0123456789ab"):
+        (out / name).mkdir()
+        (out / name / "cat.jpg").write_text("cat")
+    (out / ".unidyn.lock.bak").write_text("my notes")
+    users = {".unidyn-results-new-abc", ".unidyn-results-new-0123456789ab", ".unidyn.lock.bak"}
+    _killed_while_writing(out, 2)
+    left = set(_private(out)) - users
+    assert outdir.LOCK_NAME in left and len(left) == 2, left  # the lock and its folder
     with pytest.raises(ValidationError, match="already holds"):
         with staged(out, overwrite=False):
             pass
-    assert _generations(out) == {1} and _private(out) == []
+    assert _generations(out) == {1} and set(_private(out)) == users
+    assert all((out / n / "cat.jpg").read_text() == "cat" for n in users if "new" in n)
+    _killed_while_writing(out, 3)
+    _save(out, 4)  # the next writer that goes ahead cleans up too
+    assert _generations(out) == {4} and set(_private(out)) == users
+
+
+@pytest.mark.parametrize("make", ["file", "empty file", "link out", "dangling link",
+                                  "folder", "hard link"])
+@pytest.mark.parametrize("overwrite", [False, True])
+def test_a_lock_file_unidyn_did_not_make_is_refused_in_one_line_and_kept(tmp_path, make,
+                                                                        overwrite):
+    out, outside = tmp_path / "out", tmp_path / "outside.txt"
+    _save(out, 1)
+    outside.write_text("my thesis\n")
+    lock = out / outdir.LOCK_NAME
+    if make == "file":
+        lock.write_text("my notes\n")
+    elif make == "empty file":
+        lock.touch()
+    elif make == "link out":
+        lock.symlink_to(outside)
+    elif make == "dangling link":
+        lock.symlink_to(tmp_path / "nowhere")
+    elif make == "folder":
+        lock.mkdir()
+        (lock / "inside.txt").write_text("mine")
+    else:
+        os.link(outside, lock)
+    before = {p.name: (p.is_symlink(), os.readlink(p) if p.is_symlink() else
+                       p.is_dir() or p.read_bytes()) for p in out.iterdir()}
+    with pytest.raises(ValidationError) as err:
+        with staged(out, overwrite=overwrite) as st:
+            _write(st.path, 2)
+    text = str(err.value)
+    assert "\n" not in text and str(lock) in text and "not a lock unidyn made" in text, text
+    assert not isinstance(err.value, outdir.FolderInUse)
+    after = {p.name: (p.is_symlink(), os.readlink(p) if p.is_symlink() else
+                      p.is_dir() or p.read_bytes()) for p in out.iterdir()}
+    assert after == before and outside.read_text() == "my thesis\n"
+    assert not (tmp_path / "nowhere").exists()
+
+
+@pytest.mark.parametrize("make", ["link to a folder of the user's", "folder of the user's",
+                                  "file"])
+def test_the_place_for_partial_results_is_unidyns_or_refused(tmp_path, make):
+    """A partial result beside complete ones goes to ``<out>.incomplete`` only when
+    that is a folder unidyn made: never through a link, into a user's folder or file."""
+    out, theirs = tmp_path / "out", tmp_path / "theirs"
+    _save(out, 1)
+    theirs.mkdir()
+    (theirs / "thesis.tex").write_text("mine")
+    place = tmp_path / "out.incomplete"
+    if make.startswith("link"):
+        place.symlink_to(theirs)
+    elif make.startswith("folder"):
+        place.mkdir()
+        (place / "notes.txt").write_text("mine")
+    else:
+        place.write_text("mine")
+    with pytest.raises(ValidationError, match="not the folder unidyn keeps partial") as err:
+        with staged(out, overwrite=True) as st:
+            _write(st.path, 2)
+            st.incomplete("stopped early")
+    assert "\n" not in str(err.value) and str(place) in str(err.value)
+    assert sorted(os.listdir(theirs)) == ["thesis.tex"] and _generations(out) == {1}
+    assert _private(out) == []
+    if make.startswith("folder"):
+        assert os.listdir(place) == ["notes.txt"]
+    elif make == "file":
+        assert place.read_text() == "mine"
 
 
 def test_a_replacement_cut_short_is_told_apart_from_results(tmp_path):
@@ -333,7 +423,8 @@ def test_processes_killed_at_random_moments_leave_old_or_new_never_a_mix(tmp_pat
 def test_the_block_holds_the_folder_lock_and_a_second_writer_is_refused(tmp_path):
     out = tmp_path / "out"
     with staged(out, overwrite=False) as st:
-        assert (out / outdir.LOCK_NAME).read_text().strip() == str(os.getpid())
+        held = (out / outdir.LOCK_NAME).read_text()
+        assert re.search(r"^pid ([0-9]+)$", held, re.M).group(1) == str(os.getpid()), held
         with pytest.raises(outdir.FolderInUse, match=f"PID {os.getpid()}"):
             with staged(out, overwrite=True):
                 pytest.fail("the second writer must not run")
