@@ -152,11 +152,14 @@ def check_units(theta, stderr):
 def envelope_warnings(theta) -> list:
     """Where an estimate lies outside the presets' range (a Khepera III to a robotic
     wheelchair carrying 125 kg, and the RobuLAB-10) by more than
-    :data:`ENVELOPE_FACTOR`: which parameter, by how much, and the likely causes."""
+    :data:`ENVELOPE_FACTOR`: which parameter, by how much, and the likely causes
+    (theta1 or theta2 over :data:`MAX_TIME_CONSTANT` has its own warning)."""
     env, out = _envelope(), []
     for i in range(6):
         lo, lo_robot, hi, hi_robot = env[i]
         v = abs(theta[i]) if i in (2, 4) else float(theta[i])
+        if i in (0, 1) and v > MAX_TIME_CONSTANT:  # its own warning says why
+            continue
         if v > ENVELOPE_FACTOR * hi:
             where = f"{v / hi:.3g} times the largest{' magnitude' if i in (2, 4) else ''}"
             near = f"{_value(i, hi)}, {hi_robot}"
