@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -192,9 +193,17 @@ def test_a_full_disk_names_the_file_and_keeps_the_earlier_results(tmp_path):
         code, _, err = cli(tmp_path, "run", "--T", "2000", "--engine", "batch",
                            "--overwrite", "--out", out)
         assert code == 2, err
-        assert err.strip().splitlines()[-1] == (
-            f"unidyn: error: No space left on device writing {out}/timeseries.csv; the "
-            f"earlier results in {out} are intact (nothing was replaced)"), err
+        line = err.strip().splitlines()[-1]
+        said = re.fullmatch(
+            rf"unidyn: error: No space left on device writing {re.escape(str(out))}/"
+            rf"timeseries.csv \(([0-9.]+) (bytes|kB|MB) free\); the earlier results in "
+            rf"{re.escape(str(out))} are intact \(nothing was replaced\)", line)
+        assert said, err
+        # the free space it names is what the disk had then: a little less than now,
+        # once the run's private folder is gone (a few kB of a 1 MB disk)
+        free = os.statvfs(out).f_bavail * os.statvfs(out).f_frsize
+        stated = float(said.group(1)) * {"bytes": 1, "kB": 1e3, "MB": 1e6}[said.group(2)]
+        assert 0.97 * free <= stated <= free + 1e3, (stated, free)
         assert tree(out, {".unidyn.lock"}) == before
         assert [n for n in os.listdir(out) if n.startswith(".unidyn")] == [".unidyn-run.json"]
         # into an empty folder on the full disk: nothing is left behind
