@@ -99,6 +99,7 @@ _LOCK_TEXT = re.compile(r"unidyn lock [0-9a-f]{32}\npid [0-9]+\n"
 _STAGE_LINE = re.compile(r"stage (\S+) ([0-9a-f]{32})$", re.M)
 _MAX_LOCK_BYTES = 1 << 14
 _HELD: dict = {}  # folder -> the FolderLock this process holds on it
+_NOFOLLOW = getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0)  # (not on Windows)
 
 
 class _Replaced(Exception):
@@ -193,7 +194,8 @@ class FolderLock:
             raise _Replaced
         if not stat.S_ISREG(st.st_mode) or st.st_nlink != 1:
             raise self._foreign(_kind_of(st))
-        data = os.pread(fd, _MAX_LOCK_BYTES + 1, 0)
+        os.lseek(fd, 0, os.SEEK_SET)
+        data = os.read(fd, _MAX_LOCK_BYTES + 1)
         try:
             text = data.decode("ascii")
         except UnicodeDecodeError:
@@ -211,12 +213,13 @@ class FolderLock:
             f"stage {n} {t}\n" for n, t in self.stages.items())
         data = text.encode("ascii")
         os.ftruncate(self._fd, 0)
-        os.pwrite(self._fd, data, 0)
+        os.lseek(self._fd, 0, os.SEEK_SET)
+        os.write(self._fd, data)
 
     def _holder(self) -> str:
         """The PID the lock names (read without following a link), or "unknown"."""
         try:
-            fd = os.open(self.path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
+            fd = os.open(self.path, os.O_RDONLY | _NOFOLLOW)
             try:
                 head = os.read(fd, 256).decode("ascii", "replace")
             finally:
@@ -602,7 +605,7 @@ def _make_stage(folder: Path, kind: str) -> tuple:
             continue
         st = os.lstat(folder / name)
         fd = os.open(folder / name / _STAGE_MARK,
-                     os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600)
+                     os.O_WRONLY | os.O_CREAT | os.O_EXCL | _NOFOLLOW, 0o600)
         try:
             os.write(fd, f"unidyn stage {token}\n".encode())
         finally:
@@ -620,7 +623,7 @@ def _remove_stage(path: Path, token: str, identity=None) -> None:
         st = os.lstat(path)
         if not stat.S_ISDIR(st.st_mode) or (identity and (st.st_dev, st.st_ino) != identity):
             return
-        fd = os.open(path / _STAGE_MARK, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
+        fd = os.open(path / _STAGE_MARK, os.O_RDONLY | _NOFOLLOW)
         try:
             mark = os.read(fd, 100)
         finally:
