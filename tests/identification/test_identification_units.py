@@ -7,6 +7,7 @@ names recovers the robot."""
 from __future__ import annotations
 
 import functools
+import json
 import math
 import re
 import warnings
@@ -122,3 +123,41 @@ def test_bad_scales_are_refused_in_one_line():
                          ({"u": math.inf}, r"scale\['u'\] must be finite"), ([0.01], "must be a mapping")):
         with pytest.raises(ValidationError, match=words):
             quiet_identify(columns(log), scale=scale)
+
+
+def _write_csv(path, log, order):
+    with open(path, "w") as fh:
+        fh.write(",".join(order) + "\n")
+        for row in zip(*(log[k] for k in order)):
+            fh.write(",".join(repr(float(x)) for x in row) + "\n")
+
+
+def test_the_command_line_names_its_own_options_and_they_fix_the_log(tmp_path, capsys):
+    from unidyn.cli import main
+    truth, log = simulated("p3dx")
+    cm = {**columns(log), "u_ref": 100 * log["u_ref"]}  # commands in cm/s
+    _write_csv(tmp_path / "cm.csv", cm, ("t", "u_ref", "w_ref", "u", "w"))
+    assert main(["identify", str(tmp_path / "cm.csv"), "--out", str(tmp_path / "a"),
+                 "--no-validate"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "Pass --scale u_ref=0.01 to bring u_ref" in err, err
+    assert "scale={" not in err
+    assert main(["identify", str(tmp_path / "cm.csv"), "--out", str(tmp_path / "a"),
+                 "--no-validate", "--scale", "u_ref=0.01", "--commands", "linear"]) == 0
+    theta = json.loads((tmp_path / "a" / "theta.json").read_text())
+    assert theta["theta4"] == pytest.approx(truth.theta4, rel=0.05)  # the robot, in m/s
+    assert theta["theta1"] == pytest.approx(truth.theta1, rel=0.1)
+    # u and w exchanged in the header, with the pose: the mapping as --columns pairs
+    swapped = {"t": log["t"], "w_ref": log["u_ref"], "u_ref": log["w_ref"], "w": log["u"],
+               "u": log["w"], "x": log["x"], "y": log["y"], "psi": log["psi"]}
+    _write_csv(tmp_path / "sw.csv", swapped, ("t", "w_ref", "u_ref", "w", "u", "x", "y", "psi"))
+    capsys.readouterr()
+    assert main(["identify", str(tmp_path / "sw.csv"), "--out", str(tmp_path / "b"),
+                 "--no-validate"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith("map them: --columns u_ref=w_ref,w_ref=u_ref,u=w,w=u"), err
+    assert main(["identify", str(tmp_path / "sw.csv"), "--out", str(tmp_path / "b"),
+                 "--no-validate", "--columns", "u_ref=w_ref,w_ref=u_ref,u=w,w=u",
+                 "--commands", "linear"]) == 0
+    theta = json.loads((tmp_path / "b" / "theta.json").read_text())
+    assert theta["theta2"] == pytest.approx(truth.theta2, rel=0.1)  # not theta1
