@@ -79,22 +79,6 @@ def test_out_as_a_symbolic_link_writes_into_its_target(tmp_path):
     assert [n for n in os.listdir(store) if n.startswith(".unidyn")] == [".unidyn-run.json"]
 
 
-@pytest.mark.slow
-def test_a_users_folder_keeps_its_files_and_folders_byte_for_byte(tmp_path):
-    home = tmp_path / "home"
-    home.mkdir()
-    users_files(home)
-    mine, inode = tree(home), home.stat().st_ino
-    assert cli(tmp_path, "run", "--case", "adaptive", "--T", "1", "--out", home)[0] == 0
-    assert (home / "theta_hat.png").exists()
-    code, _, err = cli(tmp_path, "run", "--case", "compensated", "--T", "2", "--overwrite",
-                       "--out", home)
-    assert code == 0, err
-    assert tree(home, RUN) == mine and home.stat().st_ino == inode
-    assert T_of(home) == 2.0 and not (home / "theta_hat.png").exists()  # went with its run
-    assert sorted(os.listdir(tmp_path)) == ["home"]
-
-
 _LOGGER = textwrap.dedent("""
     import sys, time
     failed = 0
