@@ -1,7 +1,8 @@
 """Results you own, by construction: whatever a results folder holds (a user's files
 named like results, links, folders, edited results, manifests listing ``..``,
-absolute paths or someone else's files), a command changes only files that unidyn
-provably wrote there. A property test over random folders, each command a real
+absolute paths or someone else's files; files, folders and links named as unidyn
+names its own lock, private folders, temporary files and the place of partial
+results), a command changes only files that unidyn provably wrote there. A property test over random folders, each command a real
 process: ``unidyn run``, ``unidyn sweep``, ``unidyn identify``, ``Result.save`` and
 ``IdentificationResult.save``, with and without overwriting."""
 
@@ -68,6 +69,23 @@ def genuine():
     shutil.rmtree(work, ignore_errors=True)
 
 
+def plant_entry(path: Path, plant: str, user_bytes: bytes, victim: Path) -> None:
+    """A user's file, folder or link at ``path``."""
+    if plant == "file":
+        path.write_bytes(user_bytes or b"my notes")
+    elif plant == "empty file":
+        path.touch()
+    elif plant == "link to a file":
+        path.symlink_to(victim / "precious.txt")
+    elif plant == "link to a folder":
+        path.symlink_to(victim)
+    elif plant == "dangling link":
+        path.symlink_to(victim / "nowhere")
+    else:
+        path.mkdir()
+        (path / "cat.jpg").write_bytes(b"a cat")
+
+
 def snapshot(root: Path) -> dict:
     """Every file and link under ``root``: bytes, or the link's target."""
     out = {}
@@ -86,27 +104,45 @@ G, U, E, L, A = "genuine", "user bytes", "edited", "link", "absent"
 #: entries a manifest someone else wrote may add
 INTRUDERS = ("../victim/precious.txt", "{victim}", "..", "/", ".", "notes.txt",
              "sub/../../victim/precious.txt", "")
+#: the names of unidyn's own scaffolding ({kind}: the command's), as a user may have
+#: them: ``out.incomplete`` is beside ``out``
+SCAFFOLD = (".unidyn.lock", ".unidyn-{kind}-new-2024", ".unidyn-{kind}-new-0123456789ab",
+            ".unidyn-run-new-x", ".unidyn-tmp-summary.json", "../out.incomplete")
+#: what a user's entry by such a name is
+PLANTS = ("file", "empty file", "link to a file", "link to a folder", "dangling link",
+          "folder")
 
 
 @example(which="run", overwrite=True, states=[G, G, U, G, G, G, A, A], intruder=None,
-         user_bytes=b"my figure")
+         user_bytes=b"my figure", scaffold=[])
 @example(which="save", overwrite=True, states=[G, E, G, G, L, G, A, A], intruder=None,
-         user_bytes=b"")
+         user_bytes=b"", scaffold=[])
 @example(which="sweep", overwrite=True, states=[G, G, G, E, U, A], intruder=None,
-         user_bytes=b"# my claims")
-@example(which="identify", overwrite=True, states=[G, U, G], intruder=None, user_bytes=b"{}")
+         user_bytes=b"# my claims", scaffold=[])
+@example(which="identify", overwrite=True, states=[G, U, G], intruder=None, user_bytes=b"{}",
+         scaffold=[])
 @example(which="identify-save", overwrite=False, states=[G, G, G],
-         intruder="../victim/precious.txt", user_bytes=b"")
+         intruder="../victim/precious.txt", user_bytes=b"", scaffold=[])
 @example(which="run", overwrite=True, states=[G] * 6 + [A, A], intruder="{victim}",
-         user_bytes=b"")
-@settings(max_examples=20, deadline=None, derandomize=True,
+         user_bytes=b"", scaffold=[])
+@example(which="run", overwrite=True, states=[G] * 6 + [A, A], intruder=None,
+         user_bytes=b"my notes", scaffold=[(".unidyn.lock", "file"),
+                                           (".unidyn-{kind}-new-2024", "folder")])
+@example(which="sweep", overwrite=False, states=[A] * 6, intruder=None, user_bytes=b"",
+         scaffold=[(".unidyn-{kind}-new-0123456789ab", "folder"),
+                   ("../out.incomplete", "link to a folder")])
+@example(which="identify", overwrite=True, states=[G, G, G], intruder=None, user_bytes=b"",
+         scaffold=[(".unidyn.lock", "link to a file")])
+@settings(max_examples=24, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(which=st.sampled_from(sorted(KINDS)), overwrite=st.booleans(),
        states=st.lists(st.sampled_from(STATES), min_size=6, max_size=8),
        intruder=st.none() | st.sampled_from(INTRUDERS),
-       user_bytes=st.binary(min_size=0, max_size=64))
+       user_bytes=st.binary(min_size=0, max_size=64),
+       scaffold=st.lists(st.tuples(st.sampled_from(SCAFFOLD), st.sampled_from(PLANTS)),
+                         max_size=3, unique_by=lambda p: p[0]))
 def test_nothing_that_unidyn_did_not_write_changes(genuine, which, overwrite, states,
-                                                   intruder, user_bytes):
+                                                   intruder, user_bytes, scaffold):
     kind, names = KINDS[which]
     source = genuine / {"run": "run", "save": "run", "sweep": "sweep"}.get(which, "identify")
     top = Path(tempfile.mkdtemp(prefix="unidyn-own-"))
@@ -150,17 +186,26 @@ def test_nothing_that_unidyn_did_not_write_changes(genuine, which, overwrite, st
             manifest.unlink()
         if mine:
             mine.add(manifest.name)
+        for name, plant in scaffold:
+            plant_entry(out / name.format(kind=kind), plant, user_bytes, victim)
         before = snapshot(top)
         p = execute(command(which, out, overwrite, top), top)
         after = snapshot(top)
         changed = sorted(k for k in before if after.get(k) != before[k])
         foreign = [k for k in changed if k.removeprefix("out/") not in mine]
+        planted = tuple(os.path.normpath(f"out/{n.format(kind=kind)}") + "/"
+                        for n, _ in scaffold)
+        foreign += [k for k in after if k not in before  # nothing new outside out, or
+                    and (not k.startswith("out/") or k.startswith(planted))]  # in theirs
         assert not foreign, (which, overwrite, states, intruder, foreign, p.stderr[-2000:])
         assert "AttributeError" not in p.stderr and "NameError" not in p.stderr, p.stderr
-        if intruder is None and set(present) <= {"genuine"} and (
+        locked = any(n == ".unidyn.lock" for n, _ in scaffold)
+        if intruder is None and set(present) <= {"genuine"} and not locked and (
                 overwrite or which == "sweep" or not present):  # nothing in the way
             assert p.returncode == 0, (which, overwrite, states, p.stderr[-2000:])
-        if intruder is not None:  # refused in one line naming the manifest and the entry
+        if locked:  # a lock unidyn did not make: refused, naming it
+            assert p.returncode != 0 and ".unidyn.lock" in p.stderr, p.stderr
+        if intruder is not None and not locked:  # refused in one line naming the manifest
             assert p.returncode != 0 and manifest.name in p.stderr, p.stderr
         if which in ("run", "sweep", "identify") and p.returncode != 0:  # the command line:
             assert len(p.stderr.strip().splitlines()) == 1, p.stderr  # one line, no traceback

@@ -12,6 +12,7 @@ import textwrap
 import time
 
 import pytest
+from hypothesis import HealthCheck, given, settings, strategies as st
 
 from unidyn import ValidationError
 from unidyn.results import folders as outdir
@@ -235,16 +236,106 @@ def test_partial_results_go_into_an_empty_target(tmp_path):
     assert st.final == out.absolute() and _generations(out) == {1}
 
 
-def test_what_a_killed_process_left_is_removed_by_the_next_writer(tmp_path):
+def _killed_while_writing(out, generation):
+    """A writer that dies (as by ``kill -9``: no clean-up runs) with its private
+    folder full: a forked process that leaves by ``os._exit``."""
+    pid = os.fork()
+    if pid == 0:  # pragma: no cover - the child
+        try:
+            with staged(out, overwrite=True) as st:
+                _write(st.path, generation)
+                os._exit(0)
+        finally:
+            os._exit(1)
+    assert os.waitpid(pid, 0)[1] == 0
+
+
+def test_what_a_killed_process_left_is_removed_by_the_next_writer_and_nothing_else(tmp_path):
     out = tmp_path / "out"
     _save(out, 1)
-    left = out / ".unidyn-results-new-abc"  # kill -9 while writing
-    left.mkdir()
-    _write(left, 2)
+    # a user's folders named as unidyn names its private ones, and its lock's twin
+    for name in (".unidyn-results-new-abc", ".unidyn-results-new-0123456789ab"):
+        (out / name).mkdir()
+        (out / name / "cat.jpg").write_text("cat")
+    (out / ".unidyn.lock.bak").write_text("my notes")
+    users = {".unidyn-results-new-abc", ".unidyn-results-new-0123456789ab", ".unidyn.lock.bak"}
+    _killed_while_writing(out, 2)
+    left = set(_private(out)) - users
+    assert outdir.LOCK_NAME in left and len(left) == 2, left  # the lock and its folder
     with pytest.raises(ValidationError, match="already holds"):
         with staged(out, overwrite=False):
             pass
-    assert _generations(out) == {1} and _private(out) == []
+    assert _generations(out) == {1} and set(_private(out)) == users
+    assert all((out / n / "cat.jpg").read_text() == "cat" for n in users if "new" in n)
+    _killed_while_writing(out, 3)
+    _save(out, 4)  # the next writer that goes ahead cleans up too
+    assert _generations(out) == {4} and set(_private(out)) == users
+
+
+@pytest.mark.parametrize("make", ["file", "empty file", "link out", "dangling link",
+                                  "folder", "hard link"])
+@pytest.mark.parametrize("overwrite", [False, True])
+def test_a_lock_file_unidyn_did_not_make_is_refused_in_one_line_and_kept(tmp_path, make,
+                                                                        overwrite):
+    out, outside = tmp_path / "out", tmp_path / "outside.txt"
+    _save(out, 1)
+    outside.write_text("my thesis\n")
+    lock = out / outdir.LOCK_NAME
+    if make == "file":
+        lock.write_text("my notes\n")
+    elif make == "empty file":
+        lock.touch()
+    elif make == "link out":
+        lock.symlink_to(outside)
+    elif make == "dangling link":
+        lock.symlink_to(tmp_path / "nowhere")
+    elif make == "folder":
+        lock.mkdir()
+        (lock / "inside.txt").write_text("mine")
+    else:
+        os.link(outside, lock)
+    before = {p.name: (p.is_symlink(), os.readlink(p) if p.is_symlink() else
+                       p.is_dir() or p.read_bytes()) for p in out.iterdir()}
+    with pytest.raises(ValidationError) as err:
+        with staged(out, overwrite=overwrite) as st:
+            _write(st.path, 2)
+    text = str(err.value)
+    assert "\n" not in text and str(lock) in text and "not a lock unidyn made" in text, text
+    assert not isinstance(err.value, outdir.FolderInUse)
+    after = {p.name: (p.is_symlink(), os.readlink(p) if p.is_symlink() else
+                      p.is_dir() or p.read_bytes()) for p in out.iterdir()}
+    assert after == before and outside.read_text() == "my thesis\n"
+    assert not (tmp_path / "nowhere").exists()
+
+
+@pytest.mark.parametrize("make", ["link to a folder of the user's", "folder of the user's",
+                                  "file"])
+def test_the_place_for_partial_results_is_unidyns_or_refused(tmp_path, make):
+    """A partial result beside complete ones goes to ``<out>.incomplete`` only when
+    that is a folder unidyn made: never through a link, into a user's folder or file."""
+    out, theirs = tmp_path / "out", tmp_path / "theirs"
+    _save(out, 1)
+    theirs.mkdir()
+    (theirs / "thesis.tex").write_text("mine")
+    place = tmp_path / "out.incomplete"
+    if make.startswith("link"):
+        place.symlink_to(theirs)
+    elif make.startswith("folder"):
+        place.mkdir()
+        (place / "notes.txt").write_text("mine")
+    else:
+        place.write_text("mine")
+    with pytest.raises(ValidationError, match="not the folder unidyn keeps partial") as err:
+        with staged(out, overwrite=True) as st:
+            _write(st.path, 2)
+            st.incomplete("stopped early")
+    assert "\n" not in str(err.value) and str(place) in str(err.value)
+    assert sorted(os.listdir(theirs)) == ["thesis.tex"] and _generations(out) == {1}
+    assert _private(out) == []
+    if make.startswith("folder"):
+        assert os.listdir(place) == ["notes.txt"]
+    elif make == "file":
+        assert place.read_text() == "mine"
 
 
 def test_a_replacement_cut_short_is_told_apart_from_results(tmp_path):
@@ -275,6 +366,78 @@ def test_the_folder_holding_out_is_never_written(tmp_path):
     assert os.stat(parent).st_mtime_ns == before and _generations(parent / "out") == {2}
 
 
+#: what a writer does: finish, fail with an error or Ctrl-C, die (``kill -9``), or
+#: stop early with a partial result, after writing some of its files
+ACTIONS = ("complete", "error", "ctrl-c", "killed", "partial")
+#: a user's entries in and beside ``out``, named as unidyn names its own
+USERS = {".unidyn-results-new-abc/cat.jpg": b"a cat", ".unidyn-results-new-0123456789ab/x": b"x",
+         "notes.txt": b"my notes", ".unidyn.lock.old": b"old notes"}
+
+
+def _user_entries(out):
+    return {n: (out / n).read_bytes() for n in USERS if (out / n).exists()}
+
+
+@settings(max_examples=25, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(ops=st.lists(st.tuples(st.sampled_from(ACTIONS), st.booleans(), st.integers(0, 2)),
+                    min_size=1, max_size=6))
+def test_the_protocol_holds_for_any_sequence_of_writers(tmp_path_factory, ops):
+    """The protocol, in process, over random sequences of writers: after each, ``out``
+    holds every file of one generation -- the last one that finished (or, for a first
+    partial result, that one) -- its manifest proves them, the user's entries (named
+    like unidyn's private folders too) are as they were, a partial result beside
+    complete ones is in ``out.incomplete``, and what a killed writer left is gone once
+    the next writer has taken the lock."""
+    top = tmp_path_factory.mktemp("protocol")
+    out = top / "out"
+    for name, data in USERS.items():
+        (out / name).parent.mkdir(parents=True, exist_ok=True)
+        (out / name).write_bytes(data)
+    current, aside = None, None
+    for g, (action, overwrite, k) in enumerate(ops, start=1):
+        names = RESULTS[:k] if action in ("error", "ctrl-c", "killed") else RESULTS
+        refused = current is not None and not overwrite
+        if action == "killed":
+            pid = os.fork()
+            if pid == 0:  # pragma: no cover - the child
+                try:
+                    with staged(out, overwrite=overwrite) as st_:
+                        _write(st_.path, g, names)
+                        os._exit(0)
+                finally:
+                    os._exit(1)
+            os.waitpid(pid, 0)
+            continue
+        exc = {"error": RuntimeError, "ctrl-c": KeyboardInterrupt}.get(action)
+        try:
+            with staged(out, overwrite=overwrite) as st_:
+                _write(st_.path, g, names)
+                if exc:
+                    raise exc("stopped")
+                if action == "partial":
+                    st_.incomplete("stopped early")
+        except ValidationError as err:
+            assert refused and "already holds" in str(err), (action, str(err))
+        except (RuntimeError, KeyboardInterrupt):
+            assert exc is not None and not refused
+        else:
+            assert not refused and exc is None
+            if action == "partial" and current is not None:
+                aside = g
+            else:
+                current = g
+        # the writer took the lock: what a killed one left is gone (checked below)
+        assert _generations(out) == (set() if current is None else {current}), (ops, g)
+        assert outdir.check_manifest(out, "results", NAMES, RESULTS) == ""
+        assert _user_entries(out) == USERS
+        assert set(_private(out)) == {n.split("/")[0] for n in USERS if n.startswith(".")}
+        if aside is not None:
+            assert _generations(top / "out.incomplete") == {aside}
+        assert sorted(p.name for p in top.iterdir()) == sorted(
+            ["out"] + (["out.incomplete"] if aside is not None else []))
+
+
 _WRITER = textwrap.dedent("""
     import json, sys, time
     from unidyn.results.folders import staged_output
@@ -289,12 +452,14 @@ _WRITER = textwrap.dedent("""
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL, signal.SIGTERM])
-def test_processes_killed_at_random_moments_leave_old_or_new_never_a_mix(tmp_path, sig):
-    """Real processes, real signals: after each one, ``out`` holds every file of one
-    generation (the last complete one, or the one just killed if it got as far as
-    moving its files in). Only ``kill -9`` in the milliseconds of the renames can leave
-    a mix, and then the manifest says the replacement was cut short."""
+def test_processes_killed_at_random_moments_leave_old_or_new_never_a_mix(tmp_path):
+    """Real processes, ``kill -9`` at random moments (Ctrl-C and SIGTERM during the
+    renames are tested in process, below; any other moment by the property test
+    above): after each, ``out`` holds every file of one generation (the last complete
+    one, or the one just killed if it got as far as moving its files in). Only a kill
+    in the milliseconds of the renames can leave a mix, and then the manifest says the
+    replacement was cut short. A user's folder named like a private one survives."""
+    sig = signal.SIGKILL
     rng = random.Random(20261123 + int(sig))
     out = tmp_path / "out"
     script = tmp_path / "writer.py"
@@ -303,8 +468,10 @@ def test_processes_killed_at_random_moments_leave_old_or_new_never_a_mix(tmp_pat
     subprocess.run([sys.executable, str(script), str(out), "0"], check=True, env=env,
                    cwd=tmp_path, capture_output=True)
     names = ("summary.json", "timeseries.csv", "a.csv", "b.csv")
+    (out / ".unidyn-results-new-2024").mkdir()
+    (out / ".unidyn-results-new-2024" / "cat.jpg").write_text("a cat")
     done = 0
-    for gen in range(1, 9):
+    for gen in range(1, 7):
         proc = subprocess.Popen([sys.executable, str(script), str(out), str(gen)], env=env,
                                 cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
         time.sleep(rng.uniform(0.05, 0.6))
@@ -326,14 +493,17 @@ def test_processes_killed_at_random_moments_leave_old_or_new_never_a_mix(tmp_pat
     # what the killed processes left in out is cleaned by the next writer
     subprocess.run([sys.executable, str(script), str(out), "99"], check=True, env=env,
                    cwd=tmp_path, capture_output=True)
-    assert _siblings(tmp_path, out) == ["writer.py"] and _private(out) == []
+    assert _siblings(tmp_path, out) == ["writer.py"]
+    assert _private(out) == [".unidyn-results-new-2024"]
+    assert (out / ".unidyn-results-new-2024" / "cat.jpg").read_text() == "a cat"
     assert outdir.check_manifest(out, "results", names, names) == ""
 
 
 def test_the_block_holds_the_folder_lock_and_a_second_writer_is_refused(tmp_path):
     out = tmp_path / "out"
     with staged(out, overwrite=False) as st:
-        assert (out / outdir.LOCK_NAME).read_text().strip() == str(os.getpid())
+        held = (out / outdir.LOCK_NAME).read_text()
+        assert re.search(r"^pid ([0-9]+)$", held, re.M).group(1) == str(os.getpid()), held
         with pytest.raises(outdir.FolderInUse, match=f"PID {os.getpid()}"):
             with staged(out, overwrite=True):
                 pytest.fail("the second writer must not run")
@@ -452,3 +622,21 @@ def test_a_results_own_folder_is_replaced_file_by_file(tmp_path):
         with staged(out, names=names, overwrite=True) as st:
             pytest.fail("the block must not run")
     assert os.listdir(out / "mine") == ["m.txt"]
+
+
+def test_a_full_disk_without_a_file_name_names_the_file_being_written(tmp_path):
+    """A writer (a figure library) whose error does not say which file filled the disk:
+    the message names the file it was writing, its size so far and the space left."""
+    import errno
+    out = tmp_path / "out"
+    _save(out, 1)
+    with pytest.raises(OSError) as err:
+        with staged(out, overwrite=True) as st:
+            _write(st.path, 2, names=("summary.json",))
+            (st.path / "animation.gif").write_bytes(b"G" * 3000)
+            raise OSError(errno.ENOSPC, "No space left on device")
+    text = str(err.value)
+    assert f"writing {out / 'animation.gif'} (3 kB of it written, " in text, text
+    assert re.search(r"written, [0-9.]+ (bytes|kB|MB|GB) free\); the earlier results in .* "
+                     r"are intact", text), text
+    assert _generations(out) == {1} and _private(out) == []

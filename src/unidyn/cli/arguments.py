@@ -185,6 +185,9 @@ def parser() -> argparse.ArgumentParser:
     i.add_argument("--columns", metavar="NAME=COLUMN,...",
                    help="map t, u_ref, w_ref, u, w to the log's column names, "
                         "e.g. t=time,u=v_meas,w=omega_meas")
+    i.add_argument("--scale", metavar="NAME=FACTOR,...",
+                   help="multiply u_ref, w_ref, u or w by a factor to bring them to m/s and "
+                        "rad/s, e.g. u_ref=0.01 for commands in cm/s")
     i.add_argument("--out", required=True, metavar="DIR")
     i.add_argument("--commands", choices=("held", "linear"), default="held",
                    help="held (default): each command acts from its time stamp until the "

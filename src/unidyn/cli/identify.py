@@ -14,7 +14,9 @@ from .. import identification as ident
 from .._errors import ValidationError
 from ..identification.bags import is_bag
 from ..identification.estimator import read_delay
-from ..identification.logs import COLUMNS
+import re
+
+from ..identification.logs import COLUMNS, POSE, SCALED
 from ..identification.results import IDENTIFY_FILES
 from ..results.figstyle import save
 from ..results.folders import staged_output
@@ -36,6 +38,7 @@ def unidyn_identify(args) -> int:
     if vlog is not None and not vlog.exists():
         raise FileNotFoundError(f"validation log {vlog} does not exist")
     columns = _parse_columns(args.columns) if args.columns is not None else None
+    scale = _parse_scale(args.scale) if getattr(args, "scale", None) is not None else None
     if columns is not None and bags:
         raise UsageError("--columns applies to CSV logs, not to bags (--cmd and --odom "
                          "choose their topics)")
@@ -52,7 +55,7 @@ def unidyn_identify(args) -> int:
             raise ValidationError(_cli_words(str(err))) from None
         delay = value if kind == "s" else args.delay
     kwargs = {"columns": columns, "commands": args.commands, "delay": delay,
-              "method": args.method, "validate": False}
+              "method": args.method, "validate": False, "scale": scale}
     for k in ("smoothing", "window", "name", "gap", "time_unit"):
         if getattr(args, k) is not None:
             kwargs[k] = getattr(args, k)
@@ -92,9 +95,11 @@ def unidyn_identify(args) -> int:
             with warnings.catch_warnings(record=True) as seen:  # rows the held-out log
                 warnings.simplefilter("always", ident.IdentificationWarning)  # skipped
                 report = ident.validate(res, vlog if isinstance(vlog, dict) else str(vlog),
-                                        columns=columns, time_unit=args.time_unit) if vlog else \
+                                        columns=columns, time_unit=args.time_unit,
+                                        scale=scale) if vlog else \
                     ident.validation_report(res.theta, *_joined(ident, logs, columns,
-                                                                kwargs.get("gap"), args.time_unit),
+                                                                kwargs.get("gap"), args.time_unit,
+                                                                scale),
                                             res.commands, res.delay)
             for w in seen:
                 if issubclass(w.category, ident.IdentificationWarning):
@@ -131,9 +136,10 @@ def _parse_columns(text: str) -> dict:
         if not sep or not k or not v:
             raise ValidationError(f"--columns expects NAME=COLUMN pairs separated by commas "
                                   f"(e.g. t=time,u=v_meas), got {part[:60]!r}")
-        if k not in COLUMNS:
+        if k not in COLUMNS + POSE:
             raise ValidationError(f"--columns: unknown name {k[:40]!r} in {part[:60]!r}; the "
-                                  f"names are {', '.join(COLUMNS)} (e.g. --columns t=time,u=v_meas)")
+                                  f"names are {', '.join(COLUMNS + POSE)} (e.g. --columns "
+                                  f"t=time,u=v_meas)")
         if k in out:
             raise ValidationError(f"--columns names {k!r} twice")
         out[k] = v
@@ -143,8 +149,35 @@ def _parse_columns(text: str) -> dict:
     return out
 
 
+def _parse_scale(text: str) -> dict:
+    """--scale NAME=FACTOR,... as a mapping; names are u_ref, w_ref, u, w."""
+    out = {}
+    for part in filter(None, (p.strip() for p in text.split(","))):
+        k, sep, v = (x.strip() for x in part.partition("="))
+        if not sep or k not in SCALED:
+            raise ValidationError(f"--scale expects NAME=FACTOR pairs with names "
+                                  f"{', '.join(SCALED)} (e.g. --scale u_ref=0.01 for commands "
+                                  f"in cm/s), got {part[:60]!r}")
+        try:
+            out[k] = float(v)
+        except ValueError:
+            raise ValidationError(f"--scale {k}: {v[:40]!r} is not a number") from None
+    if not out:
+        raise ValidationError("--scale is empty; expected NAME=FACTOR pairs, e.g. "
+                              "--scale u_ref=0.01")
+    return out
+
+
+def _as_flags(option: str, mapping: str) -> str:
+    """A mapping as the library writes it ({'u_ref': 0.01}) as the option's pairs."""
+    pairs = re.findall(r"'(\w+)': '?([^',}]+)'?", mapping)
+    return f"{option} " + ",".join(f"{k}={v}" for k, v in pairs)
+
+
 def _cli_words(text: str) -> str:
     """The library's argument names in a message, as this command's options."""
+    text = re.sub(r"\b(scale|columns)=(\{[^}]*\})",
+                  lambda m: _as_flags(f"--{m.group(1)}", m.group(2)), text)
     for lib, cli in (("delay must be", "--delay must be"),
                      ("commands='linear'", "--commands linear"),
                      ("commands='held'", "--commands held"),
@@ -157,10 +190,10 @@ def _cli_words(text: str) -> str:
     return text
 
 
-def _joined(ident, logs, columns, gap=None, time_unit=None):
+def _joined(ident, logs, columns, gap=None, time_unit=None, scale=None):
     """The logs read and joined as identify() joins them: (arrays, pieces)."""
     D, segs, _, _ = ident.join_logs([p if isinstance(p, dict) else str(p) for p in logs],
-                                    columns, gap, time_unit=time_unit)
+                                    columns, gap, time_unit=time_unit, scale=scale)
     return D, segs
 
 

@@ -11,6 +11,7 @@ import math
 import numpy as np
 
 from .._validate import ValidationError
+from ..model import robots
 from .equation_error import ROW_PARAMS, coupling
 from .intervals import Z95
 from .logs import TIME_UNITS
@@ -89,6 +90,90 @@ def check_physical(theta, stderr):
             f"or accelerations, or too little excitation; check the log and its columns")
 
 
+#: A gain from a command to its measured velocity (1/theta4, 1/theta6) further than
+#: this factor from 1 is not a velocity-controlled robot's (the presets' lie within
+#: 1/6.5 and 1.05): it is refused as commands and velocities in different units
+UNIT_GAIN = 10.0
+#: An estimate beyond this factor outside the presets' range is flagged
+ENVELOPE_FACTOR = 5.0
+# units a column of linear or angular velocity is often logged in, as the factor
+# from m/s or rad/s
+_UNITS = {3: ((100.0, "cm/s"), (1000.0, "mm/s"), (3.6, "km/h")),
+          5: ((180 / math.pi, "deg/s"), (60 / (2 * math.pi), "rpm"), (1000.0, "mrad/s"))}
+_CHANNEL = {3: ("u_ref", "u", "m/s", "linear"), 5: ("w_ref", "w", "rad/s", "angular")}
+_UNIT_OF = {0: "s", 1: "s", 2: "s·m/rad²", 3: "", 4: "s/m", 5: ""}
+
+
+def _envelope() -> dict:
+    """For each parameter, the presets' (smallest, largest) value (magnitude for
+    theta3 and theta5) and the robots that have them."""
+    sets = [robots.get(n) for n in robots.names()]
+    out = {}
+    for i in range(6):
+        vals = [(abs(r.theta[i]) if i in (2, 4) else r.theta[i], r) for r in sets]
+        lo, hi = min(vals, key=lambda v: v[0]), max(vals, key=lambda v: v[0])
+        out[i] = (lo[0], lo[1].source.split(";")[0], hi[0], hi[1].source.split(";")[0])
+    return out
+
+
+def _value(i, v) -> str:
+    unit = _UNIT_OF[i]
+    return f"{v:.4g}" + (f" {unit}" if unit else "")
+
+
+def check_units(theta, stderr):
+    """Refuse an estimate whose gain from a command to its measured velocity (1/theta4
+    for u_ref to u, 1/theta6 for w_ref to w) is further than :data:`UNIT_GAIN` from 1,
+    where a velocity-controlled robot's is near 1: the command and the velocity are
+    in different units. The message names the likely units and the ``scale`` that
+    fixes it, whichever side is scaled."""
+    for i in (3, 5):
+        g = float(theta[i])
+        if not (g > UNIT_GAIN or g < 1 / UNIT_GAIN):
+            continue
+        cmd, meas, si, kind = _CHANNEL[i]
+        ratio = g if g > 1 else 1 / g
+        big, small = (cmd, meas) if g > 1 else (meas, cmd)
+        factor, unit = min(_UNITS[i], key=lambda fu: abs(math.log(ratio / fu[0])))
+        if abs(math.log(ratio / factor)) > math.log(1.5):  # none of the usual units
+            factor, unit = ratio, None
+        cause = (f"{big} in {unit} beside {small} in {si}?" if unit else
+                 f"{big} and {small} in different units, or a gain between them?")
+        raise ValidationError(
+            f"identified {THETA_NAMES[i]} = {g:.4g} (stderr {stderr[i]:.2g}): the steady "
+            f"gain from the {kind}-velocity command {cmd} to the measured {meas} is "
+            f"1/{THETA_NAMES[i]} = {1 / g:.3g}, where a velocity-controlled robot's is near 1 "
+            f"(the presets' {THETA_NAMES[i]}: {_envelope()[i][0]:.3g} to "
+            f"{_envelope()[i][2]:.3g}): {big} is about {ratio:.3g} times {small}, so they are "
+            f"likely in different units ({cause}). Pass scale={{'{big}': {1 / factor:.4g}}} "
+            f"to bring {big} to {si}, and identify again")
+
+
+def envelope_warnings(theta) -> list:
+    """Where an estimate lies outside the presets' range (a Khepera III to a robotic
+    wheelchair carrying 125 kg, and the RobuLAB-10) by more than
+    :data:`ENVELOPE_FACTOR`: which parameter, by how much, and the likely causes
+    (theta1 or theta2 over :data:`MAX_TIME_CONSTANT` has its own warning)."""
+    env, out = _envelope(), []
+    for i in range(6):
+        lo, lo_robot, hi, hi_robot = env[i]
+        v = abs(theta[i]) if i in (2, 4) else float(theta[i])
+        if i in (0, 1) and v > MAX_TIME_CONSTANT:  # its own warning says why
+            continue
+        if v > ENVELOPE_FACTOR * hi:
+            where = f"{v / hi:.3g} times the largest{' magnitude' if i in (2, 4) else ''}"
+            near = f"{_value(i, hi)}, {hi_robot}"
+        elif i not in (2, 4) and 0 < v < lo / ENVELOPE_FACTOR:
+            where, near = f"1/{lo / v:.3g} of the smallest", f"{_value(i, lo)}, {lo_robot}"
+        else:
+            continue
+        out.append(f"{THETA_NAMES[i]} = {_value(i, float(theta[i]))} is {where} among the "
+                   f"preset robots ({near}), outside the range of physical robots: check "
+                   f"the units of the log's columns (scale=) and of its time (time_unit=), "
+                   f"and that u and w are not exchanged")
+    return out
+
+
 def estimate_warnings(theta, stderr, conds, u, w, dt, rel_max) -> list:
     """The warnings about an estimate ``theta`` with standard errors ``stderr`` from a log
     of velocities u (m/s), w (rad/s) sampled every ``dt`` s: theta3 or theta5 unidentified
@@ -124,6 +209,7 @@ def estimate_warnings(theta, stderr, conds, u, w, dt, rel_max) -> list:
                        f"{THETA_NAMES[i]} = 1 + (Ra/ka)(ka kb/Ra + Be)(...) >= 1 (identified sets "
                        f"reach 0.956): check the scale of the measured velocities against "
                        f"the commands")
+    out += envelope_warnings(theta)
     for i, j in ((0, 3), (1, 5)):
         tau = theta[i] / theta[j] if theta[j] > 0 else math.nan
         if tau <= 1.05 * TAU_MIN_SAMPLES * dt:

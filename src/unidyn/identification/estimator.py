@@ -21,11 +21,12 @@ from tqdm import tqdm
 from .._validate import ValidationError, choice, integer, nonnegative, positive, short_repr
 from ..model.parameters import RobotParameters
 from .bags import row_commands
-from .checks import check_excitation, check_memory, check_physical, estimate_warnings
+from .checks import (check_excitation, check_memory, check_physical, check_units,
+                     estimate_warnings)
 from .equation_error import SMOOTHING_METHODS, equation_error_fit, white_noise_std
 from .first_estimate import first_estimate
 from .intervals import JITTER_MIN, ci95, jitter_widening, lag_widening, measured_stamp_jitter
-from .logs import COLUMNS, IdentificationWarning, check_measured, join_logs
+from .logs import COLUMNS, IdentificationWarning, check_layout, check_measured, join_logs
 from .output_error import output_error_fit
 from .replay import COMMAND_CONVENTIONS
 from .results import THETA_NAMES, IdentificationResult
@@ -56,7 +57,7 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
              gap: float | None = None, check_commands: bool = True,
              time_unit: str | None = None,
              stamp_jitter: float | None = None,
-             progress: bool | None = None) -> IdentificationResult:
+             progress: bool | None = None, scale=None) -> IdentificationResult:
     r"""Estimate theta1..theta6 of Eq. (2) from one or more logs of one robot.
 
     The default ``method="output-error"`` simulates Eq. (2) over every piece of
@@ -120,6 +121,10 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
         fit: it is repeated with as much jitter again added to the stamps, and
         the shift and scatter of the estimates are added to the standard
         errors) and a warning says by how much
+    :param scale: factors that bring the logs' columns to m/s and rad/s, e.g.
+        ``{"u_ref": 0.01}`` for linear-speed commands logged in cm/s (see
+        :func:`load_log`). A log whose gain from a command to its measured velocity
+        (1/theta4, 1/theta6) is far from 1 is refused, naming the likely units
     :param progress: a progress bar on stderr while the fits run: None (default)
         for logs of more than 100,000 rows when stderr is a terminal; True or False
         to force it on or off
@@ -137,7 +142,7 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
     if progress is not None and not isinstance(progress, (bool, np.bool_)):
         raise ValidationError(f"progress must be None, True or False, got {short_repr(progress)}")
     lg = _read_logs((log,) + more_logs, columns, gap, time_unit, stamp_jitter, commands,
-                    delay, window, noise_std)
+                    delay, window, noise_std, scale)
     check_memory(lg, method)
     with _progress_bar(lg, progress) as lg.tick:
         res = _identify(lg, method, smoothing, window, order, rel_stderr_max, name,
@@ -234,14 +239,15 @@ class _Logs:
 
 
 def _read_logs(logs, columns, gap, time_unit, stamp_jitter, commands, delay, window,
-               noise_std) -> _Logs:
+               noise_std, scale=None) -> _Logs:
     """Join the logs, check that they can be identified from, read the delay and
     the noise levels, and note missing rows and gaps."""
     stamp_jitter = _recorded_jitter(logs, stamp_jitter)
-    D, segs, _, _ = join_logs(logs, columns, gap, time_unit)
+    D, segs, _, _ = join_logs(logs, columns, gap, time_unit, scale)
     t, u_ref, w_ref, u, w = (D[k] for k in COLUMNS)
     check_excitation(u_ref, w_ref)
     check_measured(u_ref, w_ref, u, w)
+    check_layout(D, segs, columns)
     dt_med = float(np.median(np.concatenate([np.diff(t[a:b]) for a, b in segs])))
     delay_auto, delay = _delay_seconds(delay, dt_med)
     longest = max(t[b - 1] - t[a] for a, b in segs)
@@ -281,6 +287,7 @@ def _identify_equation_error(lg, smoothing, window, order, rel_stderr_max, name)
     theta, cov, resid, keep_t, conds, r2, ew, win, uk, wk = fit
     stderr = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     check_physical(theta, stderr)
+    check_units(theta, stderr)
     warns = lg.warnings + ew + estimate_warnings(theta, stderr, conds, uk, wk, lg.dt_med,
                                                  rel_stderr_max)
     if not lg.linear:
@@ -322,6 +329,7 @@ def _oe_intervals(lg, oe, rel_stderr_max):
     theta = oe["theta"]
     stderr = np.sqrt(np.clip(np.diag(oe["cov"])[:6], 0.0, None))
     check_physical(theta, stderr)
+    check_units(theta, stderr)
     warns = list(lg.warnings)
     t = lg.D["t"]
     jitter = measured_stamp_jitter(t, lg.segs) if lg.stamp_jitter is None else lg.stamp_jitter

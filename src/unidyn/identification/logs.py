@@ -8,6 +8,7 @@ A log holds the commands (u_ref, w_ref) a robot received and the velocities
 from __future__ import annotations
 
 import contextlib
+import math
 import csv
 import os
 import re
@@ -21,6 +22,9 @@ from .._validate import ValidationError, real, short_repr
 
 #: The canonical column names of a log.
 COLUMNS = ("t", "u_ref", "w_ref", "u", "w")
+#: The optional columns of the robot's pose (m, m, rad): with them, a log whose u and
+#: w are exchanged is told apart (see :func:`check_layout`)
+POSE = ("x", "y", "psi")
 # a time step longer than this many median steps is a gap (the robot was not logged)
 _GAP_FACTOR = 5.0
 # a time step longer than this many median steps (but not a gap) means missing rows:
@@ -59,15 +63,15 @@ class MissingColumnsError(ValidationError):
 
 def _column_map(columns) -> dict:
     if columns is None:
-        return {k: k for k in COLUMNS}
+        return {k: k for k in COLUMNS + POSE}
     if not isinstance(columns, Mapping):
         raise ValidationError(f"columns must be a mapping from {', '.join(COLUMNS)} to the "
                               f"log's column names, got {short_repr(columns)}")
-    unknown = [k for k in columns if k not in COLUMNS]
+    unknown = [k for k in columns if k not in COLUMNS + POSE]
     if unknown:
         raise ValidationError(f"columns: unknown key(s) {', '.join(short_repr(k) for k in unknown)}; "
-                              f"allowed keys are {', '.join(COLUMNS)}")
-    out = {k: k for k in COLUMNS}
+                              f"allowed keys are {', '.join(COLUMNS + POSE)}")
+    out = {k: k for k in COLUMNS + POSE}
     for k, v in columns.items():
         if not isinstance(v, str) or not v.strip():
             raise ValidationError(f"columns[{k!r}] must be a column name (a non-empty string), "
@@ -342,7 +346,32 @@ def _get_columns(log, wanted) -> tuple:
         None, []
 
 
-def load_log(log, columns=None, time_unit: str | None = None) -> dict:
+#: The columns that ``scale`` may multiply: the commands and the measured velocities.
+SCALED = ("u_ref", "w_ref", "u", "w")
+
+
+def _scale_map(scale) -> dict:
+    """``scale`` checked: a mapping from some of :data:`SCALED` to positive factors."""
+    if scale is None:
+        return {}
+    if not isinstance(scale, Mapping):
+        raise ValidationError(f"scale must be a mapping from {', '.join(SCALED)} to factors, "
+                              f"e.g. {{'u_ref': 0.01}} for commands in cm/s, got "
+                              f"{short_repr(scale)}")
+    out = {}
+    for k, v in scale.items():
+        if k not in SCALED:
+            raise ValidationError(f"scale: unknown key {short_repr(k)}; allowed keys are "
+                                  f"{', '.join(SCALED)}")
+        f = real(f"scale[{k!r}]", v)
+        if not (math.isfinite(f) and f > 0):
+            raise ValidationError(f"scale[{k!r}] must be a finite factor > 0 (0.01 turns cm/s "
+                                  f"into m/s, pi/180 deg/s into rad/s), got {v!r}")
+        out[k] = f
+    return out
+
+
+def load_log(log, columns=None, time_unit: str | None = None, scale=None) -> dict:
     """Read and check a log; return a dict of 1-D float arrays t, u_ref, w_ref, u, w.
 
     Rows read other than as written (exact duplicates dropped, a units row or
@@ -369,8 +398,11 @@ def load_log(log, columns=None, time_unit: str | None = None) -> dict:
         number (file, line and column named), columns of different lengths, NaN
         or inf, time that is not strictly increasing (repeated or going back),
         fewer than 20 samples, or (``time_unit=None``) a median time step over 1 s
+    :param scale: factors that bring columns to m/s and rad/s, e.g. ``{"u_ref": 0.01}``
+        for linear-speed commands logged in cm/s, ``{"w": math.pi / 180}`` for
+        measured angular velocities in deg/s (the columns are multiplied by them)
     """
-    out, notes = _load(log, columns, time_unit)
+    out, notes = _load(log, columns, time_unit, scale)
     for note in notes:
         warnings.warn(note, IdentificationWarning, stacklevel=2)
     return out
@@ -383,12 +415,16 @@ def _time_unit(time_unit):
     return time_unit
 
 
-def _load(log, columns, time_unit=None) -> tuple[dict, list]:
+def _load(log, columns, time_unit=None, scale=None) -> tuple[dict, list]:
     """:func:`load_log` returning (arrays, notes: one line per kind of row read
     other than as written) instead of warning."""
     cmap = _column_map(columns)
+    factors = _scale_map(scale)
     time_unit = _time_unit(time_unit)
-    data, obj, what, available, rowlines, notes = _get_columns(log, [cmap[k] for k in COLUMNS])
+    data, obj, what, available, rowlines, notes = _get_columns(
+        log, [cmap[k] for k in COLUMNS + POSE])
+    posed = all((cmap[k] in data) if data is not None else hasattr(obj, cmap[k])
+                for k in POSE)
 
     def where(k):
         """Sample k of the log, with its file line when it came from a file."""
@@ -406,7 +442,7 @@ def _load(log, columns, time_unit=None) -> tuple[dict, list]:
             missing, {k: cmap[k] for k in missing}, available, what)
     out = {}
     n = None
-    for k in COLUMNS:
+    for k in COLUMNS + (POSE if posed else ()):
         raw = data[cmap[k]] if data is not None else getattr(obj, cmap[k])
         try:
             arr = np.asarray(raw, dtype=float)
@@ -432,7 +468,7 @@ def _load(log, columns, time_unit=None) -> tuple[dict, list]:
     dt = np.diff(out["t"])
     same = np.flatnonzero(dt == 0)
     if same.size:
-        exact = np.all([out[k][same] == out[k][same + 1] for k in COLUMNS], axis=0)
+        exact = np.all([out[k][same] == out[k][same + 1] for k in out], axis=0)
         if not np.all(exact):
             k = int(same[~exact][0])
             raise ValidationError(
@@ -458,6 +494,8 @@ def _load(log, columns, time_unit=None) -> tuple[dict, list]:
                               f"back at {where(k + 1)}: t = {float(out['t'][k])!r} then "
                               f"{float(out['t'][k + 1])!r}")
     out["t"] = out["t"] * TIME_UNITS[time_unit or "s"]
+    for k, f in factors.items():
+        out[k] = out[k] * f
     step = float(np.median(dt)) * TIME_UNITS[time_unit or "s"]
     if time_unit is None and step > MAX_STEP:
         raise ValidationError(f"log {what}: the median time step is {step:.4g} s, too long for "
@@ -532,6 +570,41 @@ def check_measured(u_ref, w_ref, u, w, what="the log"):
             f"/joint_states (read_bag's wheel_radius and wheel_separation)")
 
 
+def check_layout(D, segs, columns=None) -> None:
+    """Refuse a log whose u and w (and so u_ref and w_ref) are exchanged, where it holds
+    the robot's pose (:data:`POSE`): the heading's rate psi' must follow w, and the
+    path's speed |(x', y')| must follow |u|. A log without a pose cannot be checked
+    (its parameters fit either way, theta1 with theta2 and theta4 with theta6
+    exchanged)."""
+    if "x" not in D:
+        return
+    rate, speed, u, w = [], [], [], []
+    for a, b in segs:
+        if b - a < 3:
+            continue
+        t = D["t"][a:b]
+        rate.append(np.gradient(np.unwrap(D["psi"][a:b]), t))
+        speed.append(np.hypot(np.gradient(D["x"][a:b], t), np.gradient(D["y"][a:b], t)))
+        u.append(D["u"][a:b])
+        w.append(D["w"][a:b])
+    if not rate:
+        return
+    rate, speed, u, w = (np.concatenate(v) for v in (rate, speed, u, w))
+    rms = lambda a: float(np.sqrt(np.mean(np.square(a))))  # noqa: E731
+    rate_w, rate_u = rms(rate - w), rms(rate - u)
+    speed_u, speed_w = rms(speed - np.abs(u)), rms(speed - np.abs(w))
+    if rate_u < 0.5 * rate_w and speed_w < 0.5 * speed_u:
+        cmap = _column_map(columns)
+        fix = ", ".join(f"{k!r}: {cmap[o]!r}" for k, o in (("u_ref", "w_ref"), ("w_ref", "u_ref"),
+                                                     ("u", "w"), ("w", "u")))
+        raise ValidationError(
+            f"the log's u and w look exchanged: the heading's rate psi' follows column "
+            f"{cmap['u']!r} (rms difference {rate_u:.3g}) rather than {cmap['w']!r} "
+            f"({rate_w:.3g} rad/s), and the path's speed follows {cmap['w']!r} "
+            f"({speed_w:.3g}) rather than {cmap['u']!r} ({speed_u:.3g} m/s); if the header "
+            f"names them the wrong way round, map them: columns={{{fix}}}")
+
+
 def split_log(log, t_split: float, columns=None,
               time_unit: str | None = None) -> tuple[dict, dict]:
     """Split a log at time ``t_split``: (samples with t < t_split, samples with t >= t_split).
@@ -561,7 +634,7 @@ def recorded_gap(logs):
     return max(said) if said and len(said) == len(logs) else None
 
 
-def join_logs(logs, columns=None, gap=None, time_unit=None):
+def join_logs(logs, columns=None, gap=None, time_unit=None, scale=None):
     """Read several logs of one robot and join them as :func:`identify` does.
 
     Each log is read by :func:`load_log` and split at gaps by :func:`segments`;
@@ -577,6 +650,7 @@ def join_logs(logs, columns=None, gap=None, time_unit=None):
         from a ROS bag (:func:`~unidyn.identification.read_bag`), the largest of
         their recording-gap thresholds (their ``"gap"`` entries)
     :param time_unit: the unit of the logs' time column (see :func:`load_log`)
+    :param scale: factors that bring columns to m/s and rad/s (see :func:`load_log`)
     :raises ValidationError: for a bad log (prefixed "log N:" when several logs
         are given and the log is not a file) or when no piece is long enough
     :return: (dict of the joined arrays t, u_ref, w_ref, u, w; list of
@@ -591,7 +665,7 @@ def join_logs(logs, columns=None, gap=None, time_unit=None):
     gap = recorded_gap(logs) if gap is None else gap
     for i, lg in enumerate(logs):
         try:
-            d, more = _load(lg, columns, time_unit)
+            d, more = _load(lg, columns, time_unit, scale)
             notes += more
         except ValidationError as err:
             if len(logs) == 1 or isinstance(lg, (str, os.PathLike)):
@@ -616,8 +690,9 @@ def join_logs(logs, columns=None, gap=None, time_unit=None):
     if not segs:
         raise ValidationError(f"every piece of the log(s) between gaps holds fewer than "
                               f"{MIN_SEGMENT} samples: nothing to identify from")
+    keys = COLUMNS + (POSE if all("x" in p for p in parts) else ())
     D = {k: np.concatenate([p[k] for p in parts]) if len(parts) > 1 else parts[0][k]
-         for k in COLUMNS}
+         for k in keys}
     D["missing"] = (n_missing, n_gaps)
     D["notes"] = notes
     return D, segs, dropped, sources

@@ -28,7 +28,8 @@ def nrmse_fit(y, yhat) -> float:
 
 def validate(theta, log, columns=None, v0=None, limits: Limits = NO_LIMITS,
              commands: str | None = None, delay: float | None = None,
-             gap: float | None = None, time_unit: str | None = None) -> ValidationReport:
+             gap: float | None = None, time_unit: str | None = None,
+             scale=None) -> ValidationReport:
     r"""Simulate a model from a log's commands and compare with its measured velocities.
 
     Use a held-out log (not the one identified from; see :func:`split_log`). The
@@ -49,6 +50,7 @@ def validate(theta, log, columns=None, v0=None, limits: Limits = NO_LIMITS,
     :param delay: input delay, s; default the result's, else 0
     :param gap: as for :func:`identify`
     :param time_unit: the unit of the log's time column, as for :func:`identify`
+    :param scale: factors that bring columns to m/s and rad/s, as for :func:`identify`
     :return: :class:`ValidationReport` with NRMSE fit (%) and RMSE per channel
     """
     if isinstance(theta, IdentificationResult):
@@ -63,7 +65,7 @@ def validate(theta, log, columns=None, v0=None, limits: Limits = NO_LIMITS,
         gap = positive("gap", gap)
     if not isinstance(limits, Limits):
         raise ValidationError(f"limits must be a unidyn.model.unicycle.Limits, got {limits!r}")
-    d = load_log(log, columns, time_unit)
+    d = load_log(log, columns, time_unit, scale)
     segs = segments(d["t"], gap)
     return validation_report(rp, d, segs, commands, delay,
                               None if v0 is None else vector("v0", v0, 2), limits)

@@ -25,10 +25,18 @@ What a user can rely on:
   with a SHA-256; anything else (a path, ``..``, a folder, a huge or unreadable file)
   is refused in one line naming the manifest and the entry, and nothing is changed.
   Nothing read from disk is ever removed as a tree.
+- **unidyn's own scaffolding is proven too, never judged by name.** Its private
+  folder (``.unidyn-<kind>-new-<random>``) is created exclusively, holds a random
+  token, and is recorded with it in the lock before it exists; its lock
+  (``.unidyn.lock``) is a file it creates and whose content it wrote; its temporary
+  files are made exclusively (``mkstemp``) and removed by the path it recorded. A
+  file, folder or link of the user's with any of these names -- ``.unidyn-*-new-*``,
+  ``.unidyn.lock``, ``<out>.incomplete`` -- is never changed or removed; where it is
+  in the way, the command refuses in one line naming it. Links are never followed.
 - **An interruption or an error changes nothing.** Ctrl-C, an exception, ``kill``
   or ``kill -9`` while the block runs leave ``out``'s files as they were; the
-  private folder (``.unidyn-<kind>-new-*``) is removed, after ``kill -9`` by the next
-  command that writes ``out``.
+  private folder is removed, after ``kill -9`` by the next command that takes
+  ``out``'s lock (the killed process's lock names it, with its token).
 - **Each file is replaced atomically, and the set is recorded.** The finished files
   are renamed into place one by one (``os.replace``); Ctrl-C and SIGTERM are held
   back meanwhile. Until the last one is in place the manifest says the replacement is
@@ -37,10 +45,14 @@ What a user can rely on:
 - **Results are replaced only when asked** (``overwrite``, a bool); the earlier
   result's files that the new one does not have are removed if they are proven
   unidyn's.
-- **One writer at a time.** The block holds ``out``'s :class:`FolderLock`.
+- **One writer at a time.** The block holds ``out``'s :class:`FolderLock`; a lock
+  that cannot be taken is refused in one line saying why (another process, with its
+  PID; a ``.unidyn.lock`` unidyn did not make; a folder it cannot write).
 - **A partial result never replaces a complete one.** After :meth:`Stage.incomplete`
-  the files go to the sibling folder ``<out>.incomplete`` if ``out`` holds results.
-- **A full disk** is reported naming the file, and whether earlier results are intact.
+  the files go to the sibling folder ``<out>.incomplete`` if ``out`` holds results:
+  one unidyn makes, or one holding its manifest (never a link or a user's folder).
+- **A full disk** is reported naming the file being written, how much of it was
+  written and the space left, and whether earlier results are intact.
 """
 
 from __future__ import annotations
@@ -52,6 +64,7 @@ import json
 import math
 import os
 import re
+import secrets
 import shutil
 import stat
 import tempfile
@@ -78,41 +91,166 @@ class FolderInUse(ValidationError):
     """Another process is writing the output folder (it holds the folder's lock)."""
 
 
+#: What unidyn writes in its lock: its token and PID, then a line per private folder
+#: it is about to make (the record by which the next command removes one a killed
+#: process left, and nothing else)
+_LOCK_TEXT = re.compile(r"unidyn lock [0-9a-f]{32}\npid [0-9]+\n"
+                        r"(?:stage \.unidyn-[a-z0-9_]+-new-[0-9a-f]{12} [0-9a-f]{32}\n)*\Z")
+_STAGE_LINE = re.compile(r"stage (\S+) ([0-9a-f]{32})$", re.M)
+_MAX_LOCK_BYTES = 1 << 14
+_HELD: dict = {}  # folder -> the FolderLock this process holds on it
+_NOFOLLOW = getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0)  # (not on Windows)
+
+
+class _Replaced(Exception):
+    """The lock file was removed or replaced between its opening and its locking."""
+
+
+def _kind_of(st) -> str:
+    """What a non-regular directory entry is, in a user's words."""
+    if stat.S_ISLNK(st.st_mode):
+        return "a symbolic link"
+    if stat.S_ISDIR(st.st_mode):
+        return "a folder"
+    if not stat.S_ISREG(st.st_mode):
+        return "not a regular file"
+    return f"a file with {st.st_nlink} hard links"
+
+
 class FolderLock:
     """An exclusive lock on a folder held by this process: ``filelock`` on the file
-    ``.unidyn.lock``, which holds the PID (the system releases it when the process
-    dies, so the lock of a killed process is simply taken over)."""
+    ``.unidyn.lock``, which unidyn creates itself and proves by content (its token and
+    PID; the system releases the lock when the process dies, so the lock of a killed
+    process is taken over). A ``.unidyn.lock`` unidyn did not write -- a file of the
+    user's, a link, a folder -- is never changed or removed: the lock is refused in one
+    line naming it. The lock also records the private folders the holder makes in the
+    folder (:func:`staged_output`), so that one left by a killed process is removed
+    by the next command, and only one so recorded.
 
-    def __init__(self, folder):
+    :param folder: the folder (links followed: it is what the caller asked for)
+    :param option: how the caller named the folder, for messages
+    :raises FolderInUse: another process holds the lock
+    :raises ValidationError: ``.unidyn.lock`` is not unidyn's, or cannot be created
+    """
+
+    def __init__(self, folder, option: str = "--out"):
         import filelock
-        self.path = Path(folder) / LOCK_NAME
-
-        def write_pid(fd):
-            os.ftruncate(fd, 0)
-            os.lseek(fd, 0, os.SEEK_SET)
-            os.write(fd, f"{os.getpid()}\n".encode())
-        self._lock = filelock.FileLock(self.path, timeout=0, on_acquired=write_pid)
+        self.folder = Path(os.path.realpath(os.fspath(folder)))
+        self.path = self.folder / LOCK_NAME
+        self.option = option
+        self.token = secrets.token_hex(16)
+        self.stages: dict = {}  # private folder name -> its token, as recorded
+        self._fd = self._id = None
+        self._lock = filelock.FileLock(self.path, timeout=0, preserve_lock_file=True,
+                                       on_acquired=self._claim)
         for _ in range(20):  # a holder that released meanwhile removed the file: again
+            self._existed = self._check_entry()
             try:
                 self._lock.acquire()
-                return
+                break
+            except _Replaced:
+                continue
             except filelock.Timeout:
-                try:
-                    pid = self.path.read_text(errors="replace").strip() or "unknown"
-                except FileNotFoundError:
-                    continue
-                except OSError:  # locked for reading too (Windows)
-                    pid = "unknown"
-                raise FolderInUse(f"{folder} is being written by another unidyn process "
-                                  f"(PID {pid}, lock {self.path}); wait for it to finish or "
-                                  f"choose another output folder") from None
-        raise FolderInUse(f"{folder}: cannot take the lock {self.path}")  # pragma: no cover
+                raise FolderInUse(f"{self.folder} is being written by another unidyn process "
+                                  f"(PID {self._holder()}, lock {self.path}); wait for it to "
+                                  f"finish or choose another {option}") from None
+            except OSError as err:
+                raise ValidationError(f"cannot take the lock {self.path}: "
+                                      f"{err.strerror or err} (unidyn creates it to keep other "
+                                      f"unidyn processes out of {self.folder} while it writes)"
+                                      ) from None
+        else:  # pragma: no cover - replaced twenty times in a row
+            raise FolderInUse(f"cannot take the lock {self.path}: it was replaced twenty "
+                              f"times while unidyn took it")
+        _HELD[self.folder] = self
+        for name, token in list(self.stages.items()):  # recorded by a killed holder
+            _remove_stage(self.folder / name, token)
+            self.forget(name)
+
+    def _foreign(self, why: str) -> ValidationError:
+        return ValidationError(f"{self.path} is {why}, not a lock unidyn made; unidyn never "
+                               f"changes or removes it: move it elsewhere or choose another "
+                               f"{self.option}")
+
+    def _check_entry(self) -> bool:
+        """Whether the lock file is there, refusing anything but a regular file."""
+        try:
+            st = os.lstat(self.path)
+        except FileNotFoundError:
+            return False
+        if not stat.S_ISREG(st.st_mode) or st.st_nlink != 1:
+            raise self._foreign(_kind_of(st))
+        return True
+
+    def _claim(self, fd: int) -> None:
+        """Just locked: prove the file is unidyn's lock (made now, or by a process that
+        died holding it), take over its record of private folders, write ours."""
+        st = os.fstat(fd)
+        try:
+            now = os.lstat(self.path)
+        except FileNotFoundError:
+            raise _Replaced from None
+        if st.st_nlink == 0 or (now.st_dev, now.st_ino) != (st.st_dev, st.st_ino):
+            raise _Replaced
+        if not stat.S_ISREG(st.st_mode) or st.st_nlink != 1:
+            raise self._foreign(_kind_of(st))
+        os.lseek(fd, 0, os.SEEK_SET)
+        data = os.read(fd, _MAX_LOCK_BYTES + 1)
+        try:
+            text = data.decode("ascii")
+        except UnicodeDecodeError:
+            text = None
+        if data or self._existed:  # empty only when made now, by this process
+            if text is None or not _LOCK_TEXT.match(text):
+                raise self._foreign("a file whose content unidyn did not write" if data
+                                    else "an empty file that was there before")
+            self.stages = dict(_STAGE_LINE.findall(text))
+        self._fd, self._id = fd, (st.st_dev, st.st_ino)
+        self._write()
+
+    def _write(self) -> None:
+        text = f"unidyn lock {self.token}\npid {os.getpid()}\n" + "".join(
+            f"stage {n} {t}\n" for n, t in self.stages.items())
+        data = text.encode("ascii")
+        os.ftruncate(self._fd, 0)
+        os.lseek(self._fd, 0, os.SEEK_SET)
+        os.write(self._fd, data)
+
+    def _holder(self) -> str:
+        """The PID the lock names (read without following a link), or "unknown"."""
+        try:
+            fd = os.open(self.path, os.O_RDONLY | _NOFOLLOW)
+            try:
+                head = os.read(fd, 256).decode("ascii", "replace")
+            finally:
+                os.close(fd)
+        except OSError:
+            return "unknown"
+        found = re.search(r"^pid ([0-9]+)$", head, re.M)
+        return found.group(1) if found else "unknown"
+
+    def record(self, name: str, token: str) -> None:
+        """Record a private folder about to be made (before it exists)."""
+        self.stages[name] = token
+        self._write()
+
+    def forget(self, name: str) -> None:
+        """Drop a private folder from the record (removed, or never made)."""
+        if self.stages.pop(name, None) is not None and self._fd is not None:
+            self._write()
 
     def release(self) -> None:
+        """Remove the lock file (the one this process locked, proven by its identity)
+        and release the lock."""
         if self._lock.is_locked:  # removed while held: a waiter on it then tries afresh
-            with contextlib.suppress(OSError):  # (Windows: filelock removes it)
-                self.path.unlink()
+            with contextlib.suppress(OSError):
+                now = os.lstat(self.path)
+                if (now.st_dev, now.st_ino) == self._id:
+                    os.unlink(self.path)
+            self._fd = None
             self._lock.release()
+        if _HELD.get(self.folder) is self:
+            del _HELD[self.folder]
 
     def __enter__(self):
         return self
@@ -443,11 +581,56 @@ def check_manifest(folder, kind: str, names, files=()) -> str:
     return ""
 
 
-def _remove_stage(path: Path) -> None:
-    """Remove a private folder of this module's: one it made, or one by that reserved
-    name (``.unidyn-<kind>-new-*``) left by a process that was killed. A link by that
-    name is left alone, and links inside are removed, never followed."""
-    if not path.is_symlink() and path.is_dir():
+_STAGE_MARK = ".unidyn-stage"  # inside a private folder: the token it was made with
+
+
+def _make_stage(folder: Path, kind: str) -> tuple:
+    """Make a private folder in ``folder`` (locked by this process) and prove it
+    unidyn's: its random name and token are recorded in the lock before it exists, it
+    is created exclusively (never an existing folder) and holds the token. Returns
+    ``(path, token, identity)``."""
+    if not re.fullmatch(r"[a-z0-9_]+", kind):
+        raise ValueError(f"kind must be lowercase letters, digits or _, got {kind!r}")
+    lock = _HELD.get(folder)
+    for _ in range(100):
+        token = secrets.token_hex(16)
+        name = f"{_PREFIX}-{kind}-new-{token[:12]}"
+        if lock is not None:
+            lock.record(name, token)
+        try:
+            os.mkdir(folder / name, 0o700)
+        except FileExistsError:  # someone else's, by chance: never touched
+            if lock is not None:
+                lock.forget(name)
+            continue
+        st = os.lstat(folder / name)
+        fd = os.open(folder / name / _STAGE_MARK,
+                     os.O_WRONLY | os.O_CREAT | os.O_EXCL | _NOFOLLOW, 0o600)
+        try:
+            os.write(fd, f"unidyn stage {token}\n".encode())
+        finally:
+            os.close(fd)
+        return folder / name, token, (st.st_dev, st.st_ino)
+    raise FileExistsError(f"cannot make a private folder in {folder}")  # pragma: no cover
+
+
+def _remove_stage(path: Path, token: str, identity=None) -> None:
+    """Remove a private folder only where it proves to be the one unidyn made with
+    ``token``: a folder (not a link), the same one (``identity``, when known), holding
+    the token. Its tree is removed without following a link inside (``shutil.rmtree``
+    on file descriptors); anything else by that name is left as it is."""
+    try:
+        st = os.lstat(path)
+        if not stat.S_ISDIR(st.st_mode) or (identity and (st.st_dev, st.st_ino) != identity):
+            return
+        fd = os.open(path / _STAGE_MARK, os.O_RDONLY | _NOFOLLOW)
+        try:
+            mark = os.read(fd, 100)
+        finally:
+            os.close(fd)
+    except OSError:
+        return
+    if mark == f"unidyn stage {token}\n".encode():
         shutil.rmtree(path, ignore_errors=True)
 
 
@@ -500,9 +683,7 @@ def staged_output(out, *, kind: str, names, overwrite: bool, what: str = "result
     created = not final.exists()
     final.mkdir(parents=True, exist_ok=True)
     try:
-        with (FolderLock(final) if lock else contextlib.nullcontext()):
-            for p in final.glob(f"{_PREFIX}-*-new-*"):  # left by a killed process
-                _remove_stage(p)
+        with (FolderLock(final, option) if lock else contextlib.nullcontext()):
             held, foreign = Ledger(final, kind, names).sort()
             if foreign:
                 raise ValidationError(foreign_files(out, foreign, what, option))
@@ -510,8 +691,8 @@ def staged_output(out, *, kind: str, names, overwrite: bool, what: str = "result
                 raise ValidationError(f"{out} already holds {what} ({', '.join(held)}); pass "
                                       f"{flag} to replace them (they are kept until the new "
                                       f"{what} are complete) or choose another {option}")
-            stage = Stage(Path(tempfile.mkdtemp(prefix=f"{_PREFIX}-{kind}-new-", dir=final)),
-                          held=tuple(held))
+            path, token, identity = _make_stage(final, kind)
+            stage = Stage(path, held=tuple(held))
             _STAGES.add(stage.path)
             try:
                 yield stage
@@ -523,7 +704,9 @@ def staged_output(out, *, kind: str, names, overwrite: bool, what: str = "result
                 raise
             finally:
                 _STAGES.discard(stage.path)
-                _remove_stage(stage.path)
+                _remove_stage(stage.path, token, identity)
+                if final in _HELD:
+                    _HELD[final].forget(stage.path.name)
     except BaseException:
         if created:  # nothing was written: leave no empty folder behind
             with contextlib.suppress(OSError):
@@ -540,16 +723,44 @@ def _commit(stage: Stage, out: Path, kind, names, what, option) -> Path:
             raise ValidationError(f"cannot keep the partial {what} beside {out}; {out} is "
                                   f"as it was")
         target = out.with_name(out.name + ".incomplete")
-        target.mkdir(exist_ok=True)
-    ledger = Ledger(target, kind, names)
-    held, foreign = ledger.sort()  # again: a file may have appeared while the run ran
-    if foreign:
-        raise ValidationError(foreign_files(target, foreign, what, option))
-    new = _files_in(stage.path)
-    stage.moving = True
-    ledger.replace({n: stage.path / n for n in new},
-                   remove=[n for n in held if n not in new], as_set=True)
+        made = _incomplete_place(target, kind, names, what, out)
+    else:
+        made = False
+    try:
+        ledger = Ledger(target, kind, names)
+        held, foreign = ledger.sort()  # again: a file may have appeared while the run ran
+        if foreign:
+            raise ValidationError(foreign_files(target, foreign, what, option))
+        new = _files_in(stage.path)
+        stage.moving = True
+        ledger.replace({n: stage.path / n for n in new},
+                       remove=[n for n in held if n not in new], as_set=True)
+    except BaseException:
+        if made and not stage.moving:
+            with contextlib.suppress(OSError):
+                target.rmdir()
+        raise
     return target
+
+
+def _incomplete_place(target: Path, kind, names, what, out) -> bool:
+    """Make ``<out>.incomplete`` (True), or prove the one there unidyn's (False): a
+    folder, not a link, holding unidyn's manifest of ``kind``. Anything else by that
+    name is refused, never written into or through."""
+    try:
+        os.mkdir(target)
+        return True
+    except FileExistsError:
+        pass
+    st = os.lstat(target)
+    why = ("" if stat.S_ISDIR(st.st_mode) and Ledger(target, kind, names).exists
+           else _kind_of(st) if not stat.S_ISDIR(st.st_mode)
+           else f"a folder without unidyn's {_manifest_path(target, kind).name}")
+    if why:
+        raise ValidationError(f"{target} is {why}, not the folder unidyn keeps partial "
+                              f"{what} in; it was left as it is, and so is {out} (the "
+                              f"partial {what} were not written): move it elsewhere")
+    return False
 
 
 def _files_in(stage: Path) -> list:
@@ -571,17 +782,37 @@ def _move(src: Path, dst: Path) -> None:
     except OSError as err:  # another file system (<out>.incomplete beside a mount point)
         if err.errno != errno.EXDEV:
             raise
-        tmp = dst.with_name(f"{_PREFIX}-new-{dst.name}")
-        shutil.copy2(src, tmp)
-        os.replace(tmp, dst)
+        fd, tmp = tempfile.mkstemp(dir=dst.parent, prefix=f"{_PREFIX}-tmp-")
+        try:
+            with os.fdopen(fd, "wb") as fh, open(src, "rb") as fs:
+                shutil.copyfileobj(fs, fh)
+            os.replace(tmp, dst)
+        except BaseException as failed:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+            if isinstance(failed, OSError) and failed.filename is None:
+                raise OSError(failed.errno, failed.strerror, str(dst)) from failed
+            raise
 
 
 def _disk_full(err: OSError, stage: Stage, out, final: Path) -> OSError:
-    """The full-disk error, naming the file and saying what became of the results."""
-    where = Path(err.filename) if err.filename else None
-    if where is not None and stage.path in where.parents:
-        where = Path(out) / where.relative_to(stage.path)
+    """The full-disk error naming the file being written, how much of it was written
+    and the space left, and what became of the results."""
+    where = Path(err.filename) if err.filename else _newest(stage.path)
+    size = None
+    if where is not None:
+        with contextlib.suppress(OSError):
+            size = os.lstat(where).st_size
+        if stage.path in where.parents:
+            where = Path(out) / where.relative_to(stage.path)
     what = f"writing {where}" if where else f"writing into {out}"
+    space = []
+    if size:
+        space.append(f"{_amount(size)} of it written")
+    with contextlib.suppress(OSError):
+        space.append(f"{_amount(shutil.disk_usage(final).free)} free")
+    if space:
+        what += f" ({', '.join(space)})"
     if stage.moving:
         kept = (f"the replacement was cut short, so {out} may hold files of both "
                 f"results (its manifest says so); run the command again to write a "
@@ -591,6 +822,28 @@ def _disk_full(err: OSError, stage: Stage, out, final: Path) -> OSError:
     else:
         kept = f"nothing was written to {out}"
     return OSError(err.errno, f"{os.strerror(err.errno)} {what}; {kept}")
+
+
+def _newest(folder: Path):
+    """The file last written under ``folder`` (the one a write without a file name was
+    filling), or None."""
+    newest, when = None, -1
+    for root, _, files in os.walk(folder):
+        for f in files:
+            p = Path(root) / f
+            with contextlib.suppress(OSError):
+                st = os.lstat(p)
+                if stat.S_ISREG(st.st_mode) and f != _STAGE_MARK and st.st_mtime_ns > when:
+                    newest, when = p, st.st_mtime_ns
+    return newest
+
+
+def _amount(n: int) -> str:
+    """A number of bytes as a user reads it (``"812 kB"``)."""
+    for unit, size in (("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if n >= size:
+            return f"{n / size:.3g} {unit}"
+    return f"{n} bytes"
 
 
 @contextlib.contextmanager
