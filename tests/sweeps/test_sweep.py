@@ -443,10 +443,15 @@ def test_the_folder_lock_refuses_a_second_writer_and_names_its_pid(tmp_path):
         assert "another unidyn process" in str(exc.value)
         assert not (out / "metrics.csv").exists()
     assert not (out / outdir.LOCK_NAME).exists()  # released and removed
-    # a lock file left by a process that is gone (no flock held) is taken over
-    (out / outdir.LOCK_NAME).write_text("999999999\n")
+    # a lock file left by a unidyn process that is gone (no flock held) is taken over
+    (out / outdir.LOCK_NAME).write_text(f"unidyn lock {'0' * 32}\npid 999999999\n")
     assert run_sweep(small_sweep(), out, progress=False).ran == 8
     assert not (out / outdir.LOCK_NAME).exists()
+    # a file unidyn did not write under the lock's name is refused, and kept
+    (out / outdir.LOCK_NAME).write_text("999999999\n")
+    with pytest.raises(ValidationError, match="not a lock unidyn made"):
+        run_sweep(small_sweep(), out, progress=False, overwrite=True)
+    assert (out / outdir.LOCK_NAME).read_text() == "999999999\n"
 
 
 def test_incomplete_points_keep_the_metrics_of_the_part_computed(tmp_path):
