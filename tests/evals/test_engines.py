@@ -30,11 +30,12 @@ def test_compiled_and_plain_kernels_agree(noise):
     # 10 s (100 samples) a run: the plain kernels are Python, a thousand times slower
     scs = [s for k in (0.5, 4.0) for s in _fig11_cases(k, T=10.0, noise=noise)]
     scs.append(Scenario.paper(1, T=10.0, noise=noise))
-    a = simulate_batch(scs, backend="plain")
-    b = simulate_batch(scs, backend="compiled")
-    # the same source, compiled or not, agrees to rounding; with noise a rounding apart
-    # can flip whether a step is kept, and the two then agree to the tolerance
-    tol = 1e-10 if noise is None else 1e-6
+    # at rtol 1e-8, to compare the series (the defaults return 1e-7 runs)
+    a = simulate_batch(scs, backend="plain", rtol=1e-8, atol=1e-10)
+    b = simulate_batch(scs, backend="compiled", rtol=1e-8, atol=1e-10)
+    # the same source, compiled or not, agrees to rounding; a rounding apart can flip
+    # whether a step is kept, and the two then agree to the tolerance
+    tol = 1e-6
     for x, y in zip(a, b):
         assert np.max(np.abs(x.pose - y.pose)) < tol
         assert np.max(np.abs(x.theta_hat - y.theta_hat)) < tol
@@ -42,6 +43,7 @@ def test_compiled_and_plain_kernels_agree(noise):
         # 12: up to ku = 4 and 1/a = 5 here), twice over
         assert np.max(np.abs(x.v_ref - y.v_ref)) < 100 * tol
         assert abs(x.metrics["iae"] - y.metrics["iae"]) <= tol * x.metrics["iae"]
+        assert x.sensitive == y.sensitive
 
 
 def _agreement_cases(k):
@@ -64,11 +66,12 @@ def test_batch_engine_agrees_with_the_bdsim_diagram_without_noise(k, i):
     assert rb.complete and rd.complete and r.complete
     assert np.max(np.abs(rb.pose[:, :2] - rd.pose[:, :2])) < 1e-6, sc.case
     assert abs(rb.metrics["iae"] - rd.metrics["iae"]) <= 1e-6 * rd.metrics["iae"], sc.case
-    # at the defaults the metrics are within twice the engine's estimate of the converged
-    # diagram's, and the estimate within the promise (none of these runs is sensitive)
+    # at the defaults the metrics are within twice the engine's estimate of its converged
+    # run (the two engines agree to 1e-6 above: the diagram is no closer a reference),
+    # and the estimate within the promise (none of these runs is sensitive)
     assert not r.sensitive and max(r.numerical_error.values()) <= 1e-4, sc.case
     for m in ("iae", "ise", "itae", "itse", "energy"):
-        assert abs(r.metrics[m] - rd.metrics[m]) <= 2 * r.numerical_error[m] * rd.metrics[m], (sc.case, m)
+        assert abs(r.metrics[m] - rb.metrics[m]) <= 2 * r.numerical_error[m] * rb.metrics[m], (sc.case, m)
     assert np.max(np.abs(r.pose[:, :2] - rd.pose[:, :2])) < 1e-4, sc.case
 
 

@@ -262,7 +262,7 @@ def test_ctrl_c_during_a_long_batch_run_writes_the_part_computed(tmp_path):
     code, out, err = finish(p)
     assert code == INTERRUPTED and "interrupted at t = " in err and "Traceback" not in err, err
     summary = json.loads((tmp_path / "L" / "summary.json").read_text())
-    assert summary["complete"] is False and summary["metrics"]["iae"] is None
+    assert summary["complete"] is False and summary["numerical_error"] is None
     assert 0 < summary["t_end"] < 400000
     rows = (tmp_path / "L" / "timeseries.csv").read_text().strip().splitlines()
     t = [float(r.split(",")[0]) for r in rows[1:]]

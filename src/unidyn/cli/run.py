@@ -16,7 +16,6 @@ from .._errors import (Interrupted, MissingDependency, SimulationError, Simulati
 from .._validate import MAX_NAME
 from ..engines import choose, run
 from ..model.scenario import Scenario
-from ..paper import EXPERIMENT_FILES, EXPERIMENT_PAPER, experiment, write_experiment
 from ..results.folders import check_manifest, staged_output
 from ..results.plots import save_figures
 from ..results.result import RUN_FILES
@@ -29,8 +28,8 @@ from .output import out_folder, short_name, shown
 
 def unidyn_run(args) -> int:
     """``unidyn run``: simulate one scenario and write its results into --out."""
-    if args.paper == "experiment":
-        return _run_experiment(args)
+    if args.paper == "experiment":  # its module loads the paper's, and so bdsim
+        return importlib.import_module(f"{__package__}.experiment").run_experiment(args)
     if args.seeds is not None:
         raise UsageError("--seeds applies to --paper experiment only")
     sc, engine_from = _build_scenario(args)
@@ -212,56 +211,4 @@ def _run_summary(sc, out, stage, result, wall, replaced, animation) -> int:
     if not result.complete:
         print(f"unidyn: warning: the run stopped early: {result.message}", file=sys.stderr)
         return 1
-    return 0
-
-
-def _run_experiment(args) -> int:
-    """``unidyn run --paper experiment``: Section 5's experiment
-    (:func:`unidyn.paper.experiment`) in both engines (or the one --engine names) over
-    --seeds noise seeds; writes claims.md, experiment.png, runs.csv and experiment.json
-    into --out, staged as a run's files are."""
-    given = [flag for flag, value in (
-        ("a scenario file", args.scenario), ("--from", args.from_), ("--case", args.case),
-        ("--T", args.T), ("--set", args.set), ("--animate", args.animate),
-        ("--bag", args.bag), ("--rtol/--atol", tolerance_options(args) or None)) if value]
-    if given:
-        raise UsageError(f"--paper experiment runs the paper's settings; it takes --robot, "
-                         f"--seeds, --engine, --out and --overwrite, not {given[0]}")
-    seeds = 8 if args.seeds is None else args.seeds
-    if seeds < 1:
-        raise UsageError(f"--seeds must be at least 1, got {seeds}")
-    engines = {"auto": ("batch", "bdsim"), None: ("batch", "bdsim")}.get(
-        args.engine, (args.engine,))
-    robot = args.robot or "p3dx_laser"
-    out = out_folder(args.out)
-    staging = staged_output(out, kind="experiment", names=EXPERIMENT_FILES,
-                            overwrite=args.overwrite, what="experiment results")
-    print(f"experiment: Section 5, robot {robot}, {seeds} noise seeds and one run without "
-          f"noise, two controllers, engines {' and '.join(engines)}", flush=True)
-    t0 = time.perf_counter()
-    try:
-        with staging as stage:
-            exp = experiment(seeds=seeds, engines=engines, robot=robot)
-            write_experiment(exp, stage.path)
-    except KeyboardInterrupt:
-        raise Interrupted(f"{out} is as it was before this run") from None
-    st = exp.stats
-    mean = lambda k: st[k][0]  # noqa: E731
-    err = lambda k: st[k][1]  # noqa: E731
-    print(f"{'IAE':<34}{'paper':>8}   {'measured (mean ± SE over seeds)':>34}")
-    for label, paper, key in (("15-30 s, before updating", "before", "adaptive before"),
-                              ("45-60 s, after updating", "after", "adaptive after"),
-                              ("45-60 s, kinematic controller", "kinematic", "kinematic after")):
-        print(f"{label:<34}{EXPERIMENT_PAPER[paper]:>8.2f}   "
-              f"{mean(key):>25.3f} ± {err(key):.3f} m·s")
-    P = EXPERIMENT_PAPER
-    print(f"ratio after/before                {P['after'] / P['before']:>8.3f}   "
-          f"{mean('after/before'):>25.3f} ± {err('after/before'):.3f}")
-    print(f"ratio kinematic/before            {P['kinematic'] / P['before']:>8.3f}   "
-          f"{mean('kinematic/before'):>25.3f} ± {err('kinematic/before'):.3f}")
-    verdict = {True: "holds", False: "does not hold", None: "not compared"}
-    for c in exp.claims:
-        print(f"  {verdict[c.holds]:<14} {c.case}")
-    print(f"wall time  {time.perf_counter() - t0:.1f} s")
-    print(f"written    {shown(out, stage.final)}/ ({', '.join(EXPERIMENT_FILES)})")
     return 0

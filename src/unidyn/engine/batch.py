@@ -35,9 +35,13 @@ PERTURBATION = 1e-12
 #: within ACCURACY, down to rtol RTOL_FLOOR (atol in proportion).
 TIGHTEN, RTOL_FLOOR = 10.0, 1e-13
 #: The estimate is SAFETY times the difference from the run before: across the limits'
-#: kinks the error can fall more slowly than the tolerance (``benchmarks/engines.py
-#: --accuracy`` measures how the estimate holds).
-SAFETY = 2.0
+#: kinks the error can fall more slowly than the tolerance (measured: the true error up
+#: to 5.2 times the difference; ``benchmarks/engines.py --accuracy`` measures it).
+SAFETY = 3.0
+#: A tighter run must take this many times the steps of the one before for their
+#: difference to estimate the error (a decade takes 1.3-1.5 times as many where the
+#: tolerance sets the steps); otherwise it is tightened again.
+STEP_GROWTH = 1.2
 #: Fewer runs than cores run their probes beside them, in one pass, where their logs
 #: take at most this many bytes.
 TOGETHER_BYTES = 100_000_000
@@ -197,7 +201,10 @@ def _group(engine, scs, idx, rtol, atol, label, compiled, bar, results):
                                     f"({r.message})")
                 continue
             results[idx[j]] = _estimated(r, before)
-            if max(results[idx[j]].numerical_error.values()) > ACCURACY:
+            # a tighter run whose steps the sample intervals set, not the tolerance (it
+            # took few more), differs from the looser by less than either's error
+            idle = r.steps < STEP_GROWTH * before.steps
+            if idle or max(results[idx[j]].numerical_error.values()) > ACCURACY:
                 again.append(j)
         steady = again
 
@@ -351,6 +358,11 @@ def _beyond(r: Result, rtol: float) -> Result:
             r, message=f"numerical error not estimated: at rtol = {rtol:g} the engine cannot "
                        f"tighten the run to estimate it (scenario {label})")
     worst = max(r.numerical_error, key=r.numerical_error.get)
+    if r.numerical_error[worst] <= ACCURACY:  # tightened for steps that did not grow
+        return dataclasses.replace(
+            r, message=f"numerical error estimated from runs whose steps the sample "
+                       f"intervals set at every tolerance down to rtol = {rtol:g}: the "
+                       f"estimate may be low (scenario {label})")
     return dataclasses.replace(
         r, message=f"numerical error of {worst} estimated at {r.numerical_error[worst]:.1e}, "
                    f"above {ACCURACY:g} at rtol = {rtol:g}, the tightest the engine goes to "
