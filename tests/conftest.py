@@ -84,8 +84,7 @@ def pytest_collection_modifyitems(config, items):
     for its result). And each notebook runs once a session: where the docs build is
     among the session's tests and can run (the docs extra installed), it runs every
     notebook as a reader's install does, with ggplot set first, and checks what
-    tests/test_notebooks.py checks of a run; that module's runs are then skipped,
-    naming the build."""
+    tests/test_notebooks.py checks of a run; that module's runs are then deselected."""
     import importlib.util
     docs = [item for item in items  # tests/test_docs.py's build
             if "built" in item.fixturenames and item.nodeid.split("::")[0].endswith("test_docs.py")]
@@ -94,9 +93,8 @@ def pytest_collection_modifyitems(config, items):
     items[:] = docs + [item for item in items if item not in docs]
     if any(importlib.util.find_spec(m) is None for m in ("sphinx", "myst_nb", "sphinxarg")):
         return
-    skip = pytest.mark.skip(reason="run by the docs build of this session (tests/test_docs.py), "
-                                   "from a regular install, with ggplot set first")
-    for item in items:
-        if item.nodeid.split("::")[0].endswith("test_notebooks.py") \
-                and getattr(item, "originalname", "") == "test_notebook_runs":
-            item.add_marker(skip)
+    runs = [item for item in items if item.nodeid.split("::")[0].endswith("test_notebooks.py")
+            and getattr(item, "originalname", "") == "test_notebook_runs"]
+    if runs:
+        items[:] = [item for item in items if item not in runs]
+        config.hook.pytest_deselected(items=runs)

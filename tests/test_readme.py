@@ -1,7 +1,7 @@
 """Every fenced block of README.md, and every example in the command line's ``--help``
 texts, runs as written, so the README cannot drift from the code; the README keeps the
 promises of a front page (a diagram of at most 15 lines, one statement a line; the
-set-up and test commands that .ci/run uses; the docs build command). The guides of the
+test command, which .ci/run runs as written; the docs build command). The guides of the
 documentation (docs/guides/*.md) are run by the same machinery in tests/test_docs.py.
 
 - ``python`` and ``sh`` blocks run in the order a reader meets them, in one empty
@@ -355,35 +355,47 @@ def _readme_commands(lang="sh"):
             for _text, words in _commands(b)]
 
 
-def _ci_commands():
-    """The commands of .ci/run, with ``.venv/bin/python -m pip`` written as ``.venv/bin/pip``."""
-    out = []
-    for raw in (ROOT / ".ci" / "run").read_text(encoding="utf-8").splitlines():
-        raw = raw.replace('"$PY"', "python3").replace(".venv/bin/python -m pip", ".venv/bin/pip")
-        words = shlex.split(raw, comments=True)
-        words = [w for w in words if w not in ("--quiet", "--upgrade")]
-        if words and words[0] in ("python3", ".venv/bin/pip", ".venv/bin/python"):
-            out.append(words)
-    return out
-
-
-def test_setup_commands_are_the_ones_ci_runs():
-    """The README's test command: a venv, an editable install with the test extra, pytest
-    -q; .ci/run does the same, with the docs extra, so that pytest also runs the README's
-    docs build (tests/test_docs.py)."""
-    readme = [_translate(w)[:2] for _b, w in _readme_commands()]
-    ci = [_translate(w)[:2] for w in _ci_commands()]
-    assert ("venv", ["-m", "venv", ".venv"]) in readme and ("venv", ["-m", "venv", ".venv"]) in ci
-    for kind, args in (("pip", ["install", "-e", ".[test]"]), ("pytest", ["-m", "pytest", "-q"]),
-                       ("pip", ["install", "-e", ".[docs]"])):
-        assert (kind, args) in readme, f"the README does not show {args}"
-        assert (kind, args) in ci, f".ci/run does not run {args}"
-    assert ("sphinx", DOCS_BUILD) in readme, "the README does not show the docs build"
-    # tests/test_docs.py builds the docs only where the docs extra is installed
-    assert ci.index(("pip", ["install", "-e", ".[docs]"])) < ci.index(("pytest", ["-m", "pytest", "-q"]))
+def test_ci_runs_the_readme_test_command_as_written():
+    """.ci/run removes any old .venv and runs the README's second command, the same line;
+    that command makes a venv, installs the test extra and runs pytest -q. The test
+    extra brings every extra whose code the tests run, the docs among them (the docs
+    build is a test), so the suite CI runs is the one a reader runs."""
+    sh = [b for b in BLOCKS if b.lang == "sh" and _marker(b, "not-run") is None]
+    command = sh[1].code.strip()
+    lines = [ln.strip() for ln in (ROOT / ".ci" / "run").read_text(encoding="utf-8").splitlines()
+             if ln.strip() and not ln.lstrip().startswith("#")]
+    assert lines[-1] == command, (lines[-1], command)
+    assert [ln.split()[0] for ln in lines[:-1]] == ["set", "cd", "rm"], lines
+    assert [_translate(w)[:2] for _t, w in _commands(sh[1])] == [
+        ("venv", ["-m", "venv", ".venv"]), ("pip", ["install", "-e", ".[test]"]),
+        ("pytest", ["-m", "pytest", "-q"])]
+    extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]
+    [own] = [r for r in extras["test"] if r.startswith("unidyn[")]
+    # every extra but Jupyter itself (the tests run notebooks with nbclient and ipykernel)
+    assert set(own[len("unidyn["):-1].split(",")) == set(extras) - {"test", "notebooks"}
+    assert ("sphinx", DOCS_BUILD) in [_translate(w)[:2] for _b, w in _readme_commands()], \
+        "the README does not show the docs build"
     # the main job: install, then the paper's Section 5 script
+    readme = [_translate(w)[:2] for _b, w in _readme_commands()]
     assert ("pip", ["install", "-e", "."]) in readme
     assert any(k == "run" and "examples/paper_section5.py" in a for k, a in readme)
+
+
+def test_the_test_extra_brings_every_package_a_test_would_skip_without():
+    """Where the test extra is installed (README command 2, .ci/run), no test is skipped
+    for a missing package: every module a test asks for with ``pytest.importorskip``
+    can be imported."""
+    import ast
+    import importlib.util
+    wanted = set()
+    for path in (ROOT / "tests").rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if (isinstance(node, ast.Call) and getattr(node.func, "attr", "") == "importorskip"
+                    and node.args and isinstance(node.args[0], ast.Constant)):
+                wanted.add(node.args[0].value)
+    assert {"sphinx", "nbclient", "rosbags"} <= wanted  # the scan finds them
+    missing = sorted(m for m in wanted if importlib.util.find_spec(m) is None)
+    assert not missing, f"not installed: {missing}; pip install -e '.[test]'"
 
 
 def test_readme_is_a_front_page():
