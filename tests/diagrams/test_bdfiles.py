@@ -87,6 +87,7 @@ def test_shipped_files_are_what_the_script_writes(tmp_path):
             f"examples/bd/{p.name} is stale: run python tools/make_bd_files.py")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n", [1, 2, 3, 4])
 def test_shipped_file_runs_to_simulate_numbers(n):
     """bdload + run of the shipped file (10 s) = unidyn.simulate(Scenario.paper(n, T=10)),
@@ -167,6 +168,7 @@ ROUND_TRIP = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("label", list(ROUND_TRIP))
 def test_writer_round_trip(label, tmp_path):
     """write build_fig2's diagram, bdload it, run both: the same numbers."""
