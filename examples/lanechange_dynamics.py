@@ -11,7 +11,7 @@ bdsim's own source blocks, as in RVC3's script:
     python examples/lanechange_dynamics.py
 
 It prints where the robot ends and how far its velocities lag the commands (the
-dynamics a kinematic model leaves out), and saves the path to lanechange.png. tests/test_examples.py checks the path against an independent
+dynamics a kinematic model leaves out), and saves the path to out/lanechange.png. tests/test_examples.py checks the path against an independent
 integration of Eqs. (1)-(2).
 """
 
@@ -55,8 +55,11 @@ def main() -> int:
     ax.plot(q[:, 0], q[:, 1])
     ax.set(xlabel="x (m)", ylabel="y (m)", title="lane change, dynamic unicycle (Pioneer 3-DX)")
     ax.set_aspect("equal")
-    fig.savefig("lanechange.png", dpi=150)
-    print("written lanechange.png")
+    from pathlib import Path
+    path = Path("out") / "lanechange.png"
+    path.parent.mkdir(exist_ok=True)
+    fig.savefig(path, dpi=150)
+    print(f"written {path}")
     return 0
 
 

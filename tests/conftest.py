@@ -52,20 +52,42 @@ def once(tmp_path_factory):
 
 
 @pytest.fixture(scope="session")
-def paper_run(once):
-    """``paper_run(n)`` = ``unidyn.simulate(Scenario.paper(n))``: one of the paper's four
-    200 s runs (Section 5), simulated once a test session (:func:`once`). The Section 5
-    claims and the .bd files' 200 s reference both use it."""
-    import pickle
+def section5(once):
+    """The README's first command's job, ``examples/paper_section5.py --out FOLDER``,
+    run once a test session as a process of its own (:func:`once`): the paper's four
+    200 s runs through the bdsim diagram. Returns the folder it wrote (``claims.md``,
+    the figures, ``case<n>_<case>/`` with each run's ``timeseries.csv`` and
+    ``summary.json``), beside which ``stdout.txt`` holds what it printed. The Section 5
+    claims (tests/evals/test_section5.py) and the ``.bd`` files' 200 s reference
+    (tests/diagrams/test_bdfiles.py) read it."""
+    import subprocess
+    import sys
+    from pathlib import Path
+    script = Path(__file__).resolve().parents[1] / "examples" / "paper_section5.py"
 
-    def make(n, folder):
-        run = unidyn.simulate(unidyn.Scenario.paper(n), progress=False)
-        (folder / "result.pickle").write_bytes(pickle.dumps(run))
+    def make(folder):
+        r = subprocess.run([sys.executable, str(script), "--out", str(folder / "section5")],
+                           cwd=folder, capture_output=True, text=True, timeout=3600,
+                           env={**os.environ, "MPLBACKEND": "Agg"})
+        assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
+        (folder / "stdout.txt").write_text(r.stdout)
+    return once("section5", make) / "section5"
 
-    def get(n: int):
-        folder = once(f"paper-run-{n}", lambda f: make(n, f))
-        return pickle.loads((folder / "result.pickle").read_bytes())
-    return get
+
+@pytest.fixture(scope="session")
+def section5_runs(section5):
+    """{n: (columns, summary)}: the four runs :func:`section5` wrote, each run's
+    ``timeseries.csv`` as {column: array} and its ``summary.json``."""
+    import json
+
+    import numpy as np
+    runs = {}
+    for n in (1, 2, 3, 4):
+        [folder] = section5.glob(f"case{n}_*")
+        data = np.genfromtxt(folder / "timeseries.csv", delimiter=",", names=True)
+        runs[n] = ({k: data[k] for k in data.dtype.names},
+                   json.loads((folder / "summary.json").read_text()))
+    return runs
 
 
 @pytest.fixture(scope="session")
@@ -84,8 +106,7 @@ def pytest_collection_modifyitems(config, items):
     for its result). And each notebook runs once a session: where the docs build is
     among the session's tests and can run (the docs extra installed), it runs every
     notebook as a reader's install does, with ggplot set first, and checks what
-    tests/test_notebooks.py checks of a run; that module's runs are then skipped,
-    naming the build."""
+    tests/test_notebooks.py checks of a run; that module's runs are then deselected."""
     import importlib.util
     docs = [item for item in items  # tests/test_docs.py's build
             if "built" in item.fixturenames and item.nodeid.split("::")[0].endswith("test_docs.py")]
@@ -94,9 +115,8 @@ def pytest_collection_modifyitems(config, items):
     items[:] = docs + [item for item in items if item not in docs]
     if any(importlib.util.find_spec(m) is None for m in ("sphinx", "myst_nb", "sphinxarg")):
         return
-    skip = pytest.mark.skip(reason="run by the docs build of this session (tests/test_docs.py), "
-                                   "from a regular install, with ggplot set first")
-    for item in items:
-        if item.nodeid.split("::")[0].endswith("test_notebooks.py") \
-                and getattr(item, "originalname", "") == "test_notebook_runs":
-            item.add_marker(skip)
+    runs = [item for item in items if item.nodeid.split("::")[0].endswith("test_notebooks.py")
+            and getattr(item, "originalname", "") == "test_notebook_runs"]
+    if runs:
+        items[:] = [item for item in items if item not in runs]
+        config.hook.pytest_deselected(items=runs)

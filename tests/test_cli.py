@@ -1,5 +1,8 @@
 """The ``unidyn`` command line, run in-process through ``main([...])`` and once as a
-subprocess (``python -m unidyn`` and the console script)."""
+subprocess (``python -m unidyn`` and the console script).
+
+The fast tier checks the arguments and the one-line errors; the tests that write a
+run's files and figures into a folder are whole-system checks, in the slow tier."""
 
 import csv
 import json
@@ -50,6 +53,7 @@ def paper1(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_run_writes_timeseries_summary_and_figures(paper1):
     header, data = read_csv(paper1 / "timeseries.csv")
     assert header == TIMESERIES_COLUMNS
@@ -64,6 +68,7 @@ def test_run_writes_timeseries_summary_and_figures(paper1):
     assert summary["engine"] == "batch" and summary["complete"] is True
 
 
+@pytest.mark.slow
 def test_summary_metrics_match_the_timeseries(paper1):
     header, data = read_csv(paper1 / "timeseries.csv")
     col = {h: data[:, i] for i, h in enumerate(header)}
@@ -83,6 +88,7 @@ def test_summary_metrics_match_the_timeseries(paper1):
     assert e[0] == pytest.approx(0.2, abs=1e-9) and e[-1] < e[0]
 
 
+@pytest.mark.slow
 def test_from_summary_reproduces_the_run_bit_for_bit(paper1, tmp_path, capsys):
     code, out, _ = run_cli(capsys, "run", "--from", paper1 / "summary.json", "--out", tmp_path)
     assert code == 0 and "IAE" in out
@@ -93,6 +99,7 @@ def test_from_summary_reproduces_the_run_bit_for_bit(paper1, tmp_path, capsys):
     assert (paper1 / "timeseries.csv").read_bytes() == (tmp_path / "timeseries.csv").read_bytes()
 
 
+@pytest.mark.slow
 def test_out_folder_with_results_is_refused_without_overwrite(paper1, capsys):
     before = (paper1 / "summary.json").read_bytes()
     code, out, err = run_cli(capsys, "run", "--paper", "2", "--T", "1", "--out", paper1)
@@ -106,6 +113,7 @@ def _files(folder):
     return {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
 
 
+@pytest.mark.slow
 def test_a_failed_overwrite_keeps_the_old_results(tmp_path, capsys):
     out = tmp_path / "X"
     assert run_cli(capsys, "run", "--set", "T=2", "--out", out)[0] == 0
@@ -118,6 +126,7 @@ def test_a_failed_overwrite_keeps_the_old_results(tmp_path, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["X"]  # no staging folder left
 
 
+@pytest.mark.slow
 def test_an_overwrite_says_what_it_replaced(tmp_path, capsys):
     out = tmp_path / "X"
     assert run_cli(capsys, "run", "--set", "T=1", "--out", out)[0] == 0
@@ -137,6 +146,7 @@ DIVERGING = ["--set", 'trajectory={type = "circle", radius = 1e300, omega = 1e30
              "--set", "noise=off", "--T", "2"]
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore::RuntimeWarning")
 def test_an_incomplete_run_says_so_and_never_replaces_a_complete_one(tmp_path, capsys):
     # into an empty folder: written there, marked incomplete, the IAE of the part computed
@@ -159,6 +169,7 @@ def test_an_incomplete_run_says_so_and_never_replaces_a_complete_one(tmp_path, c
     assert partial["complete"] is False and partial["message"]
 
 
+@pytest.mark.slow
 def test_run_summary_names_engine_and_backend(paper1, tmp_path, capsys):
     code, text, _ = run_cli(capsys, "run", "--from", paper1, "--out", tmp_path / "r")
     summary = json.loads((tmp_path / "r" / "summary.json").read_text())
@@ -180,6 +191,7 @@ def test_a_huge_name_is_refused_before_anything_is_written(tmp_path, capsys, how
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.slow
 def test_overwrite_replaces_results_and_stale_files(tmp_path, capsys):
     out = tmp_path / "run"
     assert run_cli(capsys, "run", "--paper", "4", "--T", "1", "--engine", "batch",
@@ -192,6 +204,7 @@ def test_overwrite_replaces_results_and_stale_files(tmp_path, capsys):
     assert not (out / "theta_hat.png").exists()  # no figure of the previous run survives
 
 
+@pytest.mark.slow
 def test_set_overrides_fields(tmp_path, capsys):
     code, out, _ = run_cli(capsys, "run", "--paper", "2", "--T", "2", "--engine", "batch",
                            "--set", "kx=0.5", "--set", "noise=off", "--set", "x0=[0, 0.1, 0]",
@@ -246,6 +259,7 @@ def test_bad_scenario_file_exits_2_with_one_line(tmp_path, capsys, text, words):
     assert out == ""
 
 
+@pytest.mark.slow
 def test_scenario_file_then_flags(tmp_path, capsys):
     f = tmp_path / "s.toml"
     f.write_text("case = 'compensated'\nT = 3\nkx = 0.3\nnoise = 'off'\n")
@@ -303,6 +317,7 @@ def test_animate_reports_a_missing_module(tmp_path, capsys, monkeypatch):
     assert not (tmp_path / "summary.json").exists()  # checked before simulating
 
 
+@pytest.mark.slow
 def test_animate_writes_a_gif(tmp_path, capsys):
     pytest.importorskip("unidyn.teaching.animation")
     code, _, _ = run_cli(capsys, "run", "--paper", "3", "--T", "1", "--engine", "batch",
@@ -323,6 +338,7 @@ def test_robots_and_properties(capsys):
     assert "khepera3" in out and "skew" in out
 
 
+@pytest.mark.slow
 def test_identify_from_a_csv_log_and_run_with_the_result(tmp_path, capsys):
     from unidyn import identification as ident
     exc = ident.excitation(40.0, 0.05, robot="p3dx")
@@ -385,6 +401,7 @@ def test_python_m_unidyn_and_console_script(tmp_path):
     assert_one_line_error(p.stderr, "malformed TOML")
 
 
+@pytest.mark.slow
 def test_a_run_into_a_folder_being_written_is_refused(tmp_path, capsys):
     from unidyn.results.folders import FolderLock
     out = tmp_path / "busy"

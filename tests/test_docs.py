@@ -1,9 +1,9 @@
 """The documentation site: its guides' code runs, its reference lists everything
 public, and ``python -m sphinx -W`` builds it.
 
-- Every fenced block of docs/guides/*.md runs as the README's do (the machinery of
-  tests/test_readme.py: ``python`` blocks in a fresh interpreter, ``sh`` commands in a
-  working folder holding a copy of examples/); they take seconds each: slow tier.
+- The fenced blocks of each guide, docs/guides/*.md, run twice in a row as the README's
+  do (tests/test_readme.py's :func:`run_twice`: in order, in one working folder holding
+  a copy of examples/, writing nothing outside out/); seconds each: slow tier.
 - The reference's sources name every name of ``unidyn.__all__`` (and every name
   ``import unidyn`` makes available), every block class of unidyn.blocks and every
   notebook of examples/ (fast: no build).
@@ -36,7 +36,6 @@ DOCS = ROOT / "docs"
 GUIDES = sorted((DOCS / "guides").glob("*.md"))
 GUIDE_BLOCKS = [b for g in GUIDES for b in readme.markdown_blocks(g)]
 NOTEBOOKS = sorted((ROOT / "examples").glob("*.ipynb"))
-SLOW = [pytest.mark.slow]
 
 
 def _public_names():
@@ -79,17 +78,10 @@ def test_guides_exist_and_their_blocks_have_known_languages():
         readme.check_includes(blocks)
 
 
-@pytest.mark.parametrize("block", readme.runnable("python", GUIDE_BLOCKS, SLOW))
-def test_guide_python_block_runs(block, tmp_path):
-    readme.run_python_block(block, tmp_path)
-
-
-@pytest.mark.parametrize("block,k", readme.sh_params(GUIDE_BLOCKS))
-def test_guide_sh_command_runs(block, k, tmp_path_factory):
-    readme.run_sh_command(block, k, _SH_WORKSPACES, tmp_path_factory)
-
-
-_SH_WORKSPACES: dict = {}
+@pytest.mark.slow
+@pytest.mark.parametrize("guide", GUIDES, ids=lambda g: g.stem)
+def test_guide_blocks_run_twice_and_write_only_under_out(guide, tmp_path):
+    readme.run_twice(guide, tmp_path)
 
 
 # --------------------------------------------------------- the reference, unbuilt

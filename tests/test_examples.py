@@ -99,4 +99,4 @@ def test_the_lane_change_example_follows_eqs_1_and_2_and_prints_its_path(tmp_pat
                        capture_output=True, text=True, env={**os.environ, "MPLBACKEND": "Agg"},
                        timeout=300)
     assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
-    assert "the lane moved by" in r.stdout and (tmp_path / "lanechange.png").is_file()
+    assert "the lane moved by" in r.stdout and (tmp_path / "out" / "lanechange.png").is_file()

@@ -14,7 +14,7 @@ public-name check reads the notebooks without running them (fast).
 Each notebook runs once a session: where the docs build runs too (the ``docs`` extra
 installed and tests/test_docs.py's build selected), the build runs every notebook,
 from a regular install and with the same ggplot style set first, and checks the same
-things of it; the runs here are then skipped, saying so (tests/conftest.py).
+things of it; the runs here are then deselected (tests/conftest.py).
 """
 
 import ast

@@ -1,27 +1,29 @@
 """Every fenced block of README.md, and every example in the command line's ``--help``
 texts, runs as written, so the README cannot drift from the code; the README keeps the
 promises of a front page (a diagram of at most 15 lines, one statement a line; the
-set-up and test commands that .ci/run uses; the docs build command). The guides of the
+test command, which .ci/run runs as written; the docs build command). The guides of the
 documentation (docs/guides/*.md) are run by the same machinery in tests/test_docs.py.
 
-- ``python`` blocks run in a fresh interpreter, one per block, in an empty temporary
-  working folder holding a copy of ``examples/`` (files they write land there);
-- ``sh`` blocks run line by line, in order, in one such folder per block: ``unidyn ...``
-  as ``python -m unidyn ...``, ``python``/``.venv/bin/python`` as this interpreter, so
-  every relative ``--out`` lands in the temporary folder. The set-up commands
-  (``python3 -m venv .venv``, ``.venv/bin/pip install -e ...``, the test-suite run) are
-  checked for their shape here and really run by ``tests/test_fresh_clone.py``;
-  ``[...]`` marks an optional part of a command and is left out;
-- ``toml`` blocks are parsed and run (a sweep if they have ``[grid]``, else a scenario);
-- ``csv`` blocks are read by the identification log reader.
+- ``python`` and ``sh`` blocks run in the order a reader meets them, in one empty
+  temporary working folder holding a copy of ``examples/`` and of the sample data, and
+  then all again in the same folder (a reader going through the page a second time):
+  both rounds succeed and nothing outside ``out/`` is written (:func:`run_twice`).
+  ``python`` blocks run in a fresh interpreter each; ``sh`` blocks line by line:
+  ``unidyn ...`` as ``python -m unidyn ...``, ``python``/``.venv/bin/python`` as this
+  interpreter. The set-up commands (``python3 -m venv .venv``, ``.venv/bin/pip install
+  -e ...``, the test-suite run) are checked for their shape here and really run by
+  ``tests/test_fresh_clone.py``; ``[...]`` marks an optional part of a command and is
+  left out;
+- ``toml`` blocks, here and in the guides, are parsed and run (a sweep if they have
+  ``[grid]``, else a scenario).
 
 A block preceded by ``<!-- include: PATH -->`` must equal the file PATH (relative to
 the checkout) character for character, and the file is what runs. A block that is not
 meant to run (e.g. output shown) must be preceded by ``<!-- not-run: reason -->``;
 ``text`` blocks show output and are not run. The docs build command
 (``python -m sphinx ...``) is checked for its shape here and run by tests/test_docs.py.
-Commands that take more than a few seconds (the full Section 5 script, the Fig. 11
-sweep, the bdsim diagram for 200 s) are in the slow tier.
+Running blocks is in the slow tier; the Section 5 script is run once a session by
+tests/evals/test_section5.py.
 """
 
 import os
@@ -44,13 +46,14 @@ except ModuleNotFoundError:  # Python 3.10
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
-LANGS = ("python", "sh", "toml", "csv")
+LANGS = ("python", "sh", "toml")
 #: languages of blocks that show text (output, a file's lines) and are not run
 SHOWN = ("text",)
 #: the docs build, as the README and .ci/run name it
 DOCS_BUILD = ["-m", "sphinx", "-W", "-b", "html", "docs", "docs/_build/html"]
 #: substrings of commands that take more than a few seconds
-SLOW = ("--paper-fig11", "--engine bdsim", "paper_section5.py", "bdrun")
+#: commands whose run is tested once a session elsewhere, not by running a page's blocks
+SLOW_ONCE = ("paper_section5.py",)
 TIMEOUT = 600
 
 
@@ -166,7 +169,6 @@ def runnable(kind, blocks=BLOCKS, marks=()):
     return [pytest.param(b, id=b.id, marks=list(marks)) for b in chosen]
 
 
-_runnable = runnable
 
 
 # -------------------------------------------------------------------------- python
@@ -174,34 +176,80 @@ _runnable = runnable
 #: Checks appended to a python block (after the README's code, which runs unchanged).
 PY_CHECKS = {
     "A diagram in 15 lines": """
-import numpy as _np
+import numpy as _np, pathlib as _pl
 _t = _np.asarray(out.t); _q = _np.asarray(out.y)
-_np.savez("readme_check.npz", t=_t, q=_q)
+_np.savez(_pl.Path(__file__).with_name("readme_check.npz"), t=_t, q=_q)
 """,
 }
 
 
-def run_python_block(block, tmp_path):
-    ws = _workspace(tmp_path)
+def run_python_block(block, ws, scripts):
+    """Run a python block with ``ws`` as its working folder, from a script written into
+    ``scripts`` (a folder outside ``ws``)."""
     code = block.code
     path = _marker(block, "include")
     if path is not None:
         code = (ROOT / path).read_text(encoding="utf-8")
     if block.path == README:
         code += PY_CHECKS.get(block.section, "")
-    script = ws / "readme_block.py"
+    scripts.mkdir(parents=True, exist_ok=True)
+    script = scripts / f"L{block.line}.py"
     script.write_text(code, encoding="utf-8")
     r = _run([sys.executable, str(script)], ws)
     assert r.returncode == 0, f"{block.where} ({block.section}):\n{r.stdout}\n{r.stderr}"
-    return ws, r
+    return r
+
+
+def _files(folder):
+    """{relative path: bytes} of every file under ``folder`` but its ``__pycache__``
+    folders (which Python writes beside imported modules, and git ignores)."""
+    return {p.relative_to(folder).as_posix(): p.read_bytes() for p in folder.rglob("*")
+            if p.is_file() and "__pycache__" not in p.parts}
+
+
+def run_twice(path, tmp, skip=SLOW_ONCE):
+    """Every runnable python and sh block of the Markdown file ``path``, in the order a
+    reader meets them, in one working folder (:func:`_workspace`), and then all of them
+    again in the same folder, as a reader who goes through a guide a second time. Each
+    must succeed both times, and nothing outside ``out/`` may be written or changed.
+    Commands holding a string of ``skip`` are not run (the set-up commands are checked
+    for their shape). Returns the working folder, where the script of each python block
+    sits (``<scripts>/L<line>.py``), and {block line: its second round's result}."""
+    ws, scripts = _workspace(tmp / "ws"), tmp / "scripts"
+    before = _files(ws)
+    blocks = [b for b in markdown_blocks(path)
+              if b.lang in ("python", "sh") and _marker(b, "not-run") is None]
+    results = {}
+    for round_ in ("first", "second"):
+        for b in blocks:
+            if b.lang == "python":
+                try:
+                    results[b.line] = run_python_block(b, ws, scripts)
+                except AssertionError as e:
+                    raise AssertionError(f"{round_} run: {e}") from None
+                continue
+            for text, words in _commands(b):
+                kind, argv, env = _translate(words)
+                if kind != "run":
+                    _check_shape(kind, argv)
+                elif not any(s in " ".join(words) for s in skip):
+                    r = _run(argv, ws, env)
+                    assert r.returncode == 0 and "Traceback" not in r.stderr, (
+                        f"{round_} run of {b.where}: {text}\n{r.stdout[-2000:]}\n{r.stderr[-3000:]}")
+    after = _files(ws)
+    stray = sorted(f for f in after if before.get(f) != after[f] and not f.startswith("out/"))
+    assert not stray, f"{path.name}'s blocks write outside out/: {stray}"
+    return ws, scripts, results
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("block", _runnable("python"))
-def test_python_block_runs(block, tmp_path):
-    ws, r = run_python_block(block, tmp_path)
-    if block.section == "A diagram in 15 lines":
-        _check_fifteen_lines(block, ws, r)
+def test_readme_blocks_run_twice_and_write_only_under_out(tmp_path):
+    """The README's diagram and command-line blocks, as a reader runs them from the
+    checkout, twice (the Section 5 script, run once a session by tests/evals, refuses
+    to replace its results without --overwrite, as the README says)."""
+    ws, scripts, results = run_twice(README, tmp_path)
+    [block] = [b for b in BLOCKS if b.section == "A diagram in 15 lines" and b.lang == "python"]
+    _check_fifteen_lines(block, scripts, results[block.line])
 
 
 def test_the_diagram_is_at_most_15_lines_of_one_statement_each():
@@ -214,12 +262,12 @@ def test_the_diagram_is_at_most_15_lines_of_one_statement_each():
     assert all(isinstance(node, (ast.Import, ast.Assign, ast.Expr)) for node in tree.body)
 
 
-def _check_fifteen_lines(block, ws, r):
+def _check_fifteen_lines(block, scripts, r):
     # the output is the printed pose alone: bdsim's notices and reports are silenced
     assert r.stderr.strip() == "", r.stderr
     assert re.fullmatch(r"t = 60 s: h = \(-?\d+\.\d{3}, -?\d+\.\d{3}\) m, psi = -?\d+\.\d{2} rad\n",
                         r.stdout), r.stdout
-    data = np.load(ws / "readme_check.npz")
+    data = np.load(scripts / "readme_check.npz")
     t, q = data["t"], data["q"]
     # the printed pose is the last sample, and the path tracks the figure eight
     x, y = (float(v) for v in re.findall(r"-?\d+\.\d{3}", r.stdout)[:2])
@@ -267,6 +315,8 @@ def _translate(words):
     cmd, args = words[0], words[1:]
     if cmd == "unidyn":
         return "run", [sys.executable, "-m", "unidyn", *args], env
+    if cmd == "mkdir":
+        return "run", ["mkdir", *args], env
     if cmd == "bdrun":  # bdsim's runner of .bd files, installed beside this interpreter
         return "run", [str(Path(sys.executable).with_name("bdrun")), *args], env
     if cmd in ("python3", "python") and args[:2] == ["-m", "venv"]:
@@ -305,35 +355,47 @@ def _readme_commands(lang="sh"):
             for _text, words in _commands(b)]
 
 
-def _ci_commands():
-    """The commands of .ci/run, with ``.venv/bin/python -m pip`` written as ``.venv/bin/pip``."""
-    out = []
-    for raw in (ROOT / ".ci" / "run").read_text(encoding="utf-8").splitlines():
-        raw = raw.replace('"$PY"', "python3").replace(".venv/bin/python -m pip", ".venv/bin/pip")
-        words = shlex.split(raw, comments=True)
-        words = [w for w in words if w not in ("--quiet", "--upgrade")]
-        if words and words[0] in ("python3", ".venv/bin/pip", ".venv/bin/python"):
-            out.append(words)
-    return out
-
-
-def test_setup_commands_are_the_ones_ci_runs():
-    """The README's test command: a venv, an editable install with the test extra, pytest
-    -q; .ci/run does the same, with the docs extra, so that pytest also runs the README's
-    docs build (tests/test_docs.py)."""
-    readme = [_translate(w)[:2] for _b, w in _readme_commands()]
-    ci = [_translate(w)[:2] for w in _ci_commands()]
-    assert ("venv", ["-m", "venv", ".venv"]) in readme and ("venv", ["-m", "venv", ".venv"]) in ci
-    for kind, args in (("pip", ["install", "-e", ".[test]"]), ("pytest", ["-m", "pytest", "-q"]),
-                       ("pip", ["install", "-e", ".[docs]"])):
-        assert (kind, args) in readme, f"the README does not show {args}"
-        assert (kind, args) in ci, f".ci/run does not run {args}"
-    assert ("sphinx", DOCS_BUILD) in readme, "the README does not show the docs build"
-    # tests/test_docs.py builds the docs only where the docs extra is installed
-    assert ci.index(("pip", ["install", "-e", ".[docs]"])) < ci.index(("pytest", ["-m", "pytest", "-q"]))
+def test_ci_runs_the_readme_test_command_as_written():
+    """.ci/run removes any old .venv and runs the README's second command, the same line;
+    that command makes a venv, installs the test extra and runs pytest -q. The test
+    extra brings every extra whose code the tests run, the docs among them (the docs
+    build is a test), so the suite CI runs is the one a reader runs."""
+    sh = [b for b in BLOCKS if b.lang == "sh" and _marker(b, "not-run") is None]
+    command = sh[1].code.strip()
+    lines = [ln.strip() for ln in (ROOT / ".ci" / "run").read_text(encoding="utf-8").splitlines()
+             if ln.strip() and not ln.lstrip().startswith("#")]
+    assert lines[-1] == command, (lines[-1], command)
+    assert [ln.split()[0] for ln in lines[:-1]] == ["set", "cd", "rm"], lines
+    assert [_translate(w)[:2] for _t, w in _commands(sh[1])] == [
+        ("venv", ["-m", "venv", ".venv"]), ("pip", ["install", "-e", ".[test]"]),
+        ("pytest", ["-m", "pytest", "-q"])]
+    extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]
+    [own] = [r for r in extras["test"] if r.startswith("unidyn[")]
+    # every extra but Jupyter itself (the tests run notebooks with nbclient and ipykernel)
+    assert set(own[len("unidyn["):-1].split(",")) == set(extras) - {"test", "notebooks"}
+    assert ("sphinx", DOCS_BUILD) in [_translate(w)[:2] for _b, w in _readme_commands()], \
+        "the README does not show the docs build"
     # the main job: install, then the paper's Section 5 script
+    readme = [_translate(w)[:2] for _b, w in _readme_commands()]
     assert ("pip", ["install", "-e", "."]) in readme
     assert any(k == "run" and "examples/paper_section5.py" in a for k, a in readme)
+
+
+def test_the_test_extra_brings_every_package_a_test_would_skip_without():
+    """Where the test extra is installed (README command 2, .ci/run), no test is skipped
+    for a missing package: every module a test asks for with ``pytest.importorskip``
+    can be imported."""
+    import ast
+    import importlib.util
+    wanted = set()
+    for path in (ROOT / "tests").rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if (isinstance(node, ast.Call) and getattr(node.func, "attr", "") == "importorskip"
+                    and node.args and isinstance(node.args[0], ast.Constant)):
+                wanted.add(node.args[0].value)
+    assert {"sphinx", "nbclient", "rosbags"} <= wanted  # the scan finds them
+    missing = sorted(m for m in wanted if importlib.util.find_spec(m) is None)
+    assert not missing, f"not installed: {missing}; pip install -e '.[test]'"
 
 
 def test_readme_is_a_front_page():
@@ -346,58 +408,14 @@ def test_readme_is_a_front_page():
         assert (ROOT / link).exists(), f"the README links {link}, which does not exist"
 
 
-def sh_params(blocks=BLOCKS):
-    params = []
-    for b in blocks:
-        if b.lang != "sh" or _marker(b, "not-run") is not None:
-            continue
-        for k, (text, words) in enumerate(_commands(b)):
-            # each command is a process of its own, a few seconds each: the fast tier
-            # leaves them to the full run (the CLI itself is tested in test_cli.py)
-            params.append(pytest.param(b, k, id=f"{b.id}-{k}", marks=[pytest.mark.slow]))
-    return params
-
-
-@pytest.fixture(scope="module")
-def sh_workspaces(tmp_path_factory):
-    """One working folder per sh block, shared by its commands, with the indices run."""
-    return {}
-
-
-_sh_params = sh_params
-
-
-def run_sh_command(block, k, sh_workspaces, tmp_path_factory):
-    key = (block.path, block.line)
-    if key not in sh_workspaces:
-        sh_workspaces[key] = (_workspace(tmp_path_factory.mktemp("sh")), set())
-    ws, done = sh_workspaces[key]
-    commands = _commands(block)
-    # earlier commands of the block first (a later one may read what they wrote)
-    for j in range(k + 1):
-        if j in done:
-            continue
-        text, words = commands[j]
-        kind, argv, env = _translate(words)
-        if kind != "run":
-            _check_shape(kind, argv)
-        elif j == k or not any(s in " ".join(words) for s in SLOW):
-            done.add(j)
-            r = _run(argv, ws, env)
-            assert r.returncode == 0, (f"{block.where}: {text}\n"
-                                       f"{r.stdout[-2000:]}\n{r.stderr[-3000:]}")
-            assert "Traceback" not in r.stderr, r.stderr
-        done.add(j)
-
-
-@pytest.mark.parametrize("block,k", _sh_params())
-def test_sh_command_runs(block, k, sh_workspaces, tmp_path_factory):
-    run_sh_command(block, k, sh_workspaces, tmp_path_factory)
-
-
 # ---------------------------------------------------------------------------- toml
 
-@pytest.mark.parametrize("block", _runnable("toml"))
+PAGE_BLOCKS = BLOCKS + [b for g in sorted((ROOT / "docs" / "guides").glob("*.md"))
+                        for b in markdown_blocks(g)]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("block", runnable("toml", PAGE_BLOCKS))
 def test_toml_block_parses_and_runs(block, tmp_path):
     ws = _workspace(tmp_path)
     data = tomllib.loads(block.code)
@@ -407,23 +425,6 @@ def test_toml_block_parses_and_runs(block, tmp_path):
     r = _run([sys.executable, "-m", "unidyn", what, str(path), "--out", str(ws / "out")], ws)
     assert r.returncode == 0, f"{block.where}:\n{r.stdout}\n{r.stderr}"
     assert (ws / "out" / ("metrics.csv" if what == "sweep" else "summary.json")).is_file()
-
-
-# ----------------------------------------------------------------------------- csv
-
-@pytest.mark.parametrize("block", _runnable("csv"))
-def test_csv_block_is_read_by_the_log_reader(block, tmp_path):
-    from unidyn.identification import load_log
-    path = _marker(block, "include")
-    if path is not None:
-        file_text = (ROOT / path).read_text(encoding="utf-8")
-        assert file_text.startswith(block.code), f"{block.where} is not the start of {path}"
-        log = load_log(ROOT / path)
-    else:
-        csv_path = tmp_path / "block.csv"
-        csv_path.write_text(block.code, encoding="utf-8")
-        log = load_log(csv_path)
-    assert len(log["t"]) >= 20 and np.all(np.diff(log["t"]) > 0)
 
 
 # -------------------------------------------------------------------- --help texts

@@ -211,6 +211,7 @@ def _motion(T=5.0, n=101, a=0.0, label=""):
     return Motion(t, pose, reference=pose[:, :2] + 0.05, a=a, label=label)
 
 
+@pytest.mark.slow
 def test_animate_result_writes_gif(tmp_path):
     import matplotlib.pyplot as plt
     r = unidyn.simulate(unidyn.Scenario.paper(2, T=3.0, noise=None))
@@ -223,6 +224,7 @@ def test_animate_result_writes_gif(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run.gif"]  # no temporary files
 
 
+@pytest.mark.slow
 def test_animate_frame_counts(tmp_path):
     # real time when it fits in the default budget: 5 s at 20 fps -> 101 frames
     assert _n_frames(animate(_motion(5.0), tmp_path / "a.gif"))[0] == 101
@@ -239,6 +241,7 @@ def test_animate_frame_counts(tmp_path):
     assert _n_frames(animate(_motion(), tmp_path / "d.gif", frames=1, trail=False))[0] == 1
 
 
+@pytest.mark.slow
 def test_animate_bdsim_run(tmp_path):
     sim = new_simulator()
     bd, vehicle, _ = drivepoint(sim, "DYNAMICUNICYCLE")

@@ -304,8 +304,16 @@ def test_toml_minimal_file_gives_defaults():
 
 
 @pytest.mark.parametrize("off", [False, "none", "off"])
-def test_noise_can_be_switched_off_in_files(off):
+def test_noise_can_be_switched_off_in_files_and_in_python_alike(off):
     assert Scenario.from_dict({"noise": off}).noise is None
+    assert Scenario(noise=off) == Scenario(noise=None) == Scenario.paper(4, noise=off).replace(
+        case="adaptive", name="")
+
+
+@pytest.mark.parametrize("on", [True, "on", "yes", 0.01])
+def test_noise_other_than_off_is_refused_naming_what_is_allowed(on):
+    with pytest.raises(ValidationError, match=r"^noise must be None \(or \"off\"\), a NoiseSpec"):
+        Scenario(noise=on)
 
 
 # ---------------------------------------------------------------------------
@@ -319,7 +327,7 @@ def test_unknown_field_suggests_the_right_one():
     assert "'kxx'" in msg and "did you mean 'kx'?" in msg
 
 
-@pytest.mark.parametrize("how", ["from_dict", "replace", "paper"])
+@pytest.mark.parametrize("how", ["from_dict", "replace", "paper", "Scenario"])
 @pytest.mark.parametrize("bad, good", [("kxx", "kx"), ("adapt_form", "adapt_from"),
                                        ("theta_hat_0", "theta_hat0"), ("sigmma", "sigma")])
 def test_misspelt_fields_raise_with_hint(how, bad, good):
@@ -328,10 +336,42 @@ def test_misspelt_fields_raise_with_hint(how, bad, good):
             Scenario.from_dict({bad: 1.0})
         elif how == "replace":
             Scenario().replace(**{bad: 1.0})
-        else:
+        elif how == "paper":
             Scenario.paper(4, **{bad: 1.0})
+        else:
+            Scenario(case="compensated", **{bad: 1.0})
     msg = str(info.value)
     assert names_in(msg, bad) and f"did you mean {good!r}?" in msg, msg
+
+
+def test_a_keyword_that_is_no_field_is_named_with_the_fields_in_one_line():
+    with pytest.raises(ValidationError) as info:
+        Scenario(case="compensated", tiem=10)
+    msg = str(info.value)
+    assert "\n" not in msg and "'tiem'" in msg
+    listed = set(re.split(r",\s*", msg.split("known fields: ")[1]))
+    assert listed == {f.name for f in dataclasses.fields(Scenario)}
+
+
+def test_the_signature_is_short_and_shows_every_field_with_its_default():
+    import inspect
+    import pydoc
+    sig = inspect.signature(Scenario)
+    assert len(str(sig)) < 500, len(str(sig))
+    assert list(sig.parameters) == [f.name for f in dataclasses.fields(Scenario)]
+    from unidyn.model import scenario
+    default = Scenario()
+    for name, p in sig.parameters.items():
+        text = repr(p.default)
+        if text.isupper():  # a long default, by its name in unidyn.model.scenario
+            value = getattr(scenario, text)
+        elif text.endswith("()"):  # a default made by a factory: its type
+            assert type(getattr(default, name)).__name__ == text[:-2], (name, text)
+            continue
+        else:
+            value = eval(text, {})
+        assert Scenario(**{name: value}) == default, (name, text)
+    assert max(map(len, pydoc.render_doc(Scenario, renderer=pydoc.plaintext).splitlines())) < 500
 
 
 def test_unrelated_unknown_field_raises_without_hint():

@@ -319,6 +319,11 @@ def _huge(digits=400):
     return "1" + "0" * digits
 
 
+#: files the command accepts: it simulates and writes the run's files and figures, a
+#: whole-system check (the slow tier); the refusals (status 2) are checked in the fast one
+WRITES = pytest.mark.slow
+
+
 @pytest.mark.parametrize("text, outcome", [
     pytest.param(f"kx = {_huge()}\n", 2, id="kx=10**400"),
     pytest.param(f"x0 = [{_huge()}, 0, 0]\n", 2, id="x0=[10**400,0,0]"),
@@ -326,22 +331,22 @@ def _huge(digits=400):
     # the error-controlled engine runs these to the end (a saturated controller, a far
     # point h, a robot held by its acceleration limits), or stops where the state turns
     # non-finite and says so (status 1, partial results marked incomplete)
-    pytest.param("kx = 1e308\nnoise = \"off\"\n", 0, id="kx=1e308"),
-    pytest.param("tau = 1e-300\nvd_dot = \"filter\"\nnoise = \"off\"\n", 1, id="tau=1e-300"),
-    pytest.param("robot = [1e-300, 1, 0, 1, 0, 1]\ncase = \"uncompensated\"\n", 0,
+    pytest.param("kx = 1e308\nnoise = \"off\"\n", 0, marks=WRITES, id="kx=1e308"),
+    pytest.param("tau = 1e-300\nvd_dot = \"filter\"\nnoise = \"off\"\n", 1, marks=WRITES, id="tau=1e-300"),
+    pytest.param("robot = [1e-300, 1, 0, 1, 0, 1]\ncase = \"uncompensated\"\n", 0, marks=WRITES,
                  id="robot.theta1=1e-300"),
     pytest.param("Ts = 1e-300\n", 2, id="Ts=1e-300"),
     # (with the update on within the run: --T 0.5 ends before the default adapt_from)
-    pytest.param("a = 1e300\nnoise = \"off\"\nadapt_from = 0\n", 0, id="a=1e300"),
-    pytest.param("a = 1e-300\nnoise = \"off\"\nadapt_from = 0\n", 1, id="a=1e-300"),
-    pytest.param("kx = 1e4\nky = 1e-300\nnoise = \"off\"\nadapt_from = 0\n", 0, id="kx=1e4,ky=1e-300"),
+    pytest.param("a = 1e300\nnoise = \"off\"\nadapt_from = 0\n", 0, marks=WRITES, id="a=1e300"),
+    pytest.param("a = 1e-300\nnoise = \"off\"\nadapt_from = 0\n", 1, marks=WRITES, id="a=1e-300"),
+    pytest.param("kx = 1e4\nky = 1e-300\nnoise = \"off\"\nadapt_from = 0\n", 0, marks=WRITES, id="kx=1e4,ky=1e-300"),
     pytest.param("[noise]\nposition_std = 1e300\nvelocity_std = 1e300\nseed = "
-                 "99999999999999999999999999\n", 0, id="noise.std=1e300,huge-seed"),
+                 "99999999999999999999999999\n", 0, marks=WRITES, id="noise.std=1e300,huge-seed"),
     pytest.param("gamma = [1e300, 1e300, 1e300, 1e300, 1e300, 1e300]\nadapt_from = 0\n"
-                 "noise = \"off\"\n", 1, id="gamma=1e300"),
+                 "noise = \"off\"\n", 1, marks=WRITES, id="gamma=1e300"),
     pytest.param("trajectory = {type = \"circle\", radius = 1e300, omega = 1e300}\n"
-                 "noise = \"off\"\n", 1, id="circle 1e300 (stops early)"),
-    pytest.param("kx = 1.7976931348623157e308\n", 0, id="kx=max-float"),
+                 "noise = \"off\"\n", 1, marks=WRITES, id="circle 1e300 (stops early)"),
+    pytest.param("kx = 1.7976931348623157e308\n", 0, marks=WRITES, id="kx=max-float"),
     pytest.param("kx = -9223372036854775808\n", 2, id="kx=int64-min"),
     pytest.param("x0 = [1e300, -1e300, 1e300]\nnoise = \"off\"\n", 2, id="x0=1e300"),
 ])

@@ -58,6 +58,7 @@ def test_a_nan_in_the_batch_engine_marks_only_that_run_incomplete():
     assert 0 < len(rb.t) < 61 and np.all(np.isfinite(rb.pose))
 
 
+@pytest.mark.slow
 def test_the_cli_writes_a_failed_run_marked_incomplete(tmp_path, capsys, monkeypatch):
     # a scenario file cannot hold Python, so inject the failing trajectory in-process
     import unidyn.cli.run as cli_run

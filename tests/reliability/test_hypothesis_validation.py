@@ -207,8 +207,8 @@ def bad_trajectory():
         st.builds(object))
 
 
-def bad_noise(from_dict=False):
-    off = ("none", "off")
+def bad_noise():
+    off = ("none", "off")  # and False: noise-free, in Python as in files
     table = st.one_of(
         st.fixed_dictionaries({"position_std": st.one_of(negative, nan, inf, not_a_number)}),
         st.fixed_dictionaries({"velocity_std": st.one_of(negative, nan, inf, not_a_number)}),
@@ -216,11 +216,8 @@ def bad_noise(from_dict=False):
             st.integers(-2**63, -1), finite, st.booleans(), texts, st.none())}),
         st.text(min_size=1, max_size=8).filter(
             lambda k: k not in ("position_std", "velocity_std", "seed")).map(lambda k: {k: 1}))
-    options = [table, texts.filter(lambda s: not (from_dict and s in off)), small_ints, finite,
-               st.just(True), st.lists(finite, max_size=3), st.builds(object)]
-    if not from_dict:
-        options.append(st.just(False))
-    return st.one_of(*options)
+    return st.one_of(table, texts.filter(lambda s: s not in off), small_ints, finite,
+                     st.just(True), st.lists(finite, max_size=3), st.builds(object))
 
 
 LIMIT_KEYS = ("speed_max", "steer_max", "accel_max", "angular_accel_max")
@@ -308,7 +305,7 @@ INVALID = {
         lambda v: not (isinstance(v, str) and v in ("default", ""))),
     "trajectory": bad_trajectory(),
     "noise": bad_noise(),
-    "noise_from_dict": bad_noise(from_dict=True),
+    "noise_from_dict": bad_noise(),
     "limits_table": bad_limits_table(),
     "limits_object": bad_limits_object,
     "name": bad_name,

@@ -185,6 +185,7 @@ def test_fig2_loop_agrees_with_batch_engine(n, changes, tol):
         np.testing.assert_allclose(np.c_[out["u"], out["w"]], b.velocity, atol=10 * tol)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n, changes", [(1, {}), (2, {}), (3, {}), (4, {"adapt_from": 5.0})])
 def test_fig2_loop_agrees_with_the_bdsim_diagram(n, changes):
     """The same loop against the bdsim diagram of unidyn.simulate (the blocks, an

@@ -42,6 +42,8 @@ ALWAYS_LOGGED = ("pose", "velocity", "reference")
 #: The series a scenario may leave out of its log (``log_series``), with their
 #: values per sample: v_d (2), v_ref (2), theta_hat (6).
 OPTIONAL_SERIES = ("v_d", "v_ref", "theta_hat")
+#: the values of ``noise`` that mean a noise-free run, besides None
+NO_NOISE = (False, "none", "off")
 _SERIES_WIDTH = {"pose": 3, "velocity": 2, "reference": 2, "v_d": 2, "v_ref": 2, "theta_hat": 6}
 #: The most samples (T/Ts) one run may integrate, and the most bytes its log may
 #: hold (:meth:`Scenario.logged_bytes` per logged sample, times T/Ts/log_every).
@@ -150,6 +152,12 @@ class Scenario:
     log_series: tuple = OPTIONAL_SERIES
     payload: tuple = ()
 
+    def __new__(cls, *args, **fields):
+        # a misspelt keyword is named in one line, with the close match and the fields
+        # (the dataclass's __init__ would raise a bare TypeError)
+        _check_fields(fields)
+        return super().__new__(cls)
+
     def __post_init__(self):
         s = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
         s("case", choice("case", self.case, CASES))
@@ -168,11 +176,13 @@ class Scenario:
         s("sigma", tuple(sig.tolist()))
         s("adapt_from", nonnegative("adapt_from", self.adapt_from))
         s("leakage", choice("leakage", self.leakage, LEAKAGE_FORMS))
+        if isinstance(self.noise, (bool, str)) and self.noise in NO_NOISE:
+            s("noise", None)  # as scenario files write it: noise = "off"
         if isinstance(self.noise, dict):
             s("noise", _build("noise", NoiseSpec, self.noise))
         elif self.noise is not None and not isinstance(self.noise, NoiseSpec):
-            raise ValidationError(f"noise must be None, a NoiseSpec or a dict with "
-                                  f"position_std, velocity_std, seed; got {self.noise!r}")
+            raise ValidationError(f"noise must be None (or \"off\"), a NoiseSpec or a dict "
+                                  f"with position_std, velocity_std, seed; got {self.noise!r}")
         if isinstance(self.limits, dict):
             s("limits", _build("limits", Limits, self.limits))
         elif not isinstance(self.limits, Limits):
@@ -335,8 +345,6 @@ class Scenario:
             raise ValidationError(f"a scenario must be a table of fields, got {type(data).__name__}")
         _check_fields(data)
         data = dict(data)
-        if isinstance(data.get("noise"), (bool, str)) and data["noise"] in (False, "none", "off"):
-            data["noise"] = None
         if isinstance(data.get("theta_hat0"), str) and data["theta_hat0"] in ("default", ""):
             data["theta_hat0"] = None
         try:
@@ -415,3 +423,35 @@ def _build(what, cls, data):
     if unknown:
         raise ValidationError(f"unknown {what}.{unknown[0]}; allowed: {', '.join(sorted(known))}")
     return cls(**data)
+
+
+class _Shown:
+    """A default value as the signature shows it."""
+
+    def __init__(self, text):
+        self.text = text
+
+    def __repr__(self):
+        return self.text
+
+
+def _signature(*first):
+    """``Scenario(case='adaptive', ..., gamma=PAPER_GAMMA, noise=PAPER_NOISE, ...)``: the
+    fields with their defaults, a long default by the name it has in this module (the
+    dataclass's own signature, with the annotations and every default written out, is
+    about 1,000 characters); ``first``: positional parameters before them (``self``)."""
+    import inspect
+    params = [inspect.Parameter(n, inspect.Parameter.POSITIONAL_ONLY) for n in first]
+    for f in dataclasses.fields(Scenario):
+        value = f.default if f.default is not dataclasses.MISSING else f.default_factory()
+        text = repr(value)
+        if len(text) > 20:
+            text = next((n for n, v in globals().items() if v is value and n.isupper()),
+                        f"{type(value).__name__}()")
+        params.append(inspect.Parameter(f.name, inspect.Parameter.POSITIONAL_OR_KEYWORD,
+                                        default=_Shown(text)))
+    return inspect.Signature(params)
+
+
+Scenario.__signature__ = _signature()
+Scenario.__init__.__signature__ = _signature("self")
