@@ -138,7 +138,7 @@ def test_both_engines_agree_on_a_load_picked_up_mid_run(payload):
     np.testing.assert_allclose(rd.theta_hat, rb.theta_hat, atol=1e-5)
     # the load changes the motion from 6 s on, not before
     k = int(round(6.0 / sc.Ts))
-    np.testing.assert_allclose(rb.pose[:k + 1], empty.pose[:k + 1], atol=1e-9)
+    np.testing.assert_allclose(rb.pose[:k + 1], empty.pose[:k + 1], atol=1e-6)  # their estimates
     assert np.abs(rb.pose[k + 10:] - empty.pose[k + 10:]).max() > 1e-3
 
 
