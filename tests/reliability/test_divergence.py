@@ -72,7 +72,8 @@ def test_the_diagram_stops_at_its_wall_clock_limit():
     assert not r.complete and r.t[-1] < 200.0 and np.isfinite(r.metrics["iae"])
 
 
-@pytest.mark.parametrize("backend", ["compiled", "plain"])
+# plain Python takes its 10,000 steps in seconds: the whole-system tier
+@pytest.mark.parametrize("backend", ["compiled", pytest.param("plain", marks=pytest.mark.slow)])
 def test_a_loop_too_fast_for_the_steps_allowed_stops_with_a_reason(backend):
     """Compensation with an estimate 1e6 times theta closes a velocity loop 1e6 times
     faster than the robot's: no step within MAX_STEPS per sample holds the error."""

@@ -426,6 +426,10 @@ def test_a_sweep_that_fails_before_its_first_row_leaves_nothing(tmp_path, monkey
         run_sweep(small_sweep(), tmp_path / "mine", progress=False)
     assert [p.name for p in (tmp_path / "mine").iterdir()] == ["notes.txt"]
     restore()
+
+
+@pytest.mark.slow  # waits out Dask's connection timeout
+def test_a_sweep_that_cannot_reach_its_cluster_leaves_nothing(tmp_path):
     pytest.importorskip("distributed")
     with pytest.raises(ValidationError, match="cannot connect"):
         run_sweep(small_sweep(), tmp_path / "dask", progress=False,
