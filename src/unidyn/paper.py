@@ -26,6 +26,7 @@ from ._validate import ValidationError
 from ._validate import BATCH_ATOL, BATCH_RTOL
 from .sweeps.sweep_files import read_metrics
 from .model.noise import PAPER_NOISE
+from .sweeps.statistics import mean_std_sem
 from .sweeps.sweep import Sweep
 from .model.scenario import Scenario
 from .diagrams.simulate import simulate
@@ -206,13 +207,11 @@ def _fig11_rows(metrics) -> tuple[list, dict, list]:
             if not done:
                 skipped.append((lab, k))
                 continue
-            iae = np.array([float(r["iae"]) for r in done])
-            mean = float(np.mean(iae))
-            if len(iae) > 1:  # the spread over the seeds (a sensitive run's among it)
-                error = float(np.std(iae, ddof=1) / np.sqrt(len(iae)))
-            else:  # one seed: the run's largest estimate, relative
+            mean, _, error = mean_std_sem(r["iae"] for r in done)
+            if error is None:  # one seed: the run's largest estimate, relative
                 error = float(done[0].get("numerical_error") or 0.0) * abs(mean)
-            table[lab][k] = Fig11Point(mean, error, len(iae))
+            # else the spread over the seeds (a sensitive run's among it)
+            table[lab][k] = Fig11Point(mean, error, len(done))
     missing = [lab for lab, v in table.items() if not v]
     if missing:
         raise ValidationError(f"fig11_claims: no complete rows for case(s) {', '.join(missing)}"
@@ -467,10 +466,9 @@ def experiment_scenarios(seeds=8, robot="p3dx_laser", noise=PAPER_NOISE,
 
 def _seed_stats(values) -> tuple:
     """(mean, standard error of the mean, n) over seeds: std (ddof 1) / sqrt(n)."""
-    v = np.asarray(values, dtype=float)
-    n = len(v)
-    se = float(np.std(v, ddof=1) / math.sqrt(n)) if n > 1 else math.nan
-    return float(np.mean(v)), se, n
+    values = list(values)
+    mean, _, se = mean_std_sem(values)
+    return mean, math.nan if se is None else se, len(values)
 
 
 @dataclass(frozen=True)

@@ -9,10 +9,21 @@ import math
 
 from .sweep_files import METRICS
 
-__all__ = ["seed_statistics", "statistics_columns", "STATISTICS"]
+__all__ = ["seed_statistics", "statistics_columns", "mean_std_sem", "STATISTICS"]
 
 #: The statistics of each metric, as column suffixes.
 STATISTICS = ("mean", "std", "sem")
+
+
+def mean_std_sem(values) -> tuple:
+    """(mean, sample standard deviation (n - 1), standard error std / sqrt(n)) of
+    ``values``; None where there are too few of them (no mean for none, no spread for
+    one)."""
+    values = [float(v) for v in values]
+    n = len(values)
+    mean = math.fsum(values) / n if n else None
+    std = math.sqrt(math.fsum((v - mean) ** 2 for v in values) / (n - 1)) if n > 1 else None
+    return mean, std, None if std is None else std / math.sqrt(n)
 
 
 def statistics_columns(axes) -> list:
@@ -44,13 +55,8 @@ def seed_statistics(rows, axes) -> list:
         row["case"] = members[0].get("case")
         row["n"] = len(done)
         for m in METRICS:
-            values = [float(r[m]) for r in done if r.get(m) is not None]
-            n = len(values)
-            mean = math.fsum(values) / n if n else None
-            std = (math.sqrt(math.fsum((v - mean) ** 2 for v in values) / (n - 1))
-                   if n > 1 else None)
-            row[f"{m}_mean"], row[f"{m}_std"] = mean, std
-            row[f"{m}_sem"] = None if std is None else std / math.sqrt(n)
+            stats = mean_std_sem(r[m] for r in done if r.get(m) is not None)
+            row[f"{m}_mean"], row[f"{m}_std"], row[f"{m}_sem"] = stats
         errors = [float(r["numerical_error"]) for r in members
                   if r.get("numerical_error") is not None]
         row["numerical_error"] = max(errors) if errors else None
