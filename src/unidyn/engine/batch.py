@@ -10,7 +10,6 @@ parameters, noise and initial state come from :class:`unidyn.engine.rhs.ClosedLo
 
 from __future__ import annotations
 
-import dataclasses
 import os
 from concurrent.futures import ThreadPoolExecutor, wait
 
@@ -195,10 +194,9 @@ def _group(engine, scs, idx, rtol, atol, label, compiled, bar, results):
         for j, r in zip(steady, tighter):
             before = results[idx[j]]
             if not r.complete:  # the tighter run stopped: the run before, not estimated
-                results[idx[j]] = dataclasses.replace(
-                    before, message=f"every sample computed, its numerical error not "
-                                    f"estimated: the same run at rtol = {tol[0]:g} stopped "
-                                    f"({r.message})")
+                results[idx[j]] = _noted(before, message=(
+                    f"every sample computed, its numerical error not estimated: the same "
+                    f"run at rtol = {tol[0]:g} stopped ({r.message})"))
                 continue
             results[idx[j]] = _estimated(r, before)
             # a tighter run whose steps the sample intervals set, not the tolerance (it
@@ -299,9 +297,14 @@ STATUS_MESSAGES = {
 _BOUND = {"POSITION": 0, "SPEED_U": 1, "SPEED_W": 2}
 
 
+def _noted(r: Result, **changes) -> Result:
+    """``r``, made by this call, changed in place (a copy recomputes its error series)."""
+    vars(r).update(changes)
+    return r
+
+
 def _relative(a: float, b: float, scale: float) -> float:
-    """|a - b| relative to ``scale`` (0 where both are equal, inf where only the scale
-    is 0)."""
+    """|a - b| relative to ``scale`` (0 where they are equal, inf where only scale is 0)."""
     d = abs(a - b)
     return d / abs(scale) if scale else (0.0 if d == 0 else float("inf"))
 
@@ -328,8 +331,8 @@ def _sensitive(r: Result, probe: Result):
     """``r`` marked sensitive, its error how far the probe moved it, where that is more
     than :data:`ACCURACY`; else None."""
     if not probe.complete:
-        return dataclasses.replace(r, message=f"every sample computed, its numerical error not "
-                                              f"estimated: its probe stopped ({probe.message})")
+        return _noted(r, message=f"every sample computed, its numerical error not estimated: "
+                                 f"its probe stopped ({probe.message})")
     moved = _differences(r, probe)
     if max(moved.values()) <= ACCURACY:
         return None
@@ -338,7 +341,7 @@ def _sensitive(r: Result, probe: Result):
                f"{100 * max(moved.values()):.2g} %) under a {PERTURBATION:g} m perturbation of "
                f"the starting point; no tolerance converges it, and the spread over noise seeds "
                f"is the uncertainty to quote (scenario {r.scenario.name or r.scenario.case})")
-    return dataclasses.replace(r, numerical_error=moved, sensitive=True, message=message)
+    return _noted(r, numerical_error=moved, sensitive=True, message=message)
 
 
 def _estimated(r: Result, looser: Result) -> Result:
@@ -346,27 +349,24 @@ def _estimated(r: Result, looser: Result) -> Result:
     run at :data:`TIGHTEN` times looser tolerances (about the looser one's error, which
     ``r``'s is within where the error falls with the tolerance)."""
     error = {k: SAFETY * v for k, v in _differences(r, looser).items()}
-    return dataclasses.replace(r, numerical_error=error, sensitive=False)
+    return _noted(r, numerical_error=error, sensitive=False)
 
 
 def _beyond(r: Result, rtol: float) -> Result:
     """``r``, whose estimate stays above :data:`ACCURACY` (or is not made) at rtol
     :data:`RTOL_FLOOR`, saying so."""
-    label = r.scenario.name or r.scenario.case
-    if r.numerical_error is None:
-        return dataclasses.replace(
-            r, message=f"numerical error not estimated: at rtol = {rtol:g} the engine cannot "
-                       f"tighten the run to estimate it (scenario {label})")
-    worst = max(r.numerical_error, key=r.numerical_error.get)
-    if r.numerical_error[worst] <= ACCURACY:  # tightened for steps that did not grow
-        return dataclasses.replace(
-            r, message=f"numerical error estimated from runs whose steps the sample "
-                       f"intervals set at every tolerance down to rtol = {rtol:g}: the "
-                       f"estimate may be low (scenario {label})")
-    return dataclasses.replace(
-        r, message=f"numerical error of {worst} estimated at {r.numerical_error[worst]:.1e}, "
-                   f"above {ACCURACY:g} at rtol = {rtol:g}, the tightest the engine goes to "
-                   f"(scenario {label})")
+    error = r.numerical_error
+    worst = None if error is None else max(error, key=error.get)
+    if error is None:
+        why = (f"numerical error not estimated: at rtol = {rtol:g} the engine cannot "
+               f"tighten the run to estimate it")
+    elif error[worst] <= ACCURACY:  # tightened for steps that did not grow
+        why = (f"numerical error estimated from runs whose steps the sample intervals set "
+               f"at every tolerance down to rtol = {rtol:g}: the estimate may be low")
+    else:
+        why = (f"numerical error of {worst} estimated at {error[worst]:.1e}, above "
+               f"{ACCURACY:g} at rtol = {rtol:g}, the tightest the engine goes to")
+    return _noted(r, message=f"{why} (scenario {r.scenario.name or r.scenario.case})")
 
 
 def _results(kernels, loop: ClosedLoop, runs, rtol: float, atol: float, backend: str) -> list:
