@@ -5,10 +5,11 @@ the library runs); without numba, or in :func:`plain_copy`, it runs as plain Pyt
 
 numba keys its on-disk cache on a function's own file, not on the files it inlines
 (a documented limitation), so the package caches in a folder per version of the
-compiled sources (:data:`STAMP`), ``<cache>/unidyn-numba/<STAMP>``, pointing numba there
-through ``NUMBA_CACHE_DIR`` while the functions are declared. numba writes its cache
-without a lock between processes (numba issues #4807, #10128), so the first call of an
-entry point in a process holds a ``filelock`` lock of that folder (:class:`Compiled`).
+compiled sources (:data:`STAMP`), ``<cache>/unidyn-numba/<STAMP>``. Nothing is written
+at import: an entry point (:class:`Compiled`) sets the folder up at its first call and
+declares its function there, pointing numba at it through ``NUMBA_CACHE_DIR``. numba
+writes its cache without a lock between processes (numba issues #4807, #10128), so that
+first call holds a ``filelock`` lock of the folder.
 """
 
 from __future__ import annotations
@@ -19,6 +20,8 @@ import importlib.util
 import os
 import shutil
 import sys
+import threading
+from functools import cache
 from pathlib import Path
 
 from filelock import FileLock
@@ -111,9 +114,11 @@ def remove_other_versions(root: Path, keep: int = KEEP_VERSIONS):
         shutil.rmtree(f, ignore_errors=True)
 
 
-def _version_folder():
-    """This version's cache folder, created (and touched: used now), or None where no
-    folder can be written: then nothing is cached and each process compiles."""
+@cache
+def cache_folder():
+    """This version's cache folder, created (and touched: used now) at the first call in
+    a process, or None where no folder can be written: then nothing is cached and each
+    process compiles."""
     folder = cache_root() / STAMP
     try:
         folder.mkdir(parents=True, exist_ok=True)
@@ -125,9 +130,6 @@ def _version_folder():
         return None
     remove_other_versions(folder.parent)
     return folder
-
-
-CACHE_FOLDER = _version_folder() if AVAILABLE else None
 
 
 @contextlib.contextmanager
@@ -162,47 +164,63 @@ def _kind(a):
 
 
 class Compiled:
-    """A compiled entry point: its first call per argument types in a process (where numba
-    loads or compiles it) holds a ``filelock`` lock of the cache folder, and one that
-    compiles (no marker of an earlier compile) says so on a terminal (:data:`NOTICE`)."""
+    """A compiled entry point, declared at its first call in a process, in the cache folder
+    (:func:`cache_folder`). Its first call per argument types (where numba loads or
+    compiles it) holds a ``filelock`` lock of that folder, and one that compiles (no
+    marker of an earlier compile) says so on a terminal (:data:`NOTICE`)."""
 
-    def __init__(self, dispatcher, name, what):
-        self.dispatcher, self.name, self.what = dispatcher, name, what
+    _declaring = threading.Lock()  # NUMBA_CACHE_DIR is the process's, one declaration at a time
+
+    def __init__(self, py_func, options, what):
+        self.py_func, self.options, self.what = py_func, options, what
+        self.name = py_func.__qualname__
+        self.dispatcher = None
         self.ready = set()
-        self.__doc__ = dispatcher.__doc__
+        self.__doc__ = py_func.__doc__
+
+    def _declared(self):
+        with self._declaring:
+            if self.dispatcher is None:
+                folder = cache_folder()
+                if folder is None:
+                    self.dispatcher = numba.njit(**self.options)(self.py_func)
+                else:
+                    with _numba_cache_dir(folder):
+                        self.dispatcher = numba.njit(cache=True, **self.options)(self.py_func)
+        return self.dispatcher
 
     def __call__(self, *args):
         key = _kind(args)
-        if key in self.ready or CACHE_FOLDER is None:
-            out = self.dispatcher(*args)
+        if key in self.ready:
+            return self.dispatcher(*args)
+        dispatcher = self._declared()
+        folder = cache_folder()
+        if folder is None:
+            out = dispatcher(*args)
             self.ready.add(key)
             return out
-        marker = CACHE_FOLDER / f"{self.name}-{hashlib.sha256(repr(key).encode()).hexdigest()[:8]}.ready"
-        with FileLock(str(CACHE_FOLDER / "compile.lock")):
+        marker = folder / f"{self.name}-{hashlib.sha256(repr(key).encode()).hexdigest()[:8]}.ready"
+        with FileLock(str(folder / "compile.lock")):
             if not marker.exists() and not _noticed and sys.stderr is not None and sys.stderr.isatty():
                 _noticed.append(True)
                 print(NOTICE.format(what=self.what), file=sys.stderr, flush=True)
-            out = self.dispatcher(*args)
+            out = dispatcher(*args)
             marker.touch()
         self.ready.add(key)
         return out
 
 
-def jit(f=None, *, inline: bool = False, entry: str = "", cache: bool = True):
-    """``numba.njit(cache=True, nogil=True, error_model="numpy")`` of f (division by zero
-    gives inf or NaN); f itself without numba. ``inline``: inlined into its compiled
-    callers (``forceinline``); ``entry``: called from Python (:class:`Compiled`), what it
-    is for the compile notice; ``cache=False``: not cached (its callers are)."""
+def jit(f=None, *, inline: bool = False, entry: str = ""):
+    """``numba.njit(nogil=True, error_model="numpy")`` of f (division by zero gives inf
+    or NaN); f itself without numba. ``inline``: inlined into its compiled callers
+    (``forceinline``); ``entry``: called from Python, what it is for the compile notice
+    (:class:`Compiled`: declared at its first call, cached on disk with the functions it
+    calls; the others are compiled into their callers, never cached apart)."""
     def wrap(g):
         if not AVAILABLE or _loading_plain:
             return g
         options = dict(nogil=True, error_model="numpy", forceinline=inline)
-        if CACHE_FOLDER is None or not cache:
-            compiled = numba.njit(**options)(g)
-        else:
-            with _numba_cache_dir(CACHE_FOLDER):
-                compiled = numba.njit(cache=True, **options)(g)
-        return Compiled(compiled, g.__qualname__, entry) if entry else compiled
+        return Compiled(g, options, entry) if entry else numba.njit(**options)(g)
     return wrap if f is None else wrap(f)
 
 

@@ -47,7 +47,7 @@ SAFETY, MIN_FACTOR, MAX_FACTOR = 0.9, 0.2, 10.0
 # not cached itself: numba's cache index records a signature's types by their module, so
 # a right-hand side of a script would break the index for other processes (its callers
 # are cached, with its code in them)
-@jit(inline=True, cache=False)
+@jit(inline=True)
 def dp_step(f, t, x, h, args, K, y, out, rtol, atol):
     """One Dormand-Prince step of length h from (t, x) of dx/dt = f(t, x, args) (f writes
     into its last argument), the fifth-order solution into out. K[0] holds f(t, x) on
@@ -258,7 +258,7 @@ def check_state(X, bound):
 
 
 # not cached itself (as dp_step): it takes the right-hand side as an argument
-@jit(inline=True, cache=False)
+@jit(inline=True)
 def integrate_interval(f, limits, t0, t1, X, h, args, call, K, y, Xn):
     """One run of dX/dt = f(t, X, args) from (t0, X) to t1 by error-controlled steps, X
     updated, the first step h (0: t1 - t0); after each step ``limits(X, args)``

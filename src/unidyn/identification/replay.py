@@ -23,7 +23,7 @@ COMMAND_CONVENTIONS = ("held", "linear")
 
 
 # not cached itself: numba's cache index records a signature's types by their module
-@jit(inline=True, cache=False)
+@jit(inline=True)
 def rk4_step(f, t, x, h, args, K, y):
     """One classical Runge-Kutta (RK4) step of length h from (t, x) of
     dx/dt = f(t, x, args), x updated in place (f writes its rates into its last
