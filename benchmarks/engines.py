@@ -184,7 +184,7 @@ def rhs_rows():
     @numba.njit
     def compiled(X, P, dX):
         for i in range(X.shape[0]):
-            rates(0.5, X[i], (P[i], noise), dX)
+            rates(0.5, X[i], (P[i], noise, ()), dX)
     dX = np.empty(13)
     compiled(X[:2], P[:2], dX)
     t_c, _ = timed(lambda: compiled(X, P, dX), repeat=5)

@@ -61,13 +61,31 @@ def _versions(cache):
 @pytest.mark.slow
 def test_the_cache_is_written_in_the_version_folder_numba_is_told(tmp_path):
     """If numba stops reading NUMBA_CACHE_DIR when a function is declared (how the
-    package points it at its version folder), this fails."""
+    package points it at its version folder, at an entry point's first call), this
+    fails."""
     value = _run(SRC.parent, tmp_path, HELD)
     assert 0.0 < value < 0.31
     files = _versions(tmp_path)
     assert set(files) == {_jit.STAMP}
     assert any(name.endswith(".nbi") for name in files[_jit.STAMP]), files
     assert _run(SRC.parent, tmp_path, HELD) == value  # loaded from it: the same bits
+
+
+IMPORT_ONLY = """
+import unidyn, unidyn.identification
+from unidyn.engine import batch, kernels
+print(0.0)
+"""
+
+
+@pytest.mark.slow
+def test_importing_the_package_writes_nothing_to_the_cache(tmp_path):
+    """The cache folder is set up at the first compile, not when the package (with the
+    kernels and the log simulator, whose functions are declared then) is imported."""
+    _run(SRC.parent, tmp_path, IMPORT_ONLY)
+    assert list(tmp_path.iterdir()) == []
+    _run(SRC.parent, tmp_path, HELD)  # a compile makes it
+    assert set(_versions(tmp_path)) == {_jit.STAMP}
 
 
 def _edit_eq2(pkg):
