@@ -7,16 +7,13 @@ import numpy as np
 import pytest
 
 import unidyn
-from unidyn.engine import batch, kernels
-from unidyn.engine.jit import plain_copy
-from unidyn.progress import Progress
 from unidyn.engine.batch import simulate_batch
-from unidyn.results.result import Result
+from unidyn.results.result import Result, metrics
 from unidyn.model.scenario import Scenario
 
 pytestmark = pytest.mark.reliability
 
-from ._faults import F8, nan_after as _nan_after
+from ._faults import nan_after as _nan_after
 
 
 def _strict(text):
@@ -30,16 +27,16 @@ def test_an_incomplete_batch_run_keeps_the_metrics_of_the_part_computed(tmp_path
     rb, = simulate_batch([bad], backend="plain")
     assert rb.complete is False and rb.message and rb.numerical_error is None
     assert set(rb.metrics) == {"iae", "ise", "itae", "itse", "energy", "error_final"}
-    # the metrics are those of a clean run over the part computed
-    clean, = batch._pass(plain_copy(kernels), [bad.replace(trajectory=F8, T=float(rb.t[-1]))],
-                         (1e-6, 1e-8), [0.0], "plain", False, Progress(False, 0))
-    assert clean.complete
-    for k, v in clean.metrics.items():
+    # the metrics are those of the part computed: the trapezoidal rule over its logged
+    # samples (every sample, log_every = 1), computed apart from the engine's own sums
+    assert np.all(np.isfinite(rb.pose)) and rb.t[-1] >= 2.0
+    part = metrics(rb.t, rb.error, rb.velocity)
+    for k, v in part.items():
         assert rb.metrics[k] == pytest.approx(v, rel=1e-12, abs=1e-15), k
     rb.save(tmp_path)
     s = _strict((tmp_path / "summary.json").read_text())
     assert s["complete"] is False and s["message"] == rb.message
-    assert s["metrics"]["iae"] == pytest.approx(clean.metrics["iae"], rel=1e-12)
+    assert s["metrics"]["iae"] == pytest.approx(part["iae"], rel=1e-12)
     assert s["numerical_error"] is None and s["sensitive"] is False
     assert s["engine"] == "batch" and s["backend"] == "plain"
 

@@ -9,9 +9,10 @@ import subprocess
 import sys
 import textwrap
 import time
-from pathlib import Path
 
 import pytest
+
+from processes import HAS_PROC, cpu_seconds
 
 pytestmark = pytest.mark.reliability
 
@@ -41,12 +42,6 @@ SCRIPT = textwrap.dedent("""
 """)
 
 
-def cpu_seconds(pid: int) -> float:
-    """The CPU time a running process has used, all its threads (Linux's /proc)."""
-    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-
-
 def _no_sigint_ignore():
     """Ctrl-C as in a terminal: a process started from a shell's background job
     inherits SIGINT ignored, and Python then raises no KeyboardInterrupt."""
@@ -54,7 +49,7 @@ def _no_sigint_ignore():
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(not Path("/proc/self/stat").is_file(), reason="reads CPU time from /proc")
+@pytest.mark.skipif(not HAS_PROC, reason="reads CPU time from /proc")
 @pytest.mark.parametrize("backend, T, L", [("compiled", 1e6, 100), ("plain", 2e5, 5)])
 def test_sigint_stops_a_long_batch_run_and_keeps_the_part_computed(backend, T, L):
     env = {**os.environ, "MPLBACKEND": "Agg"}

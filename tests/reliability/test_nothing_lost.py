@@ -24,6 +24,8 @@ from pathlib import Path
 
 import pytest
 
+from processes import HAS_PROC, cpu_seconds
+
 pytestmark = pytest.mark.reliability
 
 RUN_FILES = {"timeseries.csv", "summary.json", "path.png", "error.png", "positions.png",
@@ -72,12 +74,6 @@ def without_numba(folder: Path) -> dict:
     (pkg / "__init__.py").write_text("raise ImportError('numba hidden for this test')\n")
     return {"PYTHONPATH": os.pathsep.join(filter(None, [str(pkg.parent),
                                                         os.environ.get("PYTHONPATH")]))}
-
-
-def cpu_seconds(pid: int) -> float:
-    """The CPU time a running process has used, all its threads (Linux's /proc)."""
-    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def files(folder: Path) -> dict:

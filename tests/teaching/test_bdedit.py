@@ -25,6 +25,8 @@ import pytest
 import unidyn  # noqa: F401  (BDSIMPATH for the subprocesses)
 from unidyn.diagrams.bdfile import PAPER_FILES
 
+from processes import HAS_PROC, cpu_seconds
+
 ROOT = Path(__file__).resolve().parents[2]
 BD_DIR = ROOT / "examples" / "bd"
 ENV = dict(os.environ, QT_QPA_PLATFORM="offscreen", MPLBACKEND="Agg", BDSIMPATH="unidyn",
@@ -266,17 +268,8 @@ def test_void_qt_calls_keep_none_alive(qt):
     assert abs(int(proc.stdout.split()[-1])) < 50, proc.stdout
 
 
-def _cpu_seconds(pid: int) -> float:
-    """CPU time a running process has used (Linux /proc), 0 once it has gone."""
-    try:
-        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    except OSError:
-        return 0.0
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-
-
 @pytest.mark.slow
-@pytest.mark.skipif(not Path("/proc/self/stat").is_file(), reason="reads CPU time from /proc")
+@pytest.mark.skipif(not HAS_PROC, reason="reads CPU time from /proc")
 def test_bdedit_command_opens_a_shipped_file_and_stays_open(bdedit_command):
     """``bdedit FILE`` as a user types it, on the largest shipped file and with no file:
     each editor is still running after it has used 8 s of CPU time drawing its window
@@ -291,7 +284,7 @@ def test_bdedit_command_opens_a_shipped_file_and_stays_open(bdedit_command):
     try:
         deadline = time.monotonic() + 150
         while (time.monotonic() < deadline and all(p.poll() is None for p in procs)
-               and min(_cpu_seconds(p.pid) for p in procs) < 8):
+               and min(cpu_seconds(p.pid) for p in procs) < 8):
             time.sleep(0.5)
         ended = [(cmd[1:], p.returncode) for cmd, p in zip(runs, procs) if p.poll() is not None]
     finally:
@@ -377,7 +370,7 @@ def test_unidyn_edit_runs_until_terminated(qt):
                             cwd=ROOT)
     try:
         deadline = time.monotonic() + 120
-        while time.monotonic() < deadline and proc.poll() is None and _cpu_seconds(proc.pid) < 5:
+        while time.monotonic() < deadline and proc.poll() is None and cpu_seconds(proc.pid) < 5:
             time.sleep(0.5)
         assert proc.poll() is None, proc.communicate()[1][-3000:]
         proc.terminate()
