@@ -31,11 +31,11 @@ ACCURACY = 1e-4
 #: The probe's move of the starting point, m, in x and y.
 PERTURBATION = 1e-12
 #: A run that is not sensitive is run again this much tighter until its estimate is
-#: within ACCURACY, down to rtol RTOL_FLOOR (atol in proportion). Two decades, because
-#: over one the error can stall or grow where steps span the kinks of the limits
-#: (measured on a noisy Fig. 11 point: 2.6e-5 at rtol 1e-6, 2.8e-5 at 1e-7, the two runs
-#: 2.5e-6 apart); over two it fell 2.7-fold at the least on the grid's runs
-#: (``benchmarks/engines.py --accuracy`` measures the estimate against the truth).
+#: within ACCURACY, down to rtol RTOL_FLOOR (atol in proportion). Two decades, so that
+#: the difference is about the looser run's error without a safety factor: over one the
+#: error can stall where steps span the kinks of the limits (on a noisy Fig. 11 point,
+#: 2.6e-5 at rtol 1e-6 and 2.8e-5 at 1e-7, the two runs 2.5e-6 apart); over two it fell
+#: 2.7-fold at the least on the grid's runs (``benchmarks/engines.py --accuracy``).
 TIGHTEN, RTOL_FLOOR = 100.0, 1e-13
 #: A tighter run must take this many times the steps of the one before for their
 #: difference to estimate the error (two decades take about twice as many where the
