@@ -56,6 +56,20 @@ def test_mass_scale_steps_on_arrays_and_floats():
     assert eq.mass_scale(7.0, ()) == 1.0
 
 
+def test_scenario_theta_at_is_the_loaded_robots_theta_from_each_row_on():
+    sc = Scenario.paper(4, payload=[[5.0, 2.0], [10.0, 0.5]])
+    th = np.asarray(sc.robot.theta)
+    t = np.array([0.0, 4.999, 5.0, 9.0, 10.0, 100.0])
+    got = sc.theta_at(t)
+    assert got.shape == (6, 6)
+    scale = np.array([1, 1, 2, 2, 0.5, 0.5])
+    for i in range(6):  # theta1, 2, 3, 5 carry the mass (Section 2); theta4, 6 do not
+        want = th[i] * (scale if i in (0, 1, 2, 4) else 1.0)
+        np.testing.assert_allclose(got[:, i], want, rtol=1e-15)
+    np.testing.assert_allclose(sc.theta_at(7.0), got[3], rtol=0)
+    np.testing.assert_allclose(Scenario.paper(4).theta_at(t), np.tile(th, (6, 1)), rtol=0)
+
+
 def test_schedule_forms():
     assert payload_schedule(None) == () == payload_schedule([])
     assert payload_schedule(2) == ((0.0, 2.0),)

@@ -255,6 +255,26 @@ def test_error_panel_limits_come_from_the_data(adaptive_run):
     assert lo == 0 and e.max() < hi <= 1.1 * e.max()
 
 
+def test_theta_hat_true_values_step_where_a_load_is_picked_up():
+    sc = unidyn.Scenario.paper(4, T=20.0, adapt_from=0.0, payload=[[10.0, 2.0]], noise=None)
+    r, = unidyn.simulate_batch([sc])
+    th = np.asarray(sc.robot.theta)
+    axes = plot_theta_hat(r, panels=True)
+    after = r.t >= 10.0
+    for i, ax in enumerate(axes):
+        true = [l for l in ax.get_lines() if l.get_label() == "true value"][0]
+        scale = 1e-3 if "10^{-3}" in ax.get_ylabel() else 1.0
+        y = np.asarray(true.get_ydata()) * scale
+        mass = 2.0 if i in (0, 1, 2, 4) else 1.0  # Section 2: theta4, theta6 carry no mass
+        np.testing.assert_allclose(y[~after], th[i], rtol=1e-12)
+        np.testing.assert_allclose(y[after], mass * th[i], rtol=1e-12)
+    plt.close(axes[0].figure)
+    ax = plot_theta_hat(r)  # ratios to the loaded robot's values after the load
+    first = ax.get_lines()[0]
+    np.testing.assert_allclose(first.get_ydata()[after], r.theta_hat[after, 0] / (2 * th[0]))
+    plt.close(ax.figure)
+
+
 def test_theta_hat_panels_show_each_estimate_and_its_true_value(adaptive_run):
     axes = plot_theta_hat(adaptive_run, panels=True)
     theta = adaptive_run.scenario.robot.theta

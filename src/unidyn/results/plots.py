@@ -230,6 +230,8 @@ def plot_theta_hat(result, ax=None, relative=True, panels=False):
     divided by the true values (``relative=True``), leaving out the components whose
     true value is near zero (smaller than 1 % of the largest), whose ratio would
     swamp the rest; ``relative=False`` plots the raw estimates. Returns the axis.
+    The true values are the robot's at each time, which a ``payload`` schedule changes
+    (:meth:`unidyn.Scenario.theta_at`).
     """
     if result.theta_hat is None:
         raise ValueError("this result has no theta_hat: its scenario's log_series leaves it "
@@ -237,6 +239,7 @@ def plot_theta_hat(result, ax=None, relative=True, panels=False):
     theta = np.asarray(result.scenario.robot.theta, dtype=float)
     th = np.asarray(result.theta_hat, dtype=float)
     t = result.t
+    true = result.scenario.theta_at(t)  # (N, 6): a load steps it
     t_on = getattr(result.scenario, "adapt_from", None)
     single = not panels and not isinstance(ax, (list, tuple, np.ndarray))
     if single:
@@ -245,7 +248,7 @@ def plot_theta_hat(result, ax=None, relative=True, panels=False):
         for i in range(6):
             if relative and small[i]:
                 continue
-            y = th[:, i] / theta[i] if relative else th[:, i]
+            y = th[:, i] / true[:, i] if relative else th[:, i]
             ax.plot(t, y, lw=1, color=f"C{i}", label=rf"$\hat\theta_{i + 1}$")
         if relative:
             ax.axhline(1.0, **REFERENCE, label="true value")
@@ -264,11 +267,11 @@ def plot_theta_hat(result, ax=None, relative=True, panels=False):
     axes = np.asarray(ax).reshape(-1)
     units = _theta_units()
     for i, a in enumerate(axes[:6]):
-        size = np.nanmax(np.abs(np.append(th[:, i], theta[i])))
+        size = np.nanmax(np.abs(np.append(th[:, i], true[:, i])))
         power = 3 * int(np.floor(np.log10(size) / 3)) if 0 < size < 1e-2 else 0
         scale = 10.0 ** power  # tiny values in 10^-3 units, not an offset label
         a.plot(t, th[:, i] / scale, color="C0", label="estimate")
-        a.axhline(theta[i] / scale, **REFERENCE, label="true value")
+        a.plot(t, true[:, i] / scale, **REFERENCE, label="true value")
         if t_on is not None and t[0] < t_on < t[-1]:
             a.axvline(t_on, color="0.5", lw=0.7, ls=":", label="adaptation on")
         unit = " ".join(u for u in (f"$10^{{{power}}}$" if power else "", units[i] or "") if u)
