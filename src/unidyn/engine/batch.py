@@ -31,14 +31,14 @@ ACCURACY = 1e-4
 #: The probe's move of the starting point, m, in x and y.
 PERTURBATION = 1e-12
 #: A run that is not sensitive is run again this much tighter until its estimate is
-#: within ACCURACY, down to rtol RTOL_FLOOR (atol in proportion). Two decades, so that
-#: the difference is about the looser run's error without a safety factor: over one the
-#: error can stall where steps span the kinks of the limits (on a noisy Fig. 11 point,
-#: 2.6e-5 at rtol 1e-6 and 2.8e-5 at 1e-7, the two runs 2.5e-6 apart); over two it fell
-#: 2.7-fold at the least on the grid's runs (``benchmarks/engines.py --accuracy``).
-TIGHTEN, RTOL_FLOOR = 100.0, 1e-13
+#: within ACCURACY, down to rtol RTOL_FLOOR (atol in proportion).
+TIGHTEN, RTOL_FLOOR = 10.0, 1e-13
+#: The estimate is SAFETY times the difference from the run before: across the limits'
+#: kinks the error can fall more slowly than the tolerance (measured: the true error up
+#: to 5.2 times the difference; ``benchmarks/engines.py --accuracy`` measures it).
+SAFETY = 3.0
 #: A tighter run must take this many times the steps of the one before for their
-#: difference to estimate the error (two decades take about twice as many where the
+#: difference to estimate the error (a decade takes 1.3-1.5 times as many where the
 #: tolerance sets the steps); otherwise it is tightened again.
 STEP_GROWTH = 1.2
 #: Fewer runs than cores run their probes beside them, in one pass, where their logs
@@ -88,8 +88,8 @@ def simulate_batch(scenarios, *, rtol: float = BATCH_RTOL, atol: float = BATCH_A
     its ``numerical_error`` is how far the probe moved it (one sample of the spread, not
     a bound), and its spread over noise seeds is the uncertainty to quote. The others
     are run again :data:`TIGHTEN` times tighter, and the tighter run is returned, its
-    ``numerical_error`` its difference from the run before (about the looser run's
-    error); where that is above :data:`ACCURACY` they are tightened again, down to
+    ``numerical_error`` :data:`SAFETY` times its difference from the run before; where
+    that is above :data:`ACCURACY` they are tightened again, down to
     :data:`RTOL_FLOOR`. **The promise: a run that is not sensitive has an estimate of at
     most 1e-4 (relative), and its true error is within twice its estimate; a run where
     that cannot be reached says so in its** ``message``.
@@ -345,10 +345,11 @@ def _sensitive(r: Result, probe: Result):
 
 
 def _estimated(r: Result, looser: Result) -> Result:
-    """``r`` with its numerical error: its difference from the same run at
-    :data:`TIGHTEN` times looser tolerances (about the looser one's error, which ``r``'s
-    is well within)."""
-    return _noted(r, numerical_error=_differences(r, looser), sensitive=False)
+    """``r`` with its numerical error: :data:`SAFETY` times its difference from the same
+    run at :data:`TIGHTEN` times looser tolerances (about the looser one's error, which
+    ``r``'s is within where the error falls with the tolerance)."""
+    error = {k: SAFETY * v for k, v in _differences(r, looser).items()}
+    return _noted(r, numerical_error=error, sensitive=False)
 
 
 def _beyond(r: Result, rtol: float) -> Result:
