@@ -7,7 +7,7 @@ from collections.abc import Sequence
 import numpy as np
 from bdsim.components import ContinuousBlock
 
-from ..model import equations, robots, unicycle
+from ..model import robots, unicycle
 from unidyn._validate import ValidationError, flag, positive, real, vector
 from unidyn.model.unicycle import Limits
 from unidyn.model.parameters import RobotParameters, payload_schedule
@@ -212,8 +212,7 @@ class DynamicUnicycle(ContinuousBlock):
     def theta_at(self, t: float) -> np.ndarray:
         """theta1..theta6 of the robot at time t, s, under its ``payload`` schedule
         (:func:`unidyn.model.equations.payload_theta`)."""
-        steps = tuple(v for row in self.payload for v in row)
-        return np.array(equations.payload_theta(float(t), *self.theta, steps))
+        return unicycle.loaded_theta(self.theta, self.payload, t)
 
     def deriv(self, t, inports, x):
         v_ref = np.array([as_vector(inports[0], 1, self, "v", t)[0],

@@ -17,9 +17,8 @@ import numpy as np
 from . import robots, trajectories
 from .._validate import (ValidationError, choice, nonnegative, positive, positive_vector,
                          string_keys, vector)
-from .equations import payload_theta
 from .laws import LEAKAGE_FORMS, PAPER_GAMMA, PAPER_SIGMA
-from .unicycle import Limits, PAPER_LIMITS
+from .unicycle import Limits, PAPER_LIMITS, loaded_theta
 from .noise import NoiseSpec, PAPER_NOISE
 from .parameters import RobotParameters, payload_schedule
 
@@ -261,10 +260,7 @@ class Scenario:
         """The robot's theta1..theta6 at time t, s (a number: shape (6,); an array of N
         times: (N, 6)), under the ``payload`` schedule (Section 2's scaling,
         :func:`unidyn.model.equations.payload_theta`): what the estimate would track."""
-        steps = tuple(v for row in self.payload for v in row)
-        tt = np.asarray(t, dtype=float)
-        theta = payload_theta(tt if tt.ndim else float(tt), *self.robot.theta, steps)
-        return np.stack(np.broadcast_arrays(tt, *theta)[1:], axis=-1).astype(float)
+        return loaded_theta(self.robot.theta, self.payload, t)
 
     @property
     def derivative(self) -> str:

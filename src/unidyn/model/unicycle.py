@@ -22,7 +22,7 @@ from .._validate import positive
 
 __all__ = ["Limits", "kinematics", "dynamics", "inertia", "coriolis", "damping",
            "regressor", "inverse_dynamics", "unicycle_deriv", "kinematic_unicycle_deriv",
-           "point_velocity", "storage", "PAPER_LIMITS", "NO_LIMITS"]
+           "point_velocity", "storage", "loaded_theta", "PAPER_LIMITS", "NO_LIMITS"]
 
 
 @dataclass(frozen=True)
@@ -189,6 +189,18 @@ def storage(v, theta):
     v = np.asarray(v, dtype=float)
     t1, t2, *_ = _th(theta)
     return 0.5 * (t1 * v[..., 0] ** 2 + t2 * v[..., 1] ** 2)
+
+
+def loaded_theta(theta, payload, t) -> np.ndarray:
+    """theta1..theta6 of the robot whose empty parameters are ``theta`` at time t, s,
+    under the payload schedule ``payload`` (rows ``(t_k, mass scale)``, validated by
+    :func:`unidyn.model.parameters.payload_schedule`; Section 2's scaling,
+    :func:`unidyn.model.equations.payload_theta`): shape (6,) for a number t, (N, 6)
+    for an array of N times."""
+    steps = tuple(v for row in payload for v in row)
+    tt = np.asarray(t, dtype=float)
+    th = eq.payload_theta(tt if tt.ndim else float(tt), *np.asarray(theta, dtype=float), steps)
+    return np.stack(np.broadcast_arrays(tt, *th)[1:], axis=-1).astype(float)
 
 
 def unicycle_deriv(x, v_ref, theta, a, limits: Limits = NO_LIMITS, delta=None):
