@@ -68,6 +68,8 @@ def test_scenario_theta_at_is_the_loaded_robots_theta_from_each_row_on():
         np.testing.assert_allclose(got[:, i], want, rtol=1e-15)
     np.testing.assert_allclose(sc.theta_at(7.0), got[3], rtol=0)
     np.testing.assert_allclose(Scenario.paper(4).theta_at(t), np.tile(th, (6, 1)), rtol=0)
+    with pytest.raises(ValidationError, match="^t must be a time in s"):
+        sc.theta_at("later")
 
 
 def test_schedule_forms():

@@ -18,7 +18,7 @@ import numpy as np
 
 from . import equations as eq
 from .components import join, pair, parts, scalar
-from .._validate import positive
+from .._validate import ValidationError, positive
 
 __all__ = ["Limits", "kinematics", "dynamics", "inertia", "coriolis", "damping",
            "regressor", "inverse_dynamics", "unicycle_deriv", "kinematic_unicycle_deriv",
@@ -198,7 +198,10 @@ def loaded_theta(theta, payload, t) -> np.ndarray:
     :func:`unidyn.model.equations.payload_theta`): shape (6,) for a number t, (N, 6)
     for an array of N times."""
     steps = tuple(v for row in payload for v in row)
-    tt = np.asarray(t, dtype=float)
+    try:
+        tt = np.asarray(t, dtype=float)
+    except (TypeError, ValueError):
+        raise ValidationError(f"t must be a time in s or an array of them, got {t!r:.80}") from None
     th = eq.payload_theta(tt if tt.ndim else float(tt), *np.asarray(theta, dtype=float), steps)
     return np.stack(np.broadcast_arrays(tt, *th)[1:], axis=-1).astype(float)
 
