@@ -4,8 +4,10 @@ amplifies perturbations says so (``sensitive``) and keeps its metrics.
 
 The true error is measured against an independent converged solution: scipy's DOP853 at
 rtol 1e-11 on the loop's right-hand side as arrays (unidyn.engine.rhs), restarted at
-every sample with the noise held, as bdsim restarts its solver at every clock tick
-(within 1e-8 of itself at rtol 1e-10 on every scenario here)."""
+every sample with the noise held, as bdsim restarts its solver at every clock tick, its
+steps capped at 1 ms so that no episode of the limits' clipping is jumped over
+(ClosedLoop.converged: it evaluates the limits where it evaluates the loop, and shares
+nothing with the batch engine's location of the switches)."""
 
 import functools
 
@@ -17,6 +19,7 @@ from unidyn._errors import AccuracyWarning
 from unidyn.engine import kernels as _kernels
 from unidyn.engine.batch import ACCURACY, simulate_batch
 from unidyn.engine.rhs import ClosedLoop
+from unidyn.model.noise import NoiseSpec
 from unidyn.model.scenario import Scenario
 from unidyn.model.trajectories import Circle, FigureEight
 from unidyn.model.unicycle import Limits
@@ -36,6 +39,34 @@ SCENARIOS = {
     "gamma 1000 with limits": Scenario(gamma=[1000.0] * 6, adapt_from=0.0, T=6.0, noise=None),
 }
 SLOW = ("fast circle at kx = ky = 50", "gamma 100 with limits", "gamma 1000 with limits")
+#: Where the acceleration limits switch on and off within 15 ms, at the gains where Fig.
+#: 11 ends, with the paper's noise: a step that jumps such an episode sees nothing of it
+#: (runs that were off by 0.36 %, 0.5 % and 5e-4 with estimates of 2-3e-5, and one
+#: wrongly flagged sensitive and off by 4 %).
+SWITCHING = {
+    "pioneer2 circle k = 30, seed 3": Scenario(
+        case="compensated", robot="pioneer2", kx=30.0, ky=30.0, T=10.0,
+        trajectory=Circle(radius=0.5, omega=2.0), noise=NoiseSpec(seed=3)),
+    "p3dx_laser figure eight k = 40, seed 126": Scenario(
+        case="compensated", robot="p3dx_laser", kx=40.0, ky=40.0, T=20.0,
+        trajectory=FigureEight(wx=1.0, wy=0.5), noise=NoiseSpec(seed=126)),
+    "pioneer2_computer circle k = 25, seed 123": Scenario(
+        case="compensated", robot="pioneer2_computer", kx=25.0, ky=25.0, T=20.0,
+        trajectory=Circle(radius=0.5, omega=2.0), noise=NoiseSpec(seed=123)),
+}
+#: Still missed: at t = 17.3 s an episode of about 16 ms in which the angular
+#: acceleration leaves its limit falls between the stages of steps the clipped rates let
+#: grow, at every rtol from 1e-6 to 1e-9 (IAE 17.8281 against 17.8415, an estimate of
+#: 4e-5 against a true error of 7.5e-4): the engine's margins are not yet resolved by its
+#: step-size control.
+MISSED = {
+    "p3dx_laser circle k = 40, seed 111": Scenario(
+        case="compensated", robot="p3dx_laser", kx=40.0, ky=40.0, T=20.0,
+        trajectory=Circle(radius=0.5, omega=2.0), noise=NoiseSpec(seed=111)),
+}
+SWITCHING.update(MISSED)
+SCENARIOS.update(SWITCHING)
+SLOW += tuple(SWITCHING)
 
 
 def _converged(sc):
@@ -43,7 +74,7 @@ def _converged(sc):
     loop = ClosedLoop(sc)
     t = np.arange(sc.steps + 1) * sc.Ts
     ref = np.array([np.ravel(loop.reference(tt)[:2]) for tt in t])
-    return metrics(t, np.hypot(*(X[:, :2] - ref).T), X[:, 3:5]), X[-1, 5:11]
+    return metrics(t, np.hypot(*(X[:, :2] - ref).T), X[:, 3:5]), X
 
 
 @pytest.fixture(scope="module")
@@ -53,11 +84,19 @@ def converged():
     return functools.cache(lambda name: _converged(SCENARIOS[name]))
 
 
-@pytest.mark.parametrize("name", [pytest.param(n, marks=[pytest.mark.slow] if n in SLOW else [])
+@pytest.mark.parametrize("name", [pytest.param(n, marks=([pytest.mark.slow] if n in SLOW else [])
+                                              + ([pytest.mark.xfail(strict=True, reason=(
+                                                  "a clipping episode between the stages"))]
+                                                 if n in MISSED else []))
                                   for n in SCENARIOS])
 def test_a_run_that_is_not_sensitive_is_within_twice_its_estimate(name, converged):
-    truth, theta = converged(name)
+    """The metrics, and the series over every logged sample: the pose, the distance error
+    and theta_hat (relative to the series' largest value), each within twice its
+    estimate."""
+    truth, X = converged(name)
     backends = ["plain"] + (["compiled"] if _kernels.AVAILABLE else [])
+    if name in SWITCHING:  # plain Python takes minutes on these: the compiled engine's
+        backends = backends[-1:]
     for backend in backends:
         r, = simulate_batch([SCENARIOS[name]], backend=backend)
         assert r.complete and not r.sensitive, r.message
@@ -65,8 +104,12 @@ def test_a_run_that_is_not_sensitive_is_within_twice_its_estimate(name, converge
         for k in INTEGRAL_NAMES:
             true = abs(r.metrics[k] - truth[k]) / abs(truth[k])
             assert true <= 2 * r.numerical_error[k], (backend, k, true, r.numerical_error[k])
-        true = np.max(np.abs(r.theta_hat[-1] - theta)) / np.max(np.abs(theta))
-        assert true <= max(2 * r.numerical_error["theta_hat"], 1e-12), (backend, true)
+        series = {"position": (r.pose[:, :2], X[:, :2]), "heading": (r.pose[:, 2], X[:, 2]),
+                  "theta_hat": (r.theta_hat, X[:, 5:11])}
+        for k, (got, want) in series.items():
+            true = np.max(np.abs(got - want)) / np.max(np.abs(want))
+            assert true <= max(2 * r.numerical_error[k], 1e-12), (backend, k, true,
+                                                                 r.numerical_error[k])
 
 
 #: Fig. 11's case (a) at k = 30 with the paper's noise: its trajectories separate

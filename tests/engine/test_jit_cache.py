@@ -189,10 +189,11 @@ import sys
 import numpy as np
 sys.path.insert(0, sys.argv[1])
 import user_rhs  # a right-hand side of the user's own, in a module only this process sees
-from unidyn.engine.kernels import dp_step
-K, y, out = np.full((7, 1), -2.0), np.empty(1), np.empty(1)  # K[0]: f(0, 1) = -2
-dp_step(user_rhs.compiled, 0.0, np.ones(1), 0.1, 2.0, K, y, out, 1e-6, 1e-8)
-print(round(K[1, 0], 12))  # f at x = 1 + 0.02 * (-2)
+from unidyn.engine.kernels import dp_step, work_arrays
+work = work_arrays(1, 0)
+work.K[0, 0] = -2.0  # K[0]: f(0, 1) = -2
+dp_step(user_rhs.compiled, 0.0, np.ones(1), 0.1, 2.0, work, 1e-6, 1e-8)
+print(round(work.K[1, 0], 12))  # f at x = 1 + 0.02 * (-2)
 """
 
 
@@ -205,7 +206,7 @@ def test_the_step_of_a_users_own_right_hand_side_leaves_the_shared_cache_readabl
     user = tmp_path / "user"
     user.mkdir()
     # compiled apart from its Python function, which numba's cache then records by name
-    (user / "user_rhs.py").write_text("import numba\n\n\ndef decay(t, x, a, out):\n"
+    (user / "user_rhs.py").write_text("import numba\n\n\ndef decay(t, x, a, mode, out, margins):\n"
                                       "    out[0] = -a * x[0]\n\n\ncompiled = numba.njit(decay)\n")
     assert _run(SRC.parent, tmp_path, USER_RHS, str(user)) == -1.92
     assert 0.0 < _run(SRC.parent, tmp_path, HELD) < 0.31

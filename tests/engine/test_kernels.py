@@ -11,6 +11,7 @@ import pytest
 
 from unidyn.engine import kernels as _kernels
 from unidyn.engine.rhs import ClosedLoop
+from unidyn.model.equations import AUTO
 from unidyn.model.scenario import Scenario
 from unidyn.model.trajectories import Circle, Line
 
@@ -41,14 +42,16 @@ def test_kernel_rhs_equals_the_closed_loop_of_all_runs_as_arrays(rhs):
         k = int(rng.integers(0, loop.steps))
         ref = loop.rhs(t, X, k)
         for i in range(loop.B):
-            dX = np.empty(13)
-            rhs(t, X[i], (loop.P[i], (*loop.pos_noise[i, k], *loop.vel_noise[i, k]), ()), dX)
+            dX, margins = np.empty(13), np.empty(6)
+            mode = np.array([t] + [AUTO] * 6)  # every switch decided where it is evaluated
+            rhs(t, X[i], (loop.P[i], (*loop.pos_noise[i, k], *loop.vel_noise[i, k]), ()), mode,
+                dX, margins)
             worst = max(worst, np.max(np.abs(dX - ref[i]) / (1.0 + np.abs(ref[i]))))
     assert worst < 1e-12
 
 
-def _linear(t, x, A, out):
-    """dx/dt = A x."""
+def _linear(t, x, A, mode, out, margins):
+    """dx/dt = A x (no switches)."""
     for i in range(x.size):
         out[i] = 0.0
         for j in range(x.size):
@@ -67,11 +70,11 @@ if _kernels.AVAILABLE:
 
 
 def _step(dp, linear, A, x, h):
-    n = x.size
-    K, y, out = np.empty((7, n)), np.empty(n), np.empty(n)
-    K[0] = A @ x
-    err = dp(linear, 0.0, x, h, A, K, y, out, 0.0, 1.0)  # atol 1: the error itself
-    return out, err, K
+    work = _kernels.work_arrays.py_func(x.size, 0) if hasattr(_kernels.work_arrays, "py_func") \
+        else _kernels.work_arrays(x.size, 0)
+    work.K[0] = A @ x
+    err = dp(linear, 0.0, x, h, A, work, 0.0, 1.0)  # atol 1: the error itself
+    return work.Xn, err, work.K
 
 
 @pytest.mark.parametrize("dp", DP)

@@ -61,10 +61,10 @@ def test_the_engine_s_table_holds_the_schedule(reference):
     plain = Circle(radius=0.7, omega=-0.4, center=(0.5, -1.0), phase=0.3)
     table = ClosedLoop([Scenario(trajectory=tr, T=1.0) for tr in (stepped, plain)]).P
     for t in np.linspace(0.0, 30.0, 301):
-        np.testing.assert_allclose(reference(t, table[0], ()), np.concatenate(stepped.evaluate(t)),
+        np.testing.assert_allclose(reference(t, t, table[0], ()), np.concatenate(stepped.evaluate(t)),
                                    rtol=0, atol=1e-15)
         # a circle whose radius does not step: the circle's function, bit for bit
-        assert reference(t, table[1], ()) == eq.circle(t, 0.7, -0.4, 0.5, -1.0, 0.3)
+        assert reference(t, t, table[1], ()) == eq.circle(t, 0.7, -0.4, 0.5, -1.0, 0.3)
 
 
 STEPS = [(0, 1.0), (5, 0.8), (10, 1.0), (15, 0.8)]   # t, R: from t on, R

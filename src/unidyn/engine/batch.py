@@ -10,6 +10,7 @@ parameters, noise and initial state come from :class:`unidyn.engine.rhs.ClosedLo
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from concurrent.futures import ThreadPoolExecutor, wait
 
@@ -23,7 +24,8 @@ from ..model.scenario import ALWAYS_LOGGED, Scenario
 from ..results.result import INTEGRAL_NAMES, Result
 from .rhs import ClosedLoop
 
-__all__ = ["simulate_batch", "backend_for", "MAX_STEPS", "ACCURACY", "STATUS_MESSAGES"]
+__all__ = ["simulate_batch", "backend_for", "MAX_STEPS", "ACCURACY", "STATUS_MESSAGES",
+           "ESTIMATES"]
 
 #: The promise: a run that is not sensitive has an estimate of at most ACCURACY
 #: (relative) and its true error is within twice its estimate (:func:`simulate_batch`).
@@ -33,10 +35,11 @@ PERTURBATION = 1e-12
 #: A run that is not sensitive is run again this much tighter until its estimate is
 #: within ACCURACY, down to rtol RTOL_FLOOR (atol in proportion).
 TIGHTEN, RTOL_FLOOR = 10.0, 1e-13
-#: The estimate is SAFETY times the difference from the run before: across the limits'
-#: kinks the error can fall more slowly than the tolerance (measured: the true error up
-#: to 5.2 times the difference; ``benchmarks/engines.py --accuracy`` measures it).
-SAFETY = 3.0
+#: The estimate is ESTIMATE_FACTOR times the difference from the run before (the error
+#: of the tighter run is well within it where the error falls with the tolerance; the
+#: factor covers a decade over which it falls more slowly: ``benchmarks/engines.py
+#: --accuracy`` measures the true error against the estimate).
+ESTIMATE_FACTOR = 3.0
 #: A tighter run must take this many times the steps of the one before for their
 #: difference to estimate the error (a decade takes 1.3-1.5 times as many where the
 #: tolerance sets the steps); otherwise it is tightened again.
@@ -47,6 +50,8 @@ TOGETHER_BYTES = 100_000_000
 #: The most steps (kept or not) a sample interval may take before its run stops.
 MAX_STEPS = 10_000
 BACKENDS = ("auto", "compiled", "plain")
+#: How a call estimates its runs' numerical error (:func:`simulate_batch`'s ``estimate``).
+ESTIMATES = ("each", "per_point")
 #: Samples (runs x intervals) between updates of the progress bar, compiled and plain
 #: (a fraction of a second; compiled, Ctrl-C is handled between them).
 SLICE_SAMPLES = {True: 50_000, False: 200}
@@ -73,7 +78,7 @@ def backend_for(scenarios, backend: str = "auto") -> str:
 
 
 def simulate_batch(scenarios, *, rtol: float = BATCH_RTOL, atol: float = BATCH_ATOL,
-                   backend: str = "auto", progress=None) -> list:
+                   backend: str = "auto", progress=None, estimate: str = "each") -> list:
     """Simulate many scenarios at once; returns one :class:`~unidyn.Result` per scenario,
     in order, each with its metrics and their estimated numerical error.
 
@@ -82,17 +87,34 @@ def simulate_batch(scenarios, *, rtol: float = BATCH_RTOL, atol: float = BATCH_A
     or on what the process ran before (bit for bit). Continuous control only. The
     metrics are accumulated at every sample: ``log_every`` thins the stored series only.
 
+    **The switched loop.** The speed and acceleration limits switch the loop's rates,
+    and adaptation, a payload and a circle's radius switch them at given times. Every
+    step holds the switches as they are at its start, so that it integrates a smooth
+    right-hand side, and a step in which a limit starts or stops acting ends there,
+    located from the step's interpolant (``docs/guides/batch-engine.md``).
+
     **Numerical error.** Each run is integrated at ``rtol``, ``atol``, and again with
-    its start moved by :data:`PERTURBATION` m (the probe). Where the probe moves a metric
-    by more than :data:`ACCURACY`, the run is ``sensitive``: no tolerance converges it,
-    its ``numerical_error`` is how far the probe moved it (one sample of the spread, not
-    a bound), and its spread over noise seeds is the uncertainty to quote. The others
-    are run again :data:`TIGHTEN` times tighter, and the tighter run is returned, its
-    ``numerical_error`` :data:`SAFETY` times its difference from the run before; where
-    that is above :data:`ACCURACY` they are tightened again, down to
-    :data:`RTOL_FLOOR`. **The promise: a run that is not sensitive has an estimate of at
-    most 1e-4 (relative), and its true error is within twice its estimate; a run where
-    that cannot be reached says so in its** ``message``.
+    its start moved by :data:`PERTURBATION` m (the probe), then again :data:`TIGHTEN`
+    times tighter; the tighter run is returned, its ``numerical_error``
+    :data:`ESTIMATE_FACTOR` times its difference from the run before, for each metric
+    and for the series (``position``, ``heading``, ``distance_error``, ``theta_hat``:
+    the largest difference over the logged samples, relative to the series' largest
+    value); where that is above :data:`ACCURACY`, or the tighter run took few more
+    steps, it is tightened again, down to :data:`RTOL_FLOOR`. A run is ``sensitive``
+    where the probe moves it by more than :data:`ACCURACY` at two tolerances in a row
+    (the perturbation's effect does not fall as the tolerance tightens): no tolerance
+    converges it, its ``numerical_error`` is how far the probe moved it (one sample of
+    the spread, not a bound), and its spread over noise seeds is the uncertainty to
+    quote. **The promise: a run that is not sensitive has an estimate of at most 1e-4
+    (relative), and its true error is within twice its estimate; a run where that
+    cannot be reached says so in its** ``message``.
+
+    With ``estimate="per_point"``, runs that differ only in their noise seed (the
+    seeds of one point of a sweep) share one estimate: the run with the smallest seed
+    among them is estimated as above, and the others are integrated once at the
+    tolerance it was returned at, with its ``numerical_error`` and ``sensitive``
+    (``Result.estimate`` names the seed). Their statistics over seeds are then the
+    uncertainty to quote, and the numerical error is checked small against it.
 
     **Runs that stop** (diverged, or the error not held within :data:`MAX_STEPS` steps
     of an interval) are returned ``complete=False`` with the samples and metrics up to
@@ -107,10 +129,13 @@ def simulate_batch(scenarios, *, rtol: float = BATCH_RTOL, atol: float = BATCH_A
     :param progress: ``None`` (a tqdm bar on a terminal for long calls), ``False``,
         ``True``, or a callable ``f(done_samples, total_samples)`` (the total grows
         where runs are tightened)
+    :param estimate: ``"each"`` (every run its own estimate) or ``"per_point"`` (runs
+        that differ only in their noise seed share one, above)
 
     A call's results share one log array per group (views, no copy): ``np.array(r.pose)``
     copies what is to outlive the rest. ``Result.steps`` and ``Result.rejected`` count
-    the steps the run returned kept and took again shorter.
+    the steps the run returned kept and took again shorter; ``Result.rtol`` is the
+    tolerance it was returned at.
 
     :raises SimulationInterrupted: on Ctrl-C (a KeyboardInterrupt); its ``results``
         hold one entry per scenario: the computed part, marked incomplete (``None``
@@ -128,6 +153,8 @@ def simulate_batch(scenarios, *, rtol: float = BATCH_RTOL, atol: float = BATCH_A
             raise ValidationError("the batch engine runs control='continuous' only; "
                                   "use unidyn.simulate (engine 'bdsim') for sampled control")
     rtol, atol = tolerances(rtol, atol)
+    if estimate not in ESTIMATES:
+        raise ValidationError(f"estimate must be one of {', '.join(ESTIMATES)}; got {estimate!r}")
     label = backend_for(scs, backend)
     compiled = label == "compiled"
     from . import kernels
@@ -139,9 +166,13 @@ def simulate_batch(scenarios, *, rtol: float = BATCH_RTOL, atol: float = BATCH_A
     work = sum(s.steps for s in scs)
     bar = Progress(progress, 2 * work, show=work >= PROGRESS_SAMPLES, desc="unidyn batch")
     results = [None] * len(scs)
+    shared = _seed_siblings(scs) if estimate == "per_point" else {}
+    run = _Call(engine, label, compiled, bar, results)
     try:
         for idx in groups.values():
-            _group(engine, [scs[i] for i in idx], idx, rtol, atol, label, compiled, bar, results)
+            first = [i for i in idx if i not in shared]
+            _group(run, [scs[i] for i in first], first, rtol, atol)
+            _siblings(run, scs, [i for i in idx if i in shared], shared, atol / rtol)
     except KeyboardInterrupt:
         done = [r for r in results if r is not None]
         raise SimulationInterrupted(
@@ -153,43 +184,69 @@ def simulate_batch(scenarios, *, rtol: float = BATCH_RTOL, atol: float = BATCH_A
     return results
 
 
-def _group(engine, scs, idx, rtol, atol, label, compiled, bar, results):
-    """Run one group (scenarios sharing the kernels' call) into ``results[idx]``: the
-    runs at (rtol, atol) and their probes; the runs that are not sensitive again at
-    tolerances :data:`TIGHTEN` times tighter, each returned with the difference from
-    the run before as its estimate, until that is within :data:`ACCURACY`."""
-    tol, B = (rtol, atol), len(scs)
+class _Call:
+    """What every pass of one call shares: the kernels (``engine``), the backend's name,
+    whether compiled, the progress bar, and the results list filled in."""
+
+    def __init__(self, engine, label, compiled, bar, results):
+        self.engine, self.label, self.compiled = engine, label, compiled
+        self.bar, self.results = bar, results
+
+    def runs(self, scs, tol, shift=0.0, where=(), keep=None):
+        """One pass over ``scs`` at tolerances ``tol``, each start moved by ``shift`` m."""
+        if not scs:
+            return []
+        return _pass(self.engine, scs, tol, [shift] * len(scs), self.label, self.compiled,
+                     self.bar, self.results if keep else None, where, keep)
+
+
+def _group(run: _Call, scs, idx, rtol, atol):
+    """Run one group (scenarios sharing the kernels' call) into ``run.results[idx]``: the
+    runs at (rtol, atol) and their probes; then each run not yet judged again at
+    tolerances :data:`TIGHTEN` times tighter (its probe too, where the probe moved it),
+    each returned with the difference from the run before as its estimate, until that
+    is within :data:`ACCURACY`; sensitive where the probe moves it at two tolerances in
+    a row."""
+    if not scs:
+        return
+    tol, B, results = (rtol, atol), len(scs), run.results
     if _together(scs):  # the runs and their probes in one pass, on cores otherwise idle
-        both = _pass(engine, scs + scs, tol, [0.0] * B + [PERTURBATION] * B, label, compiled,
-                     bar, results, idx, keep=B)
+        both = _pass(run.engine, scs + scs, tol, [0.0] * B + [PERTURBATION] * B, run.label,
+                     run.compiled, run.bar, results, idx, keep=B)
         main, probe = both[:B], both[B:]
     else:
-        main = _pass(engine, scs, tol, [0.0] * B, label, compiled, bar, results, idx, keep=B)
+        main = run.runs(scs, tol, where=idx, keep=B)
         probe = [None] * B
         done = [j for j, r in enumerate(main) if r.complete]
-        for j, q in zip(done, _pass(engine, [scs[j] for j in done], tol,
-                                    [PERTURBATION] * len(done), label, compiled, bar)):
+        for j, q in zip(done, run.runs([scs[j] for j in done], tol, PERTURBATION)):
             probe[j] = q
-    for i, r in zip(idx, main):
-        results[i] = r
-    steady = []  # not sensitive: their error is estimated by tightening
+    moved = {}  # run j -> (how far its probe moved it, at which rtol), while it moves it
+    shaky = {}  # run j -> whether its last estimate was beyond the promise
+    steady = []  # runs whose error is estimated by tightening
     for j, (r, q) in enumerate(zip(main, probe)):
+        results[idx[j]] = _noted(r, rtol=tol[0], estimate="tightened" if r.complete else "")
         if not r.complete:
             continue
-        judged = _sensitive(r, q)
-        if judged is not None:
-            results[idx[j]] = judged
-        else:
-            steady.append(j)
+        if not q.complete:
+            results[idx[j]] = _noted(r, message=f"every sample computed, its numerical error "
+                                                f"not estimated: its probe stopped ({q.message})")
+            continue
+        d = _differences(r, q)
+        if max(d.values()) > ACCURACY:
+            moved[j] = (d, tol[0])
+        steady.append(j)
     while steady:
         tol = (tol[0] / TIGHTEN, tol[1] / TIGHTEN)
         if tol[0] < RTOL_FLOOR:
             for j in steady:
                 results[idx[j]] = _beyond(results[idx[j]], tol[0] * TIGHTEN)
             return
-        bar.grow(sum(scs[j].steps for j in steady))
-        tighter = _pass(engine, [scs[j] for j in steady], tol, [0.0] * len(steady), label,
-                        compiled, bar)
+        # probed again: a run its probe moved, and a run whose estimate did not come
+        # within the promise (a perturbation's effect may be what moves it)
+        probed = [j for j in steady if j in moved or shaky.get(j)]
+        run.bar.grow(sum(scs[j].steps for j in steady + probed))
+        tighter = run.runs([scs[j] for j in steady], tol)
+        probes = dict(zip(probed, run.runs([scs[j] for j in probed], tol, PERTURBATION)))
         again = []
         for j, r in zip(steady, tighter):
             before = results[idx[j]]
@@ -198,13 +255,69 @@ def _group(engine, scs, idx, rtol, atol, label, compiled, bar, results):
                     f"every sample computed, its numerical error not estimated: the same "
                     f"run at rtol = {tol[0]:g} stopped ({r.message})"))
                 continue
+            r = _noted(r, rtol=tol[0])
+            if j in probes:
+                q = probes[j]
+                d = _differences(r, q) if q.complete else {}
+                if d and max(d.values()) > ACCURACY:
+                    if j in moved:  # the probe's effect persists as the tolerance tightens
+                        results[idx[j]] = _sensitive(r, d, tol[0], *moved[j])
+                        continue
+                    moved[j] = (d, tol[0])
+                else:
+                    moved.pop(j, None)
             results[idx[j]] = _estimated(r, before)
             # a tighter run whose steps the sample intervals set, not the tolerance (it
             # took few more), differs from the looser by less than either's error
             idle = r.steps < STEP_GROWTH * before.steps
-            if idle or max(results[idx[j]].numerical_error.values()) > ACCURACY:
+            shaky[j] = max(results[idx[j]].numerical_error.values()) > ACCURACY
+            if idle or shaky[j]:
                 again.append(j)
         steady = again
+
+
+def _seed_siblings(scs) -> dict:
+    """For each run that differs from another only in its noise seed and is not the one
+    with the smallest seed among them: the index of that one (its estimate is shared)."""
+    first = {}
+    for i, s in enumerate(scs):
+        if s.noise is not None:
+            key = repr(s.replace(noise=dataclasses.replace(s.noise, seed=0)))
+            j = first.setdefault(key, i)
+            if s.noise.seed < scs[j].noise.seed:
+                first[key] = i
+    out = {}
+    for i, s in enumerate(scs):
+        if s.noise is not None:
+            j = first[repr(s.replace(noise=dataclasses.replace(s.noise, seed=0)))]
+            if j != i:
+                out[i] = j
+    return out
+
+
+def _siblings(run: _Call, scs, idx, shared, atol_per_rtol):
+    """The runs ``idx`` integrated once, each at the tolerance its seed sibling
+    ``shared[i]`` (already in ``run.results``) was returned at, with its estimate."""
+    by_tol = {}
+    for i in idx:
+        ref = run.results[shared[i]]
+        tol = ref.rtol if ref is not None and ref.rtol else None
+        by_tol.setdefault(tol, []).append(i)
+    for tol, members in by_tol.items():
+        rtol = tol or BATCH_RTOL
+        out = run.runs([scs[i] for i in members], (rtol, rtol * atol_per_rtol),
+                       where=members, keep=len(members))
+        for i, r in zip(members, out):
+            ref = run.results[shared[i]]
+            seed = scs[shared[i]].noise.seed
+            r = _noted(r, rtol=rtol, estimate=f"from seed {seed}")
+            if r.complete and ref is not None and ref.complete and ref.numerical_error:
+                r = _noted(r, numerical_error=dict(ref.numerical_error), sensitive=ref.sensitive,
+                           message=(f"integrated once at rtol = {rtol:g}, the tolerance seed "
+                                    f"{seed} of the same point needed; its numerical error "
+                                    f"estimate is that seed's" + (" (sensitive)" if ref.sensitive
+                                                                  else "")))
+            run.results[i] = r
 
 
 def _together(scs) -> bool:
@@ -309,46 +422,56 @@ def _relative(a: float, b: float, scale: float) -> float:
     return d / abs(scale) if scale else (0.0 if d == 0 else float("inf"))
 
 
+def _series_difference(a, b) -> float:
+    """The largest difference between two logged series over their samples, relative
+    to the first one's largest value (0 for a series not logged)."""
+    if a is None or b is None or not len(a):
+        return 0.0
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    return _relative(float(np.max(np.abs(a - b))), 0.0, float(np.max(np.abs(a))))
+
+
 def _differences(r: Result, other: Result) -> dict:
-    """How far ``other``'s metrics and final theta_hat are from ``r``'s, relative to
-    their size: the integral metrics all by the largest of their differences (one
-    metric's difference may vanish by chance; all of them rarely do), the final error
-    relative to the mean error of the run (IAE / T: it may end near zero)."""
+    """How far ``other``'s metrics and series are from ``r``'s, relative to their size:
+    the integral metrics all by the largest of their differences (one metric's
+    difference may vanish by chance; all of them rarely do), the final error relative
+    to the mean error of the run (IAE / T: it may end near zero), and the series
+    (``position``, ``heading``, ``distance_error``, ``theta_hat``) by their largest
+    difference over the logged samples."""
     spread = max(_relative(r.metrics[k], other.metrics[k], r.metrics[k]) for k in INTEGRAL_NAMES)
     out = {k: spread for k in INTEGRAL_NAMES}
     mean_error = r.metrics["iae"] / r.t[-1] if len(r.t) > 1 else r.metrics["error_final"]
     out["error_final"] = _relative(r.metrics["error_final"], other.metrics["error_final"],
                                    mean_error)
-    if r.theta_hat is not None and len(r.t) and len(other.t):
-        a, b = np.asarray(r.theta_hat[-1], float), np.asarray(other.theta_hat[-1], float)
-        out["theta_hat"] = _relative(float(np.max(np.abs(a - b))), 0.0, float(np.max(np.abs(a))))
-    else:
-        out["theta_hat"] = 0.0
+    n = min(len(r.t), len(other.t))
+    out["position"] = _series_difference(r.pose[:n, :2], other.pose[:n, :2])
+    out["heading"] = _series_difference(r.pose[:n, 2], other.pose[:n, 2])
+    out["distance_error"] = _series_difference(r.error[:n], other.error[:n])
+    out["theta_hat"] = _series_difference(
+        None if r.theta_hat is None else r.theta_hat[:n],
+        None if other.theta_hat is None else other.theta_hat[:n])
     return out
 
 
-def _sensitive(r: Result, probe: Result):
-    """``r`` marked sensitive, its error how far the probe moved it, where that is more
-    than :data:`ACCURACY`; else None."""
-    if not probe.complete:
-        return _noted(r, message=f"every sample computed, its numerical error not estimated: "
-                                 f"its probe stopped ({probe.message})")
-    moved = _differences(r, probe)
-    if max(moved.values()) <= ACCURACY:
-        return None
-    iae = _relative(r.metrics["iae"], probe.metrics["iae"], r.metrics["iae"])
-    message = (f"sensitive: IAE moves {100 * iae:.2g} % (its metrics up to "
-               f"{100 * max(moved.values()):.2g} %) under a {PERTURBATION:g} m perturbation of "
-               f"the starting point; no tolerance converges it, and the spread over noise seeds "
-               f"is the uncertainty to quote (scenario {r.scenario.name or r.scenario.case})")
-    return _noted(r, numerical_error=moved, sensitive=True, message=message)
+def _sensitive(r: Result, moved: dict, rtol: float, moved_before: dict, rtol_before: float):
+    """``r`` marked sensitive: its probe moved it by ``moved`` at ``rtol`` and by
+    ``moved_before`` at ``rtol_before``, both more than :data:`ACCURACY`."""
+    worst = max(moved.values())
+    message = (f"sensitive: a {PERTURBATION:g} m move of the starting point moves IAE by "
+               f"{100 * moved_before['iae']:.2g} % at rtol = {rtol_before:g} and "
+               f"{100 * moved['iae']:.2g} % at rtol = {rtol:g} (its metrics and series up to "
+               f"{100 * worst:.2g} %): the perturbation's effect does not fall as the "
+               f"tolerance tightens, so no tolerance converges the run, and its spread over "
+               f"noise seeds is the uncertainty to quote (scenario "
+               f"{r.scenario.name or r.scenario.case})")
+    return _noted(r, numerical_error=moved, sensitive=True, message=message, estimate="probe")
 
 
 def _estimated(r: Result, looser: Result) -> Result:
-    """``r`` with its numerical error: :data:`SAFETY` times its difference from the same
+    """``r`` with its numerical error: :data:`ESTIMATE_FACTOR` times its difference from the same
     run at :data:`TIGHTEN` times looser tolerances (about the looser one's error, which
     ``r``'s is within where the error falls with the tolerance)."""
-    error = {k: SAFETY * v for k, v in _differences(r, looser).items()}
+    error = {k: ESTIMATE_FACTOR * v for k, v in _differences(r, looser).items()}
     return _noted(r, numerical_error=error, sensitive=False)
 
 

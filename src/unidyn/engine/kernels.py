@@ -1,9 +1,12 @@
 """The batch engine's step rule, once: the Dormand-Prince 5(4) pair with step-size
 control (:func:`dp_step`, its table :data:`A`, :data:`B`, :data:`C`, :data:`E`; the
-method of ``solve_ivp``'s RK45) over any right-hand side with a projection onto its
-constraints (:func:`integrate_interval`), restarted at every sample interval; the Fig. 2
-loop (:func:`loop_rhs`, its speed limits :func:`loop_limits`) one run after another,
-its metrics accumulated at every sample (:func:`advance`, called from a thread per core). numba compiles this module where installed (:mod:`unidyn.engine.jit`);
+method of ``solve_ivp``'s RK45) and its free interpolant (:data:`P_DENSE`), over any
+switched right-hand side: each step holds the switches' mode, and a step in which a
+switch's margin turns negative ends where it crosses zero, found from the step's
+interpolant (:func:`integrate_interval`, :func:`switch_at`), restarted at every sample
+interval; the Fig. 2 loop (:func:`loop_rhs`, its switches decided by
+:func:`loop_decide`) one run after another, its metrics accumulated at every sample
+(:func:`advance`, called from a thread per core). numba compiles this module where installed (:mod:`unidyn.engine.jit`);
 :func:`unidyn.engine.jit.plain_copy` runs the same source as plain Python.
 """
 
@@ -22,9 +25,9 @@ from .jit import AVAILABLE, jit
 if AVAILABLE:
     from numba.extending import overload
 
-__all__ = ["AVAILABLE", "Runs", "Call", "LOG_COLUMNS", "LOG_SERIES",
-           "log_layout", "reference", "loop_rhs", "loop_limits", "advance", "dp_step",
-           "integrate_interval", "Status"]
+__all__ = ["AVAILABLE", "Runs", "Call", "Work", "LOG_COLUMNS", "LOG_SERIES",
+           "log_layout", "reference", "loop_rhs", "loop_decide", "advance", "dp_step",
+           "dense", "switch_at", "integrate_interval", "work_arrays", "Status"]
 
 
 # ------------------------------------------------ Dormand-Prince 5(4), a table
@@ -40,20 +43,60 @@ A = np.array([[0.0, 0.0, 0.0, 0.0, 0.0],
               [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656]])
 B = np.array([35 / 384, 0.0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84])
 E = np.array([-71 / 57600, 0.0, 71 / 16695, -71 / 1920, 17253 / 339200, -22 / 525, 1 / 40])
-#: As scipy's: the next step is h SAFETY err^(-1/5), within [MIN_FACTOR, MAX_FACTOR] h.
-SAFETY, MIN_FACTOR, MAX_FACTOR = 0.9, 0.2, 10.0
+#: The free fourth-order interpolant of the pair (Shampine, Math. Comp. 46 (1986); scipy's
+#: ``RK45.P``): the state at t + theta h is x + h sum_j K[j] sum_k P_DENSE[j, k] theta^(k+1).
+P_DENSE = np.array([
+    [1.0, -8048581381 / 2820520608, 8663915743 / 2820520608, -12715105075 / 11282082432],
+    [0.0, 0.0, 0.0, 0.0],
+    [0.0, 131558114200 / 32700410799, -68118460800 / 10900136933, 87487479700 / 32700410799],
+    [0.0, -1754552775 / 470086768, 14199869525 / 1410260304, -10690763975 / 1880347072],
+    [0.0, 127303824393 / 49829197408, -318862633887 / 49829197408, 701980252875 / 199316789632],
+    [0.0, -282668133 / 205662961, 2019193451 / 616988883, -1453857185 / 822651844],
+    [0.0, 40617522 / 29380423, -110615467 / 29380423, 69997945 / 29380423]])
+#: As scipy's: the next step is h STEP_SAFETY err^(-1/5), within [MIN_FACTOR, MAX_FACTOR] h.
+STEP_SAFETY, MIN_FACTOR, MAX_FACTOR = 0.9, 0.2, 10.0
+#: The shortest step, as a fraction of the sample interval, before a run stops (STEP).
+MIN_STEP_FRACTION = 1e-12
+#: A switch is located to this fraction of its step, or rtol if larger: ending a step that
+#: late moves the state by the square of it (the loop's rates are continuous across its
+#: switches; a speed reaching its limit is put back on it).
+SWITCH_TOL_FRACTION = 1e-12
+#: The most consecutive steps that may end on a switch before one step is taken with the
+#: switches decided at each evaluation (a sliding mode: the limits chatter faster than any
+#: step; as Simulink's bound on consecutive zero crossings).
+MAX_SWITCH_CHAIN = 10
+#: The iterations of the Illinois method that locate a switch within a step.
+MAX_LOCATE = 60
+
+
+#: The per-call scratch of :func:`integrate_interval`: ``K`` (7, n) the stages' rates,
+#: ``G`` (7, m) their switches' margins, ``y`` (n,) a stage's state, ``Xn`` (n,) the step's
+#: end, ``Xd`` (n,) a state of the interpolant, ``rates`` (n,) and ``margins`` (m,) its
+#: rates and margins, ``mode`` the switches held over a step (the time switches' time,
+#: then each switch's side: :data:`unidyn.model.equations.MODE`).
+Work = namedtuple("Work", "K G y Xn Xd rates margins mode")
+
+
+@jit(inline=True)
+def work_arrays(n, m):
+    """:data:`Work` for n states and m switches."""
+    return Work(np.empty((7, n)), np.empty((7, m)), np.empty(n), np.empty(n), np.empty(n),
+                np.empty(n), np.empty(m), np.empty(m + 1))
 
 
 # not cached itself: numba's cache index records a signature's types by their module, so
 # a right-hand side of a script would break the index for other processes (its callers
 # are cached, with its code in them)
 @jit(inline=True)
-def dp_step(f, t, x, h, args, K, y, out, rtol, atol):
-    """One Dormand-Prince step of length h from (t, x) of dx/dt = f(t, x, args) (f writes
-    into its last argument), the fifth-order solution into out. K[0] holds f(t, x) on
-    entry; K[1..6] get the other stages, K[6] = f(t + h, out); y is scratch. Returns the
-    error as ``solve_ivp`` measures it: the root mean square over the states of
-    error / (atol + rtol max(|x|, |out|)), at most 1 for a step accurate enough."""
+def dp_step(f, t, x, h, args, work, rtol, atol):
+    """One Dormand-Prince step of length h from (t, x) of dx/dt = f(t, x, args, mode)
+    with the switches held at ``work.mode`` (f writes the rates and the switches' margins
+    into its last two arguments), the fifth-order solution into ``work.Xn``. ``work.K[0]``
+    holds f(t, x) on entry; K[1..6] get the other stages (G their margins), K[6] =
+    f(t + h, Xn). Returns the error as ``solve_ivp`` measures it: the root mean square
+    over the states of error / (atol + rtol max(|x|, |Xn|)), at most 1 for a step
+    accurate enough."""
+    K, G, y, out, mode = work.K, work.G, work.y, work.Xn, work.mode
     n = x.shape[0]
     for s in range(1, 6):
         for i in range(n):
@@ -61,13 +104,13 @@ def dp_step(f, t, x, h, args, K, y, out, rtol, atol):
             for j in range(s):
                 acc += A[s, j] * K[j, i]
             y[i] = x[i] + h * acc
-        f(t + C[s] * h, y, args, K[s])
+        f(t + C[s] * h, y, args, mode, K[s], G[s])
     for i in range(n):
         acc = 0.0
         for j in range(6):
             acc += B[j] * K[j, i]
         out[i] = x[i] + h * acc
-    f(t + h, out, args, K[6])
+    f(t + h, out, args, mode, K[6], G[6])
     err = 0.0
     for i in range(n):
         acc = 0.0
@@ -78,11 +121,156 @@ def dp_step(f, t, x, h, args, K, y, out, rtol, atol):
 
 
 @jit(inline=True)
+def dense(x, h, K, theta, out):
+    """The step's interpolant (:data:`P_DENSE`) at t + theta h into out."""
+    for i in range(x.shape[0]):
+        acc = 0.0
+        for j in range(7):
+            acc += K[j, i] * theta * (P_DENSE[j, 0] + theta * (P_DENSE[j, 1] + theta * (
+                P_DENSE[j, 2] + theta * P_DENSE[j, 3])))
+        out[i] = x[i] + h * acc
+
+
+@jit(inline=True)
+def lowest(g):
+    """The smallest of the margins g (inf for none)."""
+    low = math.inf
+    for j in range(g.shape[0]):
+        low = min(low, g[j])
+    return low
+
+
+@jit(inline=True)
+def margin_at(f, t, x, h, args, work, theta):
+    """The smallest switch margin on the step's interpolant at t + theta h (the state
+    into ``work.Xd``)."""
+    dense(x, h, work.K, theta, work.Xd)
+    f(t + theta * h, work.Xd, args, work.mode, work.rates, work.margins)
+    return lowest(work.margins)
+
+
+#: The stages' distinct times as fractions of the step, in order, and the row of
+#: ``Work.G`` that holds the margins there (the end: the solution's, row 6).
+SAMPLE_TIMES = (0.0, 0.2, 0.3, 0.8, 8.0 / 9.0, 1.0)
+SAMPLE_ROWS = (0, 1, 2, 3, 4, 6)
+
+
+#: The middle of the widest gap between the stages' times (0.3 to 0.8 of the step).
+GAP_MIDDLE = 0.55
+
+
+@jit(inline=True)
+def held_clipped(mode):
+    """Whether a switch of the mode holds a value at its limit (its rates then hide
+    how fast the value it clips moves)."""
+    for j in range(1, mode.shape[0]):
+        if mode[j] == 1.0 or mode[j] == -1.0:
+            return True
+    return False
+
+
+@jit(inline=True)
+def predicted_zero(G, q):
+    """The earliest time (fraction of the step) at which a margin falling from sample
+    q - 1 to sample q > 0 reaches zero on the line through them, if before sample
+    q + 1 (1 for the last); else 2."""
+    a, b = SAMPLE_TIMES[q - 1], SAMPLE_TIMES[q]
+    c = SAMPLE_TIMES[q + 1] if q + 1 < len(SAMPLE_TIMES) else 1.0
+    first = 2.0
+    for j in range(G.shape[1]):
+        ma, mb = G[SAMPLE_ROWS[q - 1], j], G[SAMPLE_ROWS[q], j]
+        if ma > mb > 0.0:
+            z = b + mb * (b - a) / (ma - mb)
+            if z < c:
+                first = min(first, z)
+    return first
+
+
+@jit(inline=True)
+def switch_at(f, t, x, h, args, work, rtol):
+    """Where the first switch of a kept step flips, as a fraction of its length: 1 where
+    it finds none; else the end of the bracket just past the first crossing of zero by
+    the smallest margin on the step's interpolant (its state in ``work.Xd``), found by
+    the Illinois method to :data:`SWITCH_TOL_FRACTION` or rtol.
+
+    A margin is looked at on the interpolant at the stages' times where one is negative
+    at a stage, and where one falling between two stages would reach zero before the
+    next on its line (a clipping episode shorter than the stages' spacing); a negative
+    margin at a stage state but nowhere on the interpolant keeps the step."""
+    G = work.G
+    lo, glo, hi, ghi = 0.0, lowest(G[0]), -1.0, 0.0
+    seen = False
+    for s in range(1, 7):
+        if lowest(G[s]) < 0.0:
+            seen = True
+            break
+    if seen:  # the stages' times on the interpolant, in order: the first negative
+        for q in range(1, len(SAMPLE_TIMES)):
+            theta = SAMPLE_TIMES[q]
+            g = lowest(G[6]) if q == len(SAMPLE_TIMES) - 1 else margin_at(f, t, x, h, args,
+                                                                           work, theta)
+            if g < 0.0:
+                hi, ghi = theta, g
+                break
+            lo, glo = theta, g
+    else:  # a margin heading for zero between two stages: where its line reaches it
+        for q in range(1, len(SAMPLE_TIMES) - 1):
+            z = predicted_zero(G, q)
+            if z < 1.0:
+                g = margin_at(f, t, x, h, args, work, z)
+                if g < 0.0:
+                    lo, glo = SAMPLE_TIMES[q], lowest(G[SAMPLE_ROWS[q]])
+                    hi, ghi = z, g
+                    break
+        if hi < 0.0 and held_clipped(work.mode):  # the widest gap's middle, where clipped
+            g = margin_at(f, t, x, h, args, work, GAP_MIDDLE)
+            if g < 0.0:
+                lo, glo, hi, ghi = SAMPLE_TIMES[2], lowest(G[2]), GAP_MIDDLE, g
+    if hi < 0.0:
+        return 1.0
+    tol = max(rtol, SWITCH_TOL_FRACTION)
+    glo = max(glo, 0.0)
+    side = 0  # which end moved last (Illinois: halve the other's value when one repeats)
+    for _ in range(MAX_LOCATE):
+        if hi - lo <= tol:
+            break
+        mid = hi - ghi * (hi - lo) / (ghi - glo) if ghi != glo else 0.5 * (lo + hi)
+        # keep inside the bracket, away from its ends by a part of the tolerance
+        mid = min(max(mid, lo + 0.25 * tol), hi - 0.25 * tol)
+        g = margin_at(f, t, x, h, args, work, mid)
+        if g < 0.0:
+            hi, ghi = mid, g
+            if side == -1:
+                glo *= 0.5
+            side = -1
+        else:
+            lo, glo = mid, g
+            if side == 1:
+                ghi *= 0.5
+            side = 1
+    dense(x, h, work.K, hi, work.Xd)
+    return hi
+
+
+@jit(inline=True)
+def time_to_switch(G, h):
+    """How long until a margin falling over the step's last part (from 8/9 of it to its
+    end) reaches zero on that line (inf: none falls): the next step ends a half past
+    it, so that its stages see the switch."""
+    first = math.inf
+    for j in range(G.shape[1]):
+        ma, mb = G[4, j], G[6, j]
+        if ma > mb > 0.0:
+            first = min(first, h / 9.0 * mb / (ma - mb))
+    return first
+
+
+@jit(inline=True)
 def step_factor(err):
     """How much longer (or shorter) the next step is than one with error ``err``."""
     if err == 0.0:
         return MAX_FACTOR
-    return min(MAX_FACTOR, max(MIN_FACTOR, SAFETY * err ** -0.2))
+    return min(MAX_FACTOR, max(MIN_FACTOR, STEP_SAFETY * err ** -0.2))
 
 
 # ------------------------------------------------------------- the Fig. 2 loop
@@ -102,8 +290,9 @@ if AVAILABLE:
 
 
 @jit(inline=True)
-def reference(t, p, references):
-    """(x_d, y_d, x_d', y_d', x_d'', y_d'') of the run with parameters p at time t
+def reference(t, ts, p, references):
+    """(x_d, y_d, x_d', y_d', x_d'', y_d'') of the run with parameters p at time t, a
+    circle's radius steps judged at time ts (the step's start: a step never spans one)
     (``references``: the call's Python-function references, trajectory code -1)."""
     kind = p[P.trajectory]
     if kind < 0.0:
@@ -113,33 +302,42 @@ def reference(t, p, references):
                                p[P.path5], p[P.path6])
     if kind == 1.0:
         steps = p[P.step_time1:P.step_time1 + 2 * eq.RADIUS_STEPS]  # unused: at t = inf
-        radius = eq.stepped_radius(t, p[P.path1], steps)
+        radius = eq.stepped_radius(ts, p[P.path1], steps)
         return eq.circle(t, radius, p[P.path2], p[P.path3], p[P.path4], p[P.path5])
     return eq.line(t, p[P.path1], p[P.path2], p[P.path3], p[P.path4])
 
 
 @jit
-def loop_rhs(t, X, args, out):
-    """The Fig. 2 loop's dX/dt (:func:`unidyn.model.equations.loop_rates`) of one run
-    at time t into out. args = (p, noise, references): a row of the parameter table
+def loop_rhs(t, X, args, mode, out, margins):
+    """The Fig. 2 loop's dX/dt (:func:`unidyn.model.equations.loop_rates_held`) of one
+    run at time t, its switches held at ``mode``, into out, and the switches' margins
+    into margins. args = (p, noise, references): a row of the parameter table
     (:data:`unidyn.model.equations.LOOP_PARAMETERS`), the interval's held noise
     (position x, y, velocity u, w) and the call's Python-function references."""
     p, noise, references = args
-    d = eq.loop_rates(t, X, reference(t, p, references), p, noise)
+    d, g, _ = eq.loop_rates_held(t, X, reference(t, mode[0], p, references), p, noise,
+                                 (mode[0], mode[1], mode[2], mode[3], mode[4], mode[5], mode[6]))
     for i in range(NSTATE):
         out[i] = d[i]
+    for j in range(eq.NSWITCH):
+        margins[j] = g[j]
 
 
 @jit(inline=True)
-def loop_limits(X, args):
-    """The robot's speed limits at the end of a step: u and w of X clipped to them
-    (the acceleration limits of Eq. (2) hold the speeds there; a step ends on them).
-    Returns whether one was clipped."""
-    p = args[0]
-    u, w = eq.saturate(X[S.u], p[P.speed_u]), eq.saturate(X[S.w], p[P.speed_w])
-    clipped = u != X[S.u] or w != X[S.w]
-    X[S.u], X[S.w] = u, w
-    return clipped
+def loop_decide(t, X, args, mode):
+    """The switches' mode at (t, X) into ``mode``: the time switches judged at t, each
+    limit's side as the values there put it (:data:`unidyn.model.equations.AUTO`); u and
+    w put back within their speed limits (a step that reached one ends just past it).
+    Returns the next time a time switch flips (inf: none)."""
+    p, noise, references = args
+    X[S.u], X[S.w] = eq.saturate(X[S.u], p[P.speed_u]), eq.saturate(X[S.w], p[P.speed_w])
+    auto = eq.AUTO
+    _, _, side = eq.loop_rates_held(t, X, reference(t, t, p, references), p, noise,
+                                    (t, auto, auto, auto, auto, auto, auto))
+    mode[0] = t
+    for j in range(eq.NSWITCH):
+        mode[j + 1] = side[j]
+    return eq.next_switch_time(t, p)
 
 
 # -------------------------------------------------------------------- the log
@@ -177,7 +375,7 @@ def sample_row(t, X, p, noise, references, row):
     """The full log row (:data:`LOG_COLUMNS`) of the sample at (t, X) into row."""
     for i in range(11):
         row[i] = X[i]
-    ref = reference(t, p, references)
+    ref = reference(t, t, p, references)
     ud, wd, udd, wdd, G, u_ref, w_ref, um, wm = eq.loop_signals(X, ref, p, noise)
     row[11], row[12], row[13], row[14] = ref[0], ref[1], ud, wd
     row[15], row[16] = eq.saturate(u_ref, p[P.speed_u]), eq.saturate(w_ref, p[P.speed_w])
@@ -259,48 +457,84 @@ def check_state(X, bound):
 
 # not cached itself (as dp_step): it takes the right-hand side as an argument
 @jit(inline=True)
-def integrate_interval(f, limits, t0, t1, X, h, args, call, K, y, Xn):
-    """One run of dX/dt = f(t, X, args) from (t0, X) to t1 by error-controlled steps, X
-    updated, the first step h (0: t1 - t0); after each step ``limits(X, args)``
-    projects the state onto its constraints, returning whether it moved it (then f is
-    evaluated again there). Returns (the next step, steps kept, steps rejected,
-    ``OK``; or ``STEP``: the tolerance not met in ``call.max_steps`` steps;
-    ``NONFINITE``: the last error estimate not a number)."""
+def integrate_interval(f, decide, t0, t1, X, h, args, call, work):
+    """One run of the switched system dX/dt = f(t, X, args, mode) from (t0, X) to t1 by
+    error-controlled steps, X updated, the first step h (0: t1 - t0).
+
+    ``decide(t, X, args, mode)`` sets the switches' mode at (t, X) (it may put X back
+    onto its constraints) and returns the next time a time switch flips. Each step holds
+    the mode, so that it integrates a smooth right-hand side; a kept step in which a
+    switch's margin turns negative ends where it crosses zero (:func:`switch_at`), steps
+    end at the time switches, and the mode is decided again there. After
+    :data:`MAX_SWITCH_CHAIN` steps in a row that end on a switch (a sliding mode), one
+    step decides the switches at each evaluation instead. Returns (the next step, steps
+    kept, steps rejected, ``OK``; or ``STEP``: the tolerance not met in
+    ``call.max_steps`` steps or the step below :data:`MIN_STEP_FRACTION` of the
+    interval; ``NONFINITE``: the last error estimate not a number)."""
+    K, G, mode = work.K, work.G, work.mode
+    n = X.shape[0]
     span = t1 - t0
     h = h if h > 0.0 else span
-    f(t0, X, args, K[0])
+    t_switch = decide(t0, X, args, mode)
+    f(t0, X, args, mode, K[0], G[0])
     t, kept, rejected, proposal = t0, 0, 0, h
     again = False  # a step of this interval was taken again: grow no step after it
+    chain = 0  # steps in a row that ended on a switch
     while True:
-        last = h >= t1 - t
-        h = t1 - t if last else h
-        err = dp_step(f, t, X, h, args, K, y, Xn, call.rtol, call.atol)
+        end = min(t1, t_switch)
+        last = h >= end - t
+        h = end - t if last else h
+        err = dp_step(f, t, X, h, args, work, call.rtol, call.atol)
         if err <= 1.0:  # kept (an error estimate that is NaN is not)
             kept += 1
             factor = min(1.0, step_factor(err)) if again else step_factor(err)
-            if not last:
+            theta = 1.0 if mode[1] == eq.AUTO else switch_at(f, t, X, h, args, work, call.rtol)
+            if theta < 1.0:  # ended on a switch: the mode is decided again there
+                for i in range(n):
+                    X[i] = work.Xd[i]
+                t = t + theta * h
                 proposal = h * factor
-            elif factor < 1.0:  # the interval's last step, cut to its end
-                proposal = min(proposal, h * factor)
-            moved = limits(Xn, args)
-            for i in range(X.shape[0]):
-                X[i] = Xn[i]
-            if last:
-                return proposal, kept, rejected, OK
-            t = t + h
-            if moved:  # f at the step's end was evaluated off the constraints
-                f(t, X, args, K[0])
+                chain += 1
+                t_switch = decide(t, X, args, mode)
+                if chain >= MAX_SWITCH_CHAIN:  # a sliding mode: one step deciding as it goes
+                    for j in range(1, mode.shape[0]):
+                        mode[j] = eq.AUTO
+                    chain = 0
+                f(t, X, args, mode, K[0], G[0])
+                h = proposal
+                again = False
             else:
-                for i in range(X.shape[0]):
-                    K[0, i] = K[6, i]
-            h = proposal
-            again = False
+                if not last:
+                    proposal = h * factor
+                elif factor < 1.0:  # the step cut to the interval's end or a time switch
+                    proposal = min(proposal, h * factor)
+                if mode[1] != eq.AUTO:  # not beyond a switch the margins head for
+                    proposal = min(proposal, max(1.5 * time_to_switch(G, h), h * MIN_FACTOR))
+                for i in range(n):
+                    X[i] = work.Xn[i]
+                if last and end == t1:
+                    if mode[1] == eq.AUTO:  # the step that decided as it went: back on the limits
+                        decide(t1, X, args, mode)
+                    return proposal, kept, rejected, OK
+                t = end if last else t + h
+                if last or mode[1] == eq.AUTO:  # a time switch, or after a sliding step
+                    t_switch = decide(t, X, args, mode)
+                    f(t, X, args, mode, K[0], G[0])
+                    chain = 0
+                else:
+                    for i in range(n):
+                        K[0, i] = K[6, i]
+                    for j in range(G.shape[1]):
+                        G[0, j] = G[6, j]
+                    chain = 0
+                h = proposal
+                again = False
         else:
             rejected += 1
             again = True
             h = h * step_factor(err) if err < math.inf else 0.5 * h  # NaN: halved
             proposal = h
-        if kept + rejected >= call.max_steps or not h >= 1e-12 * span:
+        if kept + rejected >= call.max_steps or not h >= MIN_STEP_FRACTION * span:
             return proposal, kept, rejected, STEP if err < math.inf else NONFINITE
 
 
@@ -312,8 +546,8 @@ def advance(runs, call, k0, k1, which):
     accumulated into the metrics' integrals (:func:`accumulate`) and, every
     ``log_every``-th and where the run stops, logged with that noise, as the diagram
     logs it before the tick."""
-    K, y, Xn, X, row = (np.empty((7, NSTATE)), np.empty(NSTATE), np.empty(NSTATE),
-                        np.empty(NSTATE), np.empty(NLOG))
+    work = work_arrays(NSTATE, eq.NSWITCH)
+    X, row = np.empty(NSTATE), np.empty(NLOG)
     Ts, L = call.Ts, call.log_every
     for i in which:
         for q in range(NSTATE):  # (a loop: an array assignment compiles its error messages)
@@ -333,8 +567,8 @@ def advance(runs, call, k0, k1, which):
                 status = check_state(X, runs.bounds[i])
             if status != OK:
                 break
-            h, kept, again, status = integrate_interval(loop_rhs, loop_limits, k * Ts,
-                                                        (k + 1) * Ts, X, h, args, call, K, y, Xn)
+            h, kept, again, status = integrate_interval(loop_rhs, loop_decide, k * Ts,
+                                                        (k + 1) * Ts, X, h, args, call, work)
             steps += kept
             rejected += again
             if status == OK:

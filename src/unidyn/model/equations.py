@@ -29,6 +29,7 @@ this module; no Python branch on a value (it may be an array).
 
 from __future__ import annotations
 
+import math
 from collections import namedtuple
 
 import numpy as np
@@ -40,7 +41,9 @@ __all__ = ["select", "sin", "cos", "tanh", "point_velocity_components", "dynamic
            "kinematic_control_and_rate_components", "compensation_regressor_components", "compensation_components", "adaptation_rate_components",
            "figure_eight", "circle", "stepped_radius", "mass_scale", "payload_theta", "line", "loop_signals", "loop_rates",
            "loop_derivative", "loop_adaptation_rates", "STATE", "S", "NSTATE", "LOOP_PARAMETERS", "P", "TRAJECTORY_KINDS",
-           "RADIUS_STEPS", "PAYLOAD_STEPS", "SWITCH_TOL"]
+           "RADIUS_STEPS", "PAYLOAD_STEPS", "SWITCH_TOL", "clip_held", "speed_held", "clip_margin", "clip_side",
+           "speed_margin", "speed_side", "loop_rates_held", "next_switch_time", "SWITCHES", "NSWITCH", "MODE",
+           "AUTO"]
 
 #: Adaptation is on for t >= adapt_from - SWITCH_TOL (s): the switch then falls on
 #: the same side of a solver stage that lands on adapt_from up to rounding, in
@@ -138,9 +141,66 @@ def limited_acceleration(u, w, du, dw, speed_u, speed_w, accel_u, accel_w):
     already at its speed limit beyond it (how the limits act on Eq. 2)."""
     du = saturate(du, accel_u)
     dw = saturate(dw, accel_w)
-    du = select(((u >= speed_u) & (du > 0.0)) | ((u <= -speed_u) & (du < 0.0)), 0.0, du)
-    dw = select(((w >= speed_w) & (dw > 0.0)) | ((w <= -speed_w) & (dw < 0.0)), 0.0, dw)
-    return du, dw
+    return speed_held(u, du, speed_u, AUTO), speed_held(w, dw, speed_w, AUTO)
+
+
+# ------------------------------------------------------------- the switches
+# The limits make the loop a switched system: each of its switches is a value clipped
+# to a limit (-1: at -limit, 0: not clipped, +1: at +limit), and between the times a
+# switch flips the loop's right-hand side is smooth. The batch engine holds each switch
+# over a step (its *mode*), so that every step integrates a smooth right-hand side,
+# and ends a step where a switch's margin (``clip_margin``, ``speed_margin``: >= 0
+# while the held side is right) crosses zero; the blocks decide each switch where
+# they evaluate the loop (AUTO).
+
+#: The loop's switches, in the order of a mode's entries after its time: the commands
+#: u_ref, w_ref clipped to the speed limits, the accelerations of Eq. (2) clipped to
+#: the acceleration limits, and u, w held at their speed limits.
+SWITCHES = ("command_u", "command_w", "accel_u", "accel_w", "speed_u", "speed_w")
+#: The number of switches.
+NSWITCH = len(SWITCHES)
+#: A mode: the time at which the time switches (adaptation, payload, radius steps) are
+#: judged, then each switch's side.
+MODE = ("time",) + SWITCHES
+#: A switch's side decided by the values where the loop is evaluated.
+AUTO = 2.0
+
+
+def clip_held(x, limit, held):
+    """x clipped to [-limit, limit] on the side ``held`` (-1, 0: x itself, +1), or as x
+    lies where held is :data:`AUTO` (:func:`saturate`)."""
+    return select(held == AUTO, saturate(x, limit),
+                  select(held == 0.0, x, select(held > 0.0, limit, -limit)))
+
+
+def clip_margin(x, limit, held):
+    """How far x is inside the side ``held`` of its clip (-1, 0, +1): >= 0 while that
+    side is the one x lies on (for 0: limit - |x|; for +1: x - limit)."""
+    return select(held == 0.0, limit - abs(x), select(held > 0.0, x - limit, -x - limit))
+
+
+def clip_side(x, limit):
+    """The side x lies on: +1 above limit, -1 below -limit, else 0."""
+    return select(x > limit, 1.0, select(x < -limit, -1.0, 0.0))
+
+
+def speed_held(v, dv, speed, held):
+    """The acceleration dv of a velocity v with the speed limit ``speed``: 0 where v is
+    held at the limit (``held`` -1 or +1), dv where it is not (0); where held is
+    :data:`AUTO`, 0 where v is at or beyond the limit and dv pushes it further."""
+    auto = select(((v >= speed) & (dv > 0.0)) | ((v <= -speed) & (dv < 0.0)), 0.0, dv)
+    return select(held == AUTO, auto, select(held == 0.0, dv, 0.0))
+
+
+def speed_margin(v, dv, speed, held):
+    """>= 0 while v's side ``held`` is right: not held (0), v within its limit
+    (speed - |v|); held at +1 or -1, dv pushing it outward (held dv)."""
+    return select(held == 0.0, speed - abs(v), held * dv)
+
+
+def speed_side(v, dv, speed):
+    """+1 or -1 where v is at or beyond that limit and dv pushes it further, else 0."""
+    return select((v >= speed) & (dv > 0.0), 1.0, select((v <= -speed) & (dv < 0.0), -1.0, 0.0))
 
 
 # --------------------------------------------------------------------- controllers
@@ -316,7 +376,8 @@ def loop_signals(X, ref, p, noise):
 
 
 def loop_rates(t, X, ref, p, noise):
-    r"""dX/dt of the Fig. 2 loop, as a tuple of the 13 rates in the order of :data:`S`.
+    r"""dX/dt of the Fig. 2 loop, as a tuple of the 13 rates in the order of :data:`S`,
+    every switch decided at this point (:func:`loop_rates_held` with :data:`AUTO`).
 
     The commands are clipped to the speed limits; the robot follows Eqs. (1)-(2)
     with its parameters at time t under the payload schedule (:func:`payload_theta`;
@@ -328,32 +389,77 @@ def loop_rates(t, X, ref, p, noise):
     :func:`loop_signals` (X and p may be tuples: the compiled engine passes one run's
     values in registers).
     """
+    return loop_rates_held(t, X, ref, p, noise,
+                           (t, AUTO, AUTO, AUTO, AUTO, AUTO, AUTO))[0]
+
+
+def loop_rates_held(t, X, ref, p, noise, mode):
+    r"""dX/dt of the Fig. 2 loop with its switches held as ``mode`` says
+    (:data:`MODE`: the time at which adaptation and the payload are judged, then each
+    switch's side or :data:`AUTO`), as :func:`loop_rates` describes it. Returns
+    (the 13 rates; each switch's margin, >= 0 while its held side is right
+    (:func:`clip_margin`, :func:`speed_margin`); the side each switch would take here
+    given the sides held before it in :data:`SWITCHES` (:func:`clip_side`,
+    :func:`speed_side`)). A reference whose radius steps is evaluated by the caller."""
+    ts = mode[0]
     ud, wd, udd, wdd, G, u_ref, w_ref, um, wm = loop_signals(X, ref, p, noise)
-    uc = saturate(u_ref, p[P.speed_u])
-    wc = saturate(w_ref, p[P.speed_w])
+    uc = clip_held(u_ref, p[P.speed_u], mode[1])
+    wc = clip_held(w_ref, p[P.speed_w], mode[2])
     u = X[S.u]
     w = X[S.w]
     th1, th2, th3, th4, th5, th6 = payload_theta(
-        t, p[P.theta1], p[P.theta2], p[P.theta3], p[P.theta4], p[P.theta5], p[P.theta6],
+        ts, p[P.theta1], p[P.theta2], p[P.theta3], p[P.theta4], p[P.theta5], p[P.theta6],
         p[P.payload_time1:P.payload_time1 + 2 * PAYLOAD_STEPS])
-    du, dw = dynamics_components(u, w, uc, wc, th1, th2, th3, th4, th5, th6)
-    du, dw = limited_acceleration(u, w, du, dw, p[P.speed_u], p[P.speed_w],
-                                  p[P.accel_u], p[P.accel_w])
+    du0, dw0 = dynamics_components(u, w, uc, wc, th1, th2, th3, th4, th5, th6)
+    du1 = clip_held(du0, p[P.accel_u], mode[3])
+    dw1 = clip_held(dw0, p[P.accel_w], mode[4])
+    du = speed_held(u, du1, p[P.speed_u], mode[5])
+    dw = speed_held(w, dw1, p[P.speed_w], mode[6])
     dynamic = p[P.dynamic] != 0.0
     u_move = select(dynamic, u, uc)
     w_move = select(dynamic, w, wc)
     dx, dy = point_velocity_components(X[S.psi], u_move, w_move, p[P.a])
-    on = t >= p[P.adapt_from] - SWITCH_TOL
+    on = ts >= p[P.adapt_from] - SWITCH_TOL
     u_tilde = ud - um
     w_tilde = wd - wm
     r = loop_adaptation_rates(G, u_tilde, w_tilde, p, X)
     filtered = p[P.filtered] != 0.0
     du = select(dynamic, du, 0.0)
     dw = select(dynamic, dw, 0.0)
-    return (dx, dy, w_move, du, dw,
-            select(on, r[0], 0.0), select(on, r[1], 0.0), select(on, r[2], 0.0),
-            select(on, r[3], 0.0), select(on, r[4], 0.0), select(on, r[5], 0.0),
-            select(filtered, udd, 0.0), select(filtered, wdd, 0.0))
+    rates = (dx, dy, w_move, du, dw,
+             select(on, r[0], 0.0), select(on, r[1], 0.0), select(on, r[2], 0.0),
+             select(on, r[3], 0.0), select(on, r[4], 0.0), select(on, r[5], 0.0),
+             select(filtered, udd, 0.0), select(filtered, wdd, 0.0))
+    # a kinematic robot has only its commands' switches (its u, w are not states)
+    margins = (clip_margin(u_ref, p[P.speed_u], mode[1]), clip_margin(w_ref, p[P.speed_w], mode[2]),
+               select(dynamic, clip_margin(du0, p[P.accel_u], mode[3]), 1.0),
+               select(dynamic, clip_margin(dw0, p[P.accel_w], mode[4]), 1.0),
+               select(dynamic, speed_margin(u, du1, p[P.speed_u], mode[5]), 1.0),
+               select(dynamic, speed_margin(w, dw1, p[P.speed_w], mode[6]), 1.0))
+    sides = (clip_side(u_ref, p[P.speed_u]), clip_side(w_ref, p[P.speed_w]),
+             select(dynamic, clip_side(du0, p[P.accel_u]), 0.0),
+             select(dynamic, clip_side(dw0, p[P.accel_w]), 0.0),
+             select(dynamic, speed_side(u, du1, p[P.speed_u]), 0.0),
+             select(dynamic, speed_side(w, dw1, p[P.speed_w]), 0.0))
+    return rates, margins, sides
+
+
+def next_switch_time(t, p):
+    """The first time after t (by more than :data:`SWITCH_TOL`) at which a time switch
+    of the loop with parameters p flips: adaptation on (``adapt_from``), a payload
+    step, a radius step of a circle; inf if none. The batch engine ends a step there."""
+    first = math.inf
+    if p[P.adapt_from] > t + SWITCH_TOL:
+        first = min(first, p[P.adapt_from])
+    for k in range(PAYLOAD_STEPS):
+        tk = p[P.payload_time1 + 2 * k]
+        if tk > t + SWITCH_TOL:
+            first = min(first, tk)
+    for k in range(RADIUS_STEPS):
+        tk = p[P.step_time1 + 2 * k]
+        if tk > t + SWITCH_TOL:
+            first = min(first, tk)
+    return first
 
 
 def loop_adaptation_rates(G, u_tilde, w_tilde, p, X):

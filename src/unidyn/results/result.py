@@ -131,9 +131,11 @@ class Result:
     :ivar integrals: the integral metrics from t = 0 at each logged sample, (N, 5),
         float64 (:data:`INTEGRAL_NAMES`), accumulated at every sample: what
         :meth:`window` subtracts
-    :ivar numerical_error: the estimated relative error of each metric and of the
-        final ``theta_hat`` (relative to its size; ``error_final`` relative to the
-        mean error of the run, IAE / T), from the batch engine's own estimate
+    :ivar numerical_error: the estimated relative error of each metric (``error_final``
+        relative to the mean error of the run, IAE / T) and of the logged series
+        ``position``, ``heading``, ``distance_error`` and ``theta_hat`` (the largest
+        error over the samples, relative to the series' largest value), from the batch
+        engine's own estimate
         (:func:`unidyn.simulate_batch`); ``None`` where not estimated (the diagram, a
         run that stopped)
     :ivar sensitive: True where the run amplifies perturbations so that no tolerance
@@ -152,6 +154,13 @@ class Result:
         chooses them; ``None`` for the diagram)
     :ivar rejected: the steps the batch engine took again shorter, their error beyond
         the tolerance
+    :ivar rtol: the relative tolerance the batch engine returned the run at (``None``
+        for the diagram)
+    :ivar estimate: how ``numerical_error`` was obtained: ``"tightened"`` (the run
+        against the same run at a looser tolerance), ``"probe"`` (sensitive: how far a
+        perturbed start moved it), ``"from seed N"`` (the estimate of the same point's
+        seed N, :func:`unidyn.simulate_batch`'s ``estimate="per_point"``), or ``""``
+        (not estimated)
     """
 
     scenario: object
@@ -171,6 +180,8 @@ class Result:
     integrals: np.ndarray | None = None
     numerical_error: dict | None = None
     sensitive: bool = False
+    rtol: float | None = None
+    estimate: str = ""
     error: np.ndarray = field(init=False)
     metrics: dict = field(init=False)
 
@@ -258,6 +269,8 @@ class Result:
             "metrics": _finite_or_null(self.metrics, "metrics", notes),
             "numerical_error": _finite_or_null(self.numerical_error, "numerical_error", notes),
             "sensitive": self.sensitive,
+            "estimate": self.estimate,
+            "rtol": self.rtol,
             "theta_hat_final": (_finite_or_null(_floats(self.theta_hat[-1]), "theta_hat_final", notes)
                                 if len(self.t) and self.theta_hat is not None else None),
         }
