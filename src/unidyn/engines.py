@@ -18,17 +18,36 @@ This module sits above both engines (it imports each when a run needs it).
 
 ``"auto"`` picks the batch engine for continuous control and the diagram for sampled
 control; :attr:`Result.engine <unidyn.Result>` says which ran.
+
+The batch engine runs compiled (numba is a dependency of the package); where it cannot
+(numba not installed on the platform, or a reference that is a Python function) it runs
+as plain Python, about a hundred times slower, and a job that would take longer than
+:data:`LONG_JOB` seconds then says so at its start (:func:`warn_if_plain`).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import difflib
+import warnings
 
 from ._validate import ValidationError, choice
 from .model.scenario import Scenario
 
-__all__ = ["ENGINES", "OPTIONS", "choose", "run"]
+__all__ = ["ENGINES", "OPTIONS", "choose", "run", "warn_if_plain", "plain_cost",
+           "PlainPythonWarning", "PLAIN_SECONDS_PER_SAMPLE", "LONG_JOB"]
+
+#: CPU seconds per sample interval of one run that the batch engine takes as plain
+#: Python, its numerical error estimated (the run, its probe and a tighter run):
+#: 2.2-3.9 ms for the paper's cases 3 and 4 on a 2020s laptop core (compiled: 0.03-0.05 ms).
+PLAIN_SECONDS_PER_SAMPLE = 3e-3
+#: A job estimated to take longer than this (s) as plain Python warns at its start.
+LONG_JOB = 10.0
+
+
+class PlainPythonWarning(UserWarning):
+    """The batch engine runs a long job as plain Python; the message says how long it
+    is expected to take and how to have it compiled."""
 
 #: The two engines; :func:`run` also takes ``"auto"``, which picks one of them.
 ENGINES = ("batch", "bdsim")
@@ -49,6 +68,42 @@ def choose(scenario: Scenario, engine: str = "auto") -> str:
     if engine == "auto":
         return "batch" if scenario.control == "continuous" else "bdsim"
     return engine
+
+
+def plain_cost(scenarios, backend: str = "auto"):
+    """Why and how long the batch engine would run ``scenarios`` as plain Python:
+    ``(seconds estimated, what to do about it)``, or None where it runs them compiled.
+    The estimate is :data:`PLAIN_SECONDS_PER_SAMPLE` times their sample intervals: a
+    rough one (a loop that needs short steps takes longer)."""
+    from .engine import batch, kernels  # numba, where installed, loads with them
+    scenarios = list(scenarios)
+    if batch.backend_for(scenarios, backend) != "plain":
+        return None
+    seconds = PLAIN_SECONDS_PER_SAMPLE * sum(s.steps for s in scenarios)
+    if not kernels.AVAILABLE:
+        fix = ("numba is not installed (pip install numba; it is a dependency of unidyn, "
+               "so this platform may have no release of it)")
+    elif backend == "plain":
+        fix = "backend='plain' was asked for (backend='auto' compiles it)"
+    else:
+        fix = ("a reference is a Python function (FunctionTrajectory); a built-in "
+               "trajectory (figure_eight, circle, line) runs compiled")
+    return seconds, fix
+
+
+def warn_if_plain(scenarios, backend: str = "auto", stacklevel: int = 2) -> None:
+    """Warn once (:class:`PlainPythonWarning`) where the batch engine would run
+    ``scenarios``, a job of more than :data:`LONG_JOB` seconds, as plain Python: the
+    estimated time and the fix. Call it at the start of a job that makes several calls
+    of the engine (a sweep), with every scenario of the job."""
+    cost = plain_cost(scenarios, backend)
+    if cost is None or cost[0] < LONG_JOB:
+        return
+    seconds, fix = cost
+    took = f"{seconds / 60:.0f} min" if seconds >= 120 else f"{seconds:.0f} s"
+    warnings.warn(f"the batch engine runs as plain Python here, about a hundred times "
+                  f"slower than compiled: about {took} of CPU for these runs; {fix}",
+                  PlainPythonWarning, stacklevel=stacklevel + 1)
 
 
 def run(scenario: Scenario, engine: str = "auto", **options):
@@ -78,6 +133,7 @@ def run(scenario: Scenario, engine: str = "auto", **options):
                               + (f" (did you mean {near[0]!r}?)" if near else ""))
     if chosen == "batch":
         from .engine.batch import simulate_batch  # numba, where installed, loads with it
+        warn_if_plain([scenario], options.get("backend", "auto"))
         return simulate_batch([scenario], **options)[0]
     from .diagrams.simulate import simulate  # bdsim loads with it
     return simulate(scenario, **options)
