@@ -131,3 +131,81 @@ def test_a_sweep_without_numba_warns_at_its_start_with_its_time(tmp_path):
         p.communicate(timeout=120)
     assert line.startswith("unidyn: warning: the batch engine runs as plain Python here"), line
     assert "about 30 s of CPU for these runs; numba is not installed (pip install numba" in line
+
+# ------------------------------------------------------------------- over seeds
+
+def test_seeds_run_the_scenario_once_per_noise_seed_each_as_run_alone():
+    """seeds=3 runs the seeds 5, 6, 7 of a scenario whose seed is 5, in one call, each
+    bit for bit the run of that seed alone; the statistics are numpy's mean, sample
+    standard deviation and standard error of those runs' metrics."""
+    sc = Scenario.paper(3, T=4.0).replace(noise={"seed": 5})
+    runs = unidyn.run(sc, seeds=3)
+    assert runs.seeds == (5, 6, 7) and len(runs) == 3
+    alone = [unidyn.simulate_batch([sc.replace(noise={"seed": s})])[0] for s in (5, 6, 7)]
+    for r, a in zip(runs, alone):
+        np.testing.assert_array_equal(r.pose, a.pose)
+        assert r.metrics == a.metrics
+    st = runs.statistics
+    assert st["n"] == 3 and st["incomplete"] == 0 and st["sensitive"] == 0
+    for m in ("iae", "itae", "error_final"):
+        x = np.array([a.metrics[m] for a in alone])
+        assert st[f"{m}_mean"] == pytest.approx(x.mean(), rel=1e-14)
+        assert st[f"{m}_std"] == pytest.approx(x.std(ddof=1), rel=1e-12)
+        assert st[f"{m}_sem"] == pytest.approx(x.std(ddof=1) / np.sqrt(3), rel=1e-12)
+    # another seed moves the IAE by far more than its numerical error
+    spread = st["iae_std"] / st["iae_mean"]
+    assert spread > 10 * max(r.numerical_error["iae"] for r in runs)
+
+
+def test_seeds_print_each_metric_as_mean_plus_minus_standard_error_with_n():
+    runs = unidyn.run(Scenario.paper(3, T=4.0), seeds=[0, 2, 4, 6])
+    text = repr(runs)
+    st = runs.statistics
+    from unidyn.sweeps.seeds import plus_minus
+    assert f"iae          {plus_minus(st['iae_mean'], st['iae_sem'], 'm·s')} (n = 4)" in text
+    assert "over 4 noise seeds (0, 2, 4, 6)" in text
+    assert "sensitive    0 of 4 runs" in text
+    for line in text.splitlines():  # beside a metric only where it is not small
+        if "numerical error" in line and "±" in line:
+            m = line.split()[0]
+            assert runs.numerical_error_small(m) is False
+
+
+@pytest.mark.parametrize("mean, sem, text", [
+    (2.74382, 0.0213, "2.744 ± 0.021"), (2.74382, 0.00002, "2.743820 ± 0.000020"),
+    (1234.56, 12.3, "1235 ± 12"), (0.5, None, "0.5"), (3e12, 4e10, "3.000e+12 ± 4.0e+10")])
+def test_plus_minus_rounds_the_mean_to_the_standard_error_s_second_digit(mean, sem, text):
+    from unidyn.sweeps.seeds import plus_minus
+    assert plus_minus(mean, sem) == text
+
+
+def test_seeds_need_noise_and_distinct_seeds():
+    with pytest.raises(ValidationError, match="no measurement noise"):
+        unidyn.run(Scenario.paper(3, T=1.0, noise=None), seeds=3)
+    for bad, match in ((0, "seeds must be"), ([1, 1], "twice"), ([], "empty"),
+                       ([-1], "seeds"), (True, "seeds")):
+        with pytest.raises(ValidationError, match=match):
+            unidyn.run(Scenario.paper(3, T=1.0), seeds=bad)
+
+
+def test_seed_runs_write_their_runs_statistics_series_and_figure(tmp_path):
+    import csv
+    runs = unidyn.run(Scenario.paper(4, T=3.0), seeds=3)
+    runs.save(tmp_path / "s")
+    folder = tmp_path / "s"
+    assert {p.name for p in folder.iterdir() if not p.name.startswith(".")} == {
+        "runs.csv", "statistics.csv", "timeseries.csv", "summary.json", "error.png"}
+    with open(folder / "statistics.csv", newline="") as fh:
+        [st] = list(csv.DictReader(fh))
+    assert float(st["iae_mean"]) == pytest.approx(np.mean([r.metrics["iae"] for r in runs]),
+                                                  rel=1e-12)
+    assert st["numerical_error_small"] in ("True", "False", "true", "false") and st["n"] == "3"
+    with open(folder / "timeseries.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == sum(len(r.t) for r in runs)
+    first = [r for r in rows if r["seed"] == "1"]
+    np.testing.assert_allclose([float(r["x"]) for r in first], runs[1].pose[:, 0], rtol=1e-9)
+    summary = json.loads((folder / "summary.json").read_text())
+    assert summary["seeds"] == [0, 1, 2] and "standard error" in summary["uncertainty"]
+    with pytest.raises(ValidationError, match="overwrite"):
+        runs.save(folder)

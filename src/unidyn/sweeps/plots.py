@@ -1,5 +1,6 @@
 """A sweep's figure: a metric of its runs against its first numeric axis
-(``metrics.png`` of :meth:`unidyn.sweeps.sweep.Sweep.run`)."""
+(``metrics.png`` of :func:`unidyn.sweeps.sweep.run_sweep`); and the mean error of one
+scenario over seeds (``error.png`` of :class:`unidyn.sweeps.seeds.SeedRuns`)."""
 
 from __future__ import annotations
 
@@ -9,9 +10,10 @@ import numpy as np
 
 from ..results import figstyle
 from .._validate import choice
+from .statistics import mean_std_sem
 from .sweep_files import METRICS, is_number, text
 
-__all__ = ["plot_metrics"]
+__all__ = ["plot_metrics", "plot_seed_error"]
 
 def _numeric_axis(sweep):
     for a in sweep.grid:
@@ -81,6 +83,44 @@ def plot_metrics(sweep, rows, path, metric: str = "iae"):
         if legend:
             figstyle.legend(ax, fallback="below")
         return figstyle.save(fig, path)
+
+
+@figstyle.styled
+def plot_seed_error(runs, ax=None):
+    """The distance error |h_d - h| against time over noise seeds
+    (:class:`unidyn.sweeps.seeds.SeedRuns`): each seed's run thin and grey, their mean
+    over the seeds whose run completed, shaded ± its standard error at each sample
+    (:func:`unidyn.sweeps.statistics.mean_std_sem`)."""
+    from ..results.plots import run_title
+    if ax is None:
+        import matplotlib.pyplot as plt
+        _, ax = plt.subplots(figsize=figstyle.size(1, 0.7))
+    done = [r for r in runs.results if r.complete]
+    for k, r in enumerate(done):
+        ax.plot(r.t, r.error, color="0.65", lw=0.4, label="each seed" if k == 0 else None)
+    if done:
+        t = done[0].t
+        mean, _, se = mean_std_sem(np.array([r.error for r in done], dtype=float))
+        if se is not None:
+            ax.fill_between(t, mean - se, mean + se, color="C0", alpha=0.35, lw=0,
+                            label="± standard error of the mean")
+        ax.plot(t, mean, color="C0", lw=1.0, label=f"mean over {len(done)} seeds")
+        ax.set_xlim(t[0], t[-1])
+    ax.set_xlabel(figstyle.label("t", "s"))
+    ax.set_ylabel(figstyle.label("distance error", "m"))
+    figstyle.ylim_from_data(ax, floor=0)
+    # the run's title, its seed the seeds
+    title = run_title(runs.scenario).rpartition(", noise seed")[0]
+    ax.set_title(f"{title}, noise seeds {_seed_range(runs.seeds)}", fontsize=7)
+    figstyle.legend(ax, fallback="below", ncol=3)
+    return ax
+
+
+def _seed_range(seeds) -> str:
+    seeds = list(seeds)
+    if seeds == list(range(seeds[0], seeds[0] + len(seeds))) and len(seeds) > 2:
+        return f"{seeds[0]}-{seeds[-1]}"
+    return ", ".join(map(str, seeds[:6])) + (", ..." if len(seeds) > 6 else "")
 
 
 #: Axis labels of the metrics (units as in :func:`unidyn.results.result.metrics`).
