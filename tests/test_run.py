@@ -209,3 +209,57 @@ def test_seed_runs_write_their_runs_statistics_series_and_figure(tmp_path):
     assert summary["seeds"] == [0, 1, 2] and "standard error" in summary["uncertainty"]
     with pytest.raises(ValidationError, match="overwrite"):
         runs.save(folder)
+
+
+# ------------------------------------------------------------ the command line
+
+def test_unidyn_run_seeds_prints_mean_plus_minus_standard_error_and_writes_statistics(
+        tmp_path, capsys):
+    import csv
+    from unidyn.sweeps.seeds import plus_minus
+    assert main(["run", "--paper", "4", "--T", "3", "--seeds", "3",
+                 "--out", str(tmp_path / "s")]) == 0
+    out = capsys.readouterr().out
+    with open(tmp_path / "s" / "statistics.csv", newline="") as fh:
+        [st] = list(csv.DictReader(fh))
+    with open(tmp_path / "s" / "runs.csv", newline="") as fh:
+        runs = list(csv.DictReader(fh))
+    assert [r["seed"] for r in runs] == ["0", "1", "2"]
+    iae = np.array([float(r["iae"]) for r in runs])
+    assert float(st["iae_mean"]) == pytest.approx(iae.mean(), rel=1e-12)
+    assert float(st["iae_sem"]) == pytest.approx(iae.std(ddof=1) / np.sqrt(3), rel=1e-12)
+    assert f"IAE        {plus_minus(iae.mean(), iae.std(ddof=1) / np.sqrt(3), 'm·s')} (n = 3)" in out
+    assert "noise seeds 0-2 (3 runs)" in out and "sensitive  0 of 3 runs" in out
+    assert (tmp_path / "s" / "error.png").stat().st_size > 0
+    # the seeds continue from the scenario's own
+    assert main(["run", "--paper", "4", "--T", "1", "--seeds", "2", "--set", "noise.seed=7",
+                 "--out", str(tmp_path / "t")]) == 0
+    assert "noise seeds 7-8 (2 runs)" in capsys.readouterr().out
+
+
+def test_unidyn_run_seeds_refuses_what_it_cannot_do_in_one_line(tmp_path, capsys):
+    for args, words in ((["--set", "noise=off"], "no noise"), (["--animate"], "--animate"),
+                        (["--seeds", "0"], "at least 1")):
+        seeds = [] if "--seeds" in args else ["--seeds", "2"]
+        assert main(["run", "--paper", "3", "--T", "1", *seeds, *args,
+                     "--out", str(tmp_path / "x")]) == 2
+        err = capsys.readouterr().err
+        assert words in err and len(err.strip().splitlines()) == 1, err
+    assert not (tmp_path / "x").exists()
+
+
+def test_unidyn_run_says_which_uncertainty_to_quote(tmp_path, capsys):
+    assert main(["run", "--paper", "3", "--T", "2", "--out", str(tmp_path / "a")]) == 0
+    noisy = capsys.readouterr().out
+    assert "quote      these are one sample of the noise (seed 0)" in noisy
+    assert "--seeds N gives mean ± standard error" in noisy
+    assert "sensitive  False" in noisy
+    iae_line = next(x for x in noisy.splitlines() if x.startswith("IAE"))
+    assert "numerical error" not in iae_line
+    assert main(["run", "--paper", "3", "--T", "2", "--set", "noise=off",
+                 "--out", str(tmp_path / "b")]) == 0
+    clean = capsys.readouterr().out
+    assert "quote      no noise: deterministic" in clean and "sensitive  False" in clean
+    assert "numerical error" in next(x for x in clean.splitlines() if x.startswith("IAE"))
+    summary = json.loads((tmp_path / "a" / "summary.json").read_text())
+    assert summary["uncertainty"].startswith("one sample of the measurement noise")

@@ -144,19 +144,24 @@ class SeedRuns:
         """True when every run computed every sample."""
         return all(r.complete for r in self.results)
 
+    def numerical_error(self, metric: str):
+        """The largest numerical error of ``metric`` among the runs that completed
+        (relative, as :attr:`unidyn.Result.numerical_error`), or None where one of them
+        has none."""
+        done = [r for r in self.results if r.complete]
+        errors = [r.numerical_error[metric] for r in done
+                  if r.numerical_error and metric in r.numerical_error]
+        return max(errors) if errors and len(errors) == len(done) else None
+
     def numerical_error_small(self, metric: str):
         """Whether the runs' numerical error of ``metric`` is small (below a tenth)
         against its standard error over the seeds: True, False, or None where unknown
         (one seed, no estimate). The final error's is relative to the run's mean error
         IAE / T, its other metrics' to their own size."""
-        errors = [r.numerical_error[metric] for r in self.results
-                  if r.complete and r.numerical_error and metric in r.numerical_error]
-        if not errors or len(errors) < sum(r.complete for r in self.results):
-            return None
         st = self.statistics
         scale = (st["iae_mean"] / self.scenario.T if metric == "error_final"
                  and st["iae_mean"] is not None else st[f"{metric}_mean"])
-        return numerical_error_small(max(errors), scale, st[f"{metric}_sem"])
+        return numerical_error_small(self.numerical_error(metric), scale, st[f"{metric}_sem"])
 
     def __repr__(self) -> str:
         """Each metric as mean ± standard error (n) over the seeds, the numerical error
@@ -176,9 +181,8 @@ class SeedRuns:
             text = plus_minus(st[f"{m}_mean"], st[f"{m}_sem"], METRIC_UNITS.get(m, ""))
             line = f"  {m:12s} {text} (n = {n})"
             if self.numerical_error_small(m) is False:
-                worst = max(r.numerical_error[m] for r in self.results
-                            if r.complete and r.numerical_error)
-                line += f"  numerical error {worst:.1e} relative, not small against it"
+                line += (f"  numerical error {self.numerical_error(m):.1e} relative, not "
+                         f"small against it")
             lines.append(line)
         if n < 2:
             lines.append("  one seed: no spread; run more seeds for a standard error")
