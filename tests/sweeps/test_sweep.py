@@ -839,3 +839,32 @@ def test_a_sweep_figure_gives_each_of_twelve_lines_its_own_colour():
         assert len(colours) == 12 and len(set(colours)) == 12
     finally:
         matplotlib.pyplot.close(fig)
+
+
+def test_the_mean_error_over_seeds_is_drawn_with_its_standard_error_band():
+    """Three runs whose distance error is 1, 2 and 4 m throughout (a reference that far
+    from a robot at rest): the mean line at 7/3 m, the band ± std / sqrt(3)."""
+    import matplotlib
+    from matplotlib.collections import PolyCollection
+    from unidyn.results.result import Result
+    from unidyn.sweeps.seeds import SeedRuns
+    sc = unidyn.Scenario.paper(3, T=2.0)
+    t = np.linspace(0.0, 2.0, 21)
+
+    def run(d):
+        return Result(scenario=sc, t=t, pose=np.zeros((21, 3)), velocity=np.zeros((21, 2)),
+                      reference=np.tile([d, 0.0], (21, 1)), v_d=None, v_ref=None,
+                      theta_hat=None, engine="batch", backend="compiled")
+    runs = SeedRuns(sc, (0, 1, 2), [run(1.0), run(2.0), run(4.0)])
+    assert runs.statistics["iae_mean"] == pytest.approx(2.0 * 7 / 3, rel=1e-12)
+    ax = runs.plot_error()
+    try:
+        mean = [ln for ln in ax.get_lines() if ln.get_label().startswith("mean")]
+        np.testing.assert_allclose(mean[0].get_ydata(), 7 / 3, rtol=1e-12)
+        [band] = [c for c in ax.collections if isinstance(c, PolyCollection)]
+        sem = np.std([1.0, 2.0, 4.0], ddof=1) / np.sqrt(3)
+        ys = band.get_paths()[0].vertices[:, 1]
+        assert (ys.min(), ys.max()) == pytest.approx((7 / 3 - sem, 7 / 3 + sem), rel=1e-12)
+        assert "noise seeds 0-2" in ax.get_title()
+    finally:
+        matplotlib.pyplot.close(ax.figure)

@@ -281,6 +281,9 @@ def _run_seeds(args, sc, engine, out) -> int:
           + ("" if n > 1 else "; one seed has no spread: use more seeds"))
     if all(runs.numerical_error_small(m) for m in METRICS):
         print("numerical  error below a tenth of each standard error")
+    elif n and any(runs.numerical_error(m) is None for m in METRICS):
+        print("numerical  error not estimated for every run"
+              + (" (the diagram integrates once)" if first.engine == "bdsim" else ""))
     print(f"sensitive  {st['sensitive']} of {len(runs)} runs")
     if st["incomplete"]:
         print(f"incomplete {st['incomplete']} of {len(runs)} runs stopped early, left out of "

@@ -148,13 +148,16 @@ def plot_seed_error(runs, ax=None):
                             label="± standard error of the mean")
         ax.plot(t, mean, color="C0", lw=1.0, label=f"mean over {len(done)} seeds")
         ax.set_xlim(t[0], t[-1])
+    else:
+        ax.text(0.5, 0.5, "no run completed", transform=ax.transAxes, ha="center")
     ax.set_xlabel(figstyle.label("t", "s"))
     ax.set_ylabel(figstyle.label("distance error", "m"))
     figstyle.ylim_from_data(ax, floor=0)
     # the run's title, its seed the seeds
     title = run_title(runs.scenario).rpartition(", noise seed")[0]
     ax.set_title(f"{title}, noise seeds {_seed_range(runs.seeds)}", fontsize=7)
-    figstyle.legend(ax, fallback="below", ncol=3)
+    if done:
+        figstyle.legend(ax, fallback="below", ncol=3)
     return ax
 
 

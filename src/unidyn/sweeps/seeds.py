@@ -190,6 +190,10 @@ class SeedRuns:
         if all(s is True for s in small):
             lines.append("  numerical error below a tenth of each standard error: the "
                          "standard error alone counts")
+        elif any(self.numerical_error(m) is None for m in METRICS) and n:
+            lines.append("  numerical error: not estimated for every run"
+                         + (" (the diagram integrates once)"
+                            if first and first.engine == "bdsim" else ""))
         lines.append(f"  sensitive    {st['sensitive']} of {len(self.results)} runs"
                      + ("" if st["sensitive"] else " (False for every run)"))
         if st["incomplete"]:
@@ -243,8 +247,8 @@ class SeedRuns:
         try:
             from .plots import plot_seed_error
             from ..results import figstyle
-            ax = plot_seed_error(self)
-            figstyle.save(ax.figure, folder / "error.png")
+            with figstyle.style():
+                figstyle.save(plot_seed_error(self).figure, folder / "error.png")
         except ImportError:  # no matplotlib: the data is what matters
             pass
 
