@@ -115,10 +115,8 @@ def test_both_engines_give_the_same_experiment():
     assert exp.claims[-1].holds
 
 
-def test_seeds_belong_to_the_experiment(capsys, tmp_path):
-    code = main(["run", "--paper", "4", "--seeds", "3", "--out", str(tmp_path / "x")])
-    err = capsys.readouterr().err
-    assert code == 2 and "--seeds applies to --paper experiment only" in err
+def test_the_experiment_refuses_an_option_it_does_not_take(capsys, tmp_path):
+    # (--seeds runs any scenario over seeds: tests/test_run.py)
     code = main(["run", "--paper", "experiment", "--T", "20", "--out", str(tmp_path / "x")])
     err = capsys.readouterr().err
     assert code == 2 and "not --T" in err

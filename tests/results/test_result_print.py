@@ -5,16 +5,17 @@ import math
 import numpy as np
 
 import unidyn
+from unidyn.model.noise import PAPER_NOISE, NoiseSpec
 from unidyn.results.result import Result
 
 
-def _result(complete=True, message=""):
+def _result(complete=True, message="", noise=PAPER_NOISE):
     t = np.linspace(0.0, 20.0, 201)
     pose = np.zeros((len(t), 3))
     reference = np.tile([3.0, 4.0], (len(t), 1))  # 5 m from the robot throughout
     velocity = np.zeros((len(t), 2))
     theta = np.tile([0.2, 0.1, 0.0, 1.0, 0.0, 1.0], (len(t), 1))
-    return Result(scenario=unidyn.Scenario.paper(4, T=20), t=t, pose=pose, velocity=velocity,
+    return Result(scenario=unidyn.Scenario.paper(4, T=20, noise=noise), t=t, pose=pose, velocity=velocity,
                   reference=reference, v_d=None, v_ref=None, theta_hat=theta,
                   engine="batch", backend="compiled", complete=complete, message=message)
 
@@ -39,11 +40,55 @@ def test_an_incomplete_result_says_so_and_shows_the_metrics_of_the_part_computed
     assert math.isclose(_result(complete=False).metrics["iae"], 100.0)
 
 
-def test_a_result_prints_its_numerical_error_beside_each_metric():
-    r = _result()
-    r.numerical_error = {"iae": 2e-5, "ise": 2e-5, "itae": 2e-5, "itse": 2e-5, "energy": 2e-5,
-                         "error_final": 1e-6, "theta_hat": 3e-6}
+_ERRORS = {"iae": 2e-5, "ise": 2e-5, "itae": 2e-5, "itse": 2e-5, "energy": 2e-5,
+           "error_final": 1e-6, "theta_hat": 3e-6}
+
+
+def test_a_noise_free_result_prints_its_numerical_error_beside_each_metric():
+    r = _result(noise=None)
+    r.numerical_error = dict(_ERRORS)
     text = repr(r)
+    assert "no noise: deterministic, each metric to its numerical error" in text
     assert "iae          100 m·s  (numerical error 2.0e-05 relative)" in text
     assert "(numerical error 3.0e-06 relative)" in text.splitlines()[-2]
-    assert "numerical error: not estimated" in repr(_result())
+    assert "numerical error: not estimated" in repr(_result(noise=None))
+    assert "seed" not in text
+
+
+def test_a_noisy_result_says_its_metrics_are_one_sample_and_how_to_get_their_spread():
+    """Beside a noisy run's metrics, no numerical error that reads as their error bar:
+    it says they are one sample of the noise, and names the seeds that give their
+    spread."""
+    r = _result()
+    r.numerical_error = dict(_ERRORS)
+    text = repr(r)
+    lines = text.splitlines()
+    assert len(lines) <= 20 and all(len(x) <= 110 for x in lines), text
+    assert "noise seed 0: these metrics are one sample of the noise" in text
+    assert "unidyn.run(scenario, seeds=N): mean ± standard error (n)" in text
+    assert "iae          100 m·s\n" in text  # nothing beside it
+    assert "numerical error at most 2.0e-05 relative: the integration's, not an error bar" in text
+    assert not any("numerical error" in x for x in lines if x.split()[0] in _ERRORS)
+
+
+def test_sensitive_is_always_stated_false_included():
+    r = _result()
+    assert "  sensitive    False" in repr(r).splitlines()
+    r.numerical_error, r.sensitive = dict(_ERRORS), True
+    assert "  sensitive    True: no tolerance converges it; quote the spread over seeds" in repr(r)
+    clean = _result(noise=None)
+    clean.numerical_error, clean.sensitive = dict(_ERRORS), True
+    assert "  sensitive    True: no tolerance converges it" in repr(clean).splitlines()
+
+
+def test_summary_json_says_which_uncertainty_to_quote(tmp_path):
+    noisy, clean = _result(), _result(noise=None)
+    clean.numerical_error = dict(_ERRORS)
+    a, b = noisy.summary(), clean.summary()
+    assert a["uncertainty"].startswith("one sample of the measurement noise (seed 0)")
+    assert "seeds=N" in a["uncertainty"] and "not an error bar" in a["uncertainty"]
+    assert b["uncertainty"] == "no noise: deterministic; quote each metric with its numerical error"
+    assert a["sensitive"] is False and "sensitive" in b
+    # zero noise is no noise
+    zero = NoiseSpec(position_std=0.0, velocity_std=0.0)
+    assert _result(noise=zero).summary()["uncertainty"].startswith("no noise")

@@ -783,3 +783,88 @@ def test_a_sweep_over_seeds_writes_one_statistics_row_per_point(tmp_path):
     run_sweep(Sweep(base={"case": "compensated", "T": 1.0}, grid={"kxy": [0.5]}),
               tmp_path / "plain", progress=False)
     assert not (tmp_path / "plain" / "statistics.csv").exists()
+
+
+def test_a_seed_sweep_s_figure_draws_each_variant_s_mean_with_its_standard_error_band():
+    """Fig. 11's sweep over three seeds, with seeded random IAEs: one line per variant
+    (not per seed) through numpy's mean over the seeds, a band of ± its standard error,
+    labels in a reader's words (no field name) and no colour twice."""
+    import matplotlib
+    from matplotlib.collections import PolyCollection
+    from unidyn.paper import paper_fig11
+    from unidyn.sweeps.plots import plot_metrics
+    sweep = paper_fig11(T=10.0, gains=[1.0, 2.0, 4.0], seeds=3)
+    rng = np.random.default_rng(11)
+    rows = [{"index": p.index, **p.params, "case": p.scenario.case, "complete": True,
+             **{m: float(rng.lognormal()) for m in files.METRICS}} for p in sweep.points()]
+    fig = plot_metrics(sweep, rows, None)
+    try:
+        ax = fig.axes[0]
+        lines = ax.get_lines()
+        assert [ln.get_label().split(":")[0] for ln in lines] == ["a", "b", "c", "d"]
+        assert not any(w in ln.get_label() for ln in lines
+                       for w in ("theta_hat_scale", "seed", "adapt_from"))
+        assert "θ̂(0)/θ = 0.9" in lines[1].get_label()
+        colours = [matplotlib.colors.to_hex(ln.get_color()) for ln in lines]
+        assert len(set(colours)) == 4
+        for ln in lines:
+            variant = ln.get_label().split(":")[0]
+            for x, y in zip(*ln.get_data()):
+                iae = [r["iae"] for r in rows if r["variant"] == variant and r["kxy"] == x]
+                assert len(iae) == 3 and y == pytest.approx(np.mean(iae), rel=1e-12)
+        bands = [c for c in ax.collections if isinstance(c, PolyCollection)]
+        assert len(bands) == 4
+        # the first variant's band at its first gain spans mean ± std / sqrt(3)
+        iae = [r["iae"] for r in rows if r["variant"] == "a" and r["kxy"] == 1.0]
+        xy = bands[0].get_paths()[0].vertices
+        ys = xy[xy[:, 0] == 1.0, 1]
+        sem = np.std(iae, ddof=1) / np.sqrt(3)
+        assert (min(ys), max(ys)) == pytest.approx((np.mean(iae) - sem, np.mean(iae) + sem),
+                                                   rel=1e-12)
+        assert "over 3 noise seeds" in ax.get_title()
+    finally:
+        matplotlib.pyplot.close(fig)
+
+
+def test_a_sweep_figure_gives_each_of_twelve_lines_its_own_colour():
+    import matplotlib
+    from unidyn.sweeps.plots import plot_metrics
+    sweep = Sweep(base={"case": "compensated", "T": 1.0},
+                  grid={"kxy": [0.5, 1.0], "a": [0.1 * k for k in range(1, 13)]})
+    rows = [{"index": p.index, **p.params, "case": "compensated", "complete": True,
+             **{m: 1.0 + p.index for m in files.METRICS}} for p in sweep.points()]
+    fig = plot_metrics(sweep, rows, None)
+    try:
+        colours = [matplotlib.colors.to_hex(ln.get_color()) for ln in fig.axes[0].get_lines()]
+        assert len(colours) == 12 and len(set(colours)) == 12
+    finally:
+        matplotlib.pyplot.close(fig)
+
+
+def test_the_mean_error_over_seeds_is_drawn_with_its_standard_error_band():
+    """Three runs whose distance error is 1, 2 and 4 m throughout (a reference that far
+    from a robot at rest): the mean line at 7/3 m, the band ± std / sqrt(3)."""
+    import matplotlib
+    from matplotlib.collections import PolyCollection
+    from unidyn.results.result import Result
+    from unidyn.sweeps.seeds import SeedRuns
+    sc = unidyn.Scenario.paper(3, T=2.0)
+    t = np.linspace(0.0, 2.0, 21)
+
+    def run(d):
+        return Result(scenario=sc, t=t, pose=np.zeros((21, 3)), velocity=np.zeros((21, 2)),
+                      reference=np.tile([d, 0.0], (21, 1)), v_d=None, v_ref=None,
+                      theta_hat=None, engine="batch", backend="compiled")
+    runs = SeedRuns(sc, (0, 1, 2), [run(1.0), run(2.0), run(4.0)])
+    assert runs.statistics["iae_mean"] == pytest.approx(2.0 * 7 / 3, rel=1e-12)
+    ax = runs.plot_error()
+    try:
+        mean = [ln for ln in ax.get_lines() if ln.get_label().startswith("mean")]
+        np.testing.assert_allclose(mean[0].get_ydata(), 7 / 3, rtol=1e-12)
+        [band] = [c for c in ax.collections if isinstance(c, PolyCollection)]
+        sem = np.std([1.0, 2.0, 4.0], ddof=1) / np.sqrt(3)
+        ys = band.get_paths()[0].vertices[:, 1]
+        assert (ys.min(), ys.max()) == pytest.approx((7 / 3 - sem, 7 / 3 + sem), rel=1e-12)
+        assert "noise seeds 0-2" in ax.get_title()
+    finally:
+        matplotlib.pyplot.close(ax.figure)

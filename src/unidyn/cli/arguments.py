@@ -63,6 +63,7 @@ def parser() -> argparse.ArgumentParser:
                        "figures into --out.",
                        formatter_class=Formatter, epilog=examples(
                            "unidyn run --paper 4 --T 20 --out out/p4     # the paper's 4th, 20 s",
+                           "unidyn run --paper 3 --seeds 8 --out out/p3-seeds  # over 8 noise seeds",
                            "unidyn run examples/scenario.toml --out out/circle",
                            "unidyn run --case compensated --robot p3dx --set kx=1 --set ky=1 "
                            "--set noise=off --T 15 --out out/c",
@@ -75,7 +76,10 @@ def parser() -> argparse.ArgumentParser:
                         "Section 5's experiment, both controllers over several noise seeds, "
                         "with claims.md beside the paper's numbers")
     r.add_argument("--seeds", type=int, metavar="N",
-                   help="with --paper experiment: noise seeds 0..N-1 (default 8)")
+                   help="run the scenario over N noise seeds, from its own (noise.seed) on: "
+                        "each metric as mean ± standard error (n); writes runs.csv, "
+                        "statistics.csv, timeseries.csv, summary.json and error.png. With "
+                        "--paper experiment: noise seeds 0..N-1 (default 8)")
     r.add_argument("--from", dest="from_", metavar="SUMMARY.json",
                    help="rebuild the scenario (and engine) of a previous run's summary.json")
     r.add_argument("--case", help="kinematic, uncompensated, compensated or adaptive")

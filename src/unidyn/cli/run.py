@@ -1,7 +1,9 @@
 """``unidyn run``: simulate one scenario (the paper's defaults, a TOML file, a
 previous run's summary.json, then flags, then --set) and write timeseries.csv,
 summary.json and figures into --out; a run that fails or is interrupted leaves --out
-as it was, or writes the part computed, marked incomplete."""
+as it was, or writes the part computed, marked incomplete. With ``--seeds N``, the
+scenario over N noise seeds, each metric as mean ± standard error
+(:class:`unidyn.sweeps.seeds.SeedRuns`)."""
 
 from __future__ import annotations
 
@@ -18,9 +20,10 @@ from ..engines import choose, run
 from ..model.scenario import Scenario
 from ..results.folders import check_manifest, staged_output
 from ..results.plots import save_figures
-from ..results.result import RUN_FILES
+from ..results.result import METRIC_UNITS, RUN_FILES, has_noise
 from ..results.rosbag import check_bag_target, write_run_bag
-from ..sweeps.sweep_files import parse_toml_value, read_scenario_table, scenario_from_layers
+from ..sweeps.seeds import SEED_FILES, plus_minus
+from ..sweeps.sweep_files import METRICS, parse_toml_value, read_scenario_table, scenario_from_layers
 from .arguments import tolerance_options
 from .errors import RunFailed, UsageError
 from .output import out_folder, short_name, shown
@@ -30,11 +33,11 @@ def unidyn_run(args) -> int:
     """``unidyn run``: simulate one scenario and write its results into --out."""
     if args.paper == "experiment":  # its module loads the paper's, and so bdsim
         return importlib.import_module(f"{__package__}.experiment").run_experiment(args)
-    if args.seeds is not None:
-        raise UsageError("--seeds applies to --paper experiment only")
     sc, engine_from = _build_scenario(args)
     engine = choose(sc, args.engine or engine_from or "auto")  # as unidyn.run chooses
     out = out_folder(args.out)
+    if args.seeds is not None:
+        return _run_seeds(args, sc, engine, out)
     animation = _import_animation() if args.animate else None
     bag = _bag_target(args)
     # the new results are written into a private folder inside `out` and moved into
@@ -193,13 +196,26 @@ def _run_summary(sc, out, stage, result, wall, replaced, animation) -> int:
         print(f"result     INCOMPLETE: stopped at t = {t_end:g} s of {sc.T:g} s: "
               f"{' '.join(str(result.message).split())}")
     part = "" if result.complete else f" (to t = {float(result.t[-1]) if len(result.t) else 0:g} s)"
-    print(f"IAE        {m['iae']:.6g} m·s{part}" + (f"  (numerical error {err['iae']:.1e} relative)"
-                                                    if "iae" in err else ""))
-    print(f"error(T)   {m['error_final']:.6g} m{part}")
+    noisy = has_noise(sc)
+    beside = {k: f"  (numerical error {err[k]:.1e} relative)" if k in err and not noisy else ""
+              for k in ("iae", "error_final")}
+    print(f"IAE        {m['iae']:.6g} m·s{part}{beside['iae']}")
+    print(f"error(T)   {m['error_final']:.6g} m{part}{beside['error_final']}")
+    if noisy:  # which uncertainty to quote, and how to get it
+        print(f"quote      these are one sample of the noise (seed {sc.noise.seed}); their "
+              f"spread over seeds is the uncertainty: --seeds N gives mean ± standard error")
+        if err:
+            print(f"numerical  error at most {max(err.values()):.1e} relative: the "
+                  f"integration's alone, not an error bar")
+    else:
+        print("quote      no noise: deterministic, each number with its numerical error"
+              + ("" if err else " (not estimated: the batch engine estimates it)"))
     if result.sensitive:
-        print(f"sensitive  {result.message}")
-    elif result.complete and result.message:
-        print(f"note       {result.message}")
+        print(f"sensitive  True: {result.message}")
+    else:
+        print("sensitive  False")
+        if result.complete and result.message:
+            print(f"note       {result.message}")
     print(f"wall time  {wall:.2f} s")
     print(f"written    {final}/ (timeseries.csv, summary.json, figures"
           + (", animation.gif" if animation is not None else "") + ")")
@@ -212,3 +228,71 @@ def _run_summary(sc, out, stage, result, wall, replaced, animation) -> int:
         print(f"unidyn: warning: the run stopped early: {result.message}", file=sys.stderr)
         return 1
     return 0
+
+
+#: How the metrics are named in what ``unidyn run`` prints.
+_SHOWN = {"iae": "IAE", "ise": "ISE", "itae": "ITAE", "itse": "ITSE", "energy": "energy",
+          "error_final": "error(T)"}
+
+
+def _run_seeds(args, sc, engine, out) -> int:
+    """``--seeds N``: the scenario over N noise seeds (``unidyn.run(sc, seeds=N)``),
+    written into --out as :meth:`unidyn.sweeps.seeds.SeedRuns.save` writes it; each
+    metric printed as mean ± standard error (n)."""
+    if args.seeds < 1:
+        raise UsageError(f"--seeds must be at least 1, got {args.seeds}")
+    if not has_noise(sc):
+        raise UsageError("--seeds: the scenario has no noise, so every seed gives the same "
+                         "run (drop noise=off, or set noise.position_std)")
+    for flag, given in (("--animate", args.animate), ("--bag", args.bag)):
+        if given:
+            raise UsageError(f"{flag} writes one run; it cannot be combined with --seeds")
+    staging = staged_output(out, kind="seeds", names=SEED_FILES, overwrite=args.overwrite,
+                            what="seed runs")
+    try:
+        with staging as stage:
+            if stage.held:
+                print(f"unidyn: replacing {out}/ ({', '.join(stage.held)}) once the new runs "
+                      f"are written; kept as they are if it fails or is interrupted",
+                      file=sys.stderr, flush=True)
+            t0 = time.perf_counter()
+            runs = run(sc, engine, seeds=args.seeds, **tolerance_options(args))
+            wall = time.perf_counter() - t0
+            if not runs.complete:
+                stage.incomplete(next(r.message for r in runs if not r.complete))
+            runs.write(stage.path)
+    except KeyboardInterrupt:
+        raise Interrupted(f"{out} is as it was before these runs") from None
+    final = shown(out, stage.final)
+    st, n, first = runs.statistics, runs.statistics["n"], runs[0]
+    print(f"case       {sc.case}" + (f"  ({short_name(sc.name)})" if sc.name else ""))
+    print(f"robot      {sc.robot.name}")
+    print(f"engine     {first.engine}" + (f" ({first.backend})" if first.backend else "")
+          + f", T = {sc.T:g} s, noise seeds {runs.seeds[0]}"
+          + (f"-{runs.seeds[-1]}" if len(runs.seeds) > 1 else "") + f" ({len(runs)} runs)")
+    for m in METRICS:
+        unit = METRIC_UNITS.get(m, "")
+        line = f"{_SHOWN[m]:10s} {plus_minus(st[f'{m}_mean'], st[f'{m}_sem'], unit)} (n = {n})"
+        if runs.numerical_error_small(m) is False:
+            line += (f"  (numerical error {runs.numerical_error(m):.1e} relative: not small "
+                     f"against the standard error)")
+        print(line)
+    print(f"quote      mean ± standard error (std / sqrt(n)) over the {n} seeds"
+          + ("" if n > 1 else "; one seed has no spread: use more seeds"))
+    if all(runs.numerical_error_small(m) for m in METRICS):
+        print("numerical  error below a tenth of each standard error")
+    elif n and any(runs.numerical_error(m) is None for m in METRICS):
+        print("numerical  error not estimated for every run"
+              + (" (the diagram integrates once)" if first.engine == "bdsim" else ""))
+    print(f"sensitive  {st['sensitive']} of {len(runs)} runs")
+    if st["incomplete"]:
+        print(f"incomplete {st['incomplete']} of {len(runs)} runs stopped early, left out of "
+              f"the statistics (runs.csv says why)")
+    print(f"wall time  {wall:.2f} s")
+    print(f"written    {final}/ (runs.csv, statistics.csv, timeseries.csv, summary.json, "
+          f"error.png)")
+    if stage.held and final == out:
+        print(f"replaced   the previous {', '.join(stage.held)}")
+    elif stage.held:
+        print(f"kept       {out}/ as it was: incomplete runs do not replace complete results")
+    return 0 if runs.complete else 1

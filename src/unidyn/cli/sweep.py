@@ -8,12 +8,13 @@ import dataclasses
 import sys
 
 from .._errors import ValidationError
+from ..engines import warn_if_plain
 from ..model.noise import PAPER_NOISE
 from ..paper import fig11_claims, format_fig11_claims, paper_fig11, plot_fig11
 from ..results.folders import FolderLock, Ledger, output_folder
 from ..sweeps.cluster import connect_dask
 from ..sweeps.sweep import SWEEP_FILES, Sweep, rows_named, run_sweep
-from ..sweeps.sweep_files import expand_range, parse_toml_value
+from ..sweeps.sweep_files import expand_range, finished_rows, parse_toml_value
 from .arguments import tolerance_options
 from .errors import UsageError
 from .output import out_folder, short_name
@@ -58,6 +59,10 @@ def unidyn_sweep(args) -> int:
     try:
         print(f"sweep: {short_name(spec.name or str(args.sweep))}: {n} points, engine "
               f"{args.engine}" + (f", Dask at {args.dask}" if args.dask else ""), flush=True)
+        if args.engine == "batch" and args.dask is None:  # its time as plain Python, if so
+            done = set(finished_rows(out / "metrics.csv")) if not args.no_resume else set()
+            warn_if_plain([p.scenario for p in spec.points()
+                           if p.index not in done and p.scenario.control == "continuous"])
         run = run_sweep(spec, out, engine=args.engine, chunk_size=args.chunk_size,
                         resume=not args.no_resume, progress=not args.no_progress,
                         dask_address=client, overwrite=args.overwrite)

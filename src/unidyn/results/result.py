@@ -13,8 +13,9 @@ from .._validate import ValidationError
 from . import plots
 from .folders import json_ready, staged_output, write_atomic
 
-__all__ = ["Result", "metrics", "integrals", "distance", "write_atomic", "RESULT_FILES",
-           "RUN_FILES", "METRIC_NAMES", "INTEGRAL_NAMES"]
+__all__ = ["Result", "metrics", "integrals", "distance", "write_atomic", "has_noise",
+           "uncertainty", "RESULT_FILES", "RUN_FILES", "METRIC_NAMES", "INTEGRAL_NAMES",
+           "METRIC_UNITS"]
 
 #: The files of a run's results (figures may join them: see :func:`unidyn.results.plots.save_figures`).
 RESULT_FILES = ("timeseries.csv", "summary.json")
@@ -101,8 +102,41 @@ def metrics(t, error, velocity) -> dict:
 
 
 #: The unit of each metric, for printing.
-_METRIC_UNITS = {"iae": "m·s", "ise": "m²·s", "itae": "m·s²", "itse": "m²·s²",
-                 "energy": "(m/s)²·s + (rad/s)²·s", "error_final": "m"}
+METRIC_UNITS = {"iae": "m·s", "ise": "m²·s", "itae": "m·s²", "itse": "m²·s²",
+                "energy": "(m/s)²·s + (rad/s)²·s", "error_final": "m"}
+
+
+def has_noise(scenario) -> bool:
+    """Whether ``scenario`` feeds measurement noise to its controllers (a noise with
+    both standard deviations zero is none)."""
+    noise = scenario.noise
+    return noise is not None and (noise.position_std > 0 or noise.velocity_std > 0)
+
+
+def uncertainty(result) -> str:
+    """Which uncertainty to quote for a run's metrics, in a sentence (its print,
+    ``summary.json`` and ``unidyn run`` say it).
+
+    A run with measurement noise is one sample of it: another seed moves its metrics by
+    far more than they are integrated wrong, so their spread over seeds is the
+    uncertainty to quote, and the numerical error is the integration's alone. A
+    noise-free run is deterministic: its numerical error is its uncertainty."""
+    sc = result.scenario
+    if has_noise(sc):
+        return (f"one sample of the measurement noise (seed {sc.noise.seed}): another seed "
+                f"gives other values, and their spread over seeds is the uncertainty to "
+                f"quote (unidyn.run(scenario, seeds=N) or unidyn run --seeds N: mean ± "
+                f"standard error); the numerical error is the integration's alone, not an "
+                f"error bar")
+    if result.sensitive:
+        return ("no noise, but sensitive: a perturbation of 1e-12 m moves the metrics by "
+                "their numerical error; no tolerance converges them, quote them as an "
+                "order of magnitude")
+    if result.numerical_error is None:
+        return ("no noise: deterministic; numerical error not estimated (the batch engine, "
+                "engine='batch', estimates it)")
+    return "no noise: deterministic; quote each metric with its numerical error"
+
 
 #: Rows of timeseries.csv formatted at a time.
 _CSV_BLOCK = 10_000
@@ -209,22 +243,33 @@ class Result:
             lines.append(f"  note: {self.message}")
         if not self.complete:
             lines.append(f"  metrics of the part computed, to t = {self.t[-1] if len(self.t) else 0:g} s:")
+        noisy = has_noise(sc)
+        if noisy:  # which uncertainty to quote, before the numbers it qualifies
+            lines += [f"  noise seed {sc.noise.seed}: these metrics are one sample of the noise; quote "
+                      f"their spread over seeds,", "    unidyn.run(scenario, seeds=N): "
+                      "mean ± standard error (n)"]
+        else:
+            lines.append("  no noise: deterministic, each metric to its numerical error")
         err = self.numerical_error or {}
         for k, v in self.metrics.items():
-            unit = _METRIC_UNITS.get(k, "")
+            unit = METRIC_UNITS.get(k, "")
             line = f"  {k:12s} {'-' if v is None else f'{v:.6g}'}" + (f" {unit}" if unit else "")
-            if k in err:
+            if k in err and not noisy:
                 line += f"  (numerical error {err[k]:.1e} relative)"
             lines.append(line)
         if self.numerical_error is None:
             lines.append("  numerical error: not estimated" + (" (the diagram integrates once)"
                                                               if self.engine == "bdsim" else ""))
-        elif self.sensitive:
-            lines.append("  sensitive: no tolerance converges it; quote the spread over seeds")
+        elif noisy and err:
+            lines.append(f"  numerical error at most {max(err.values()):.1e} relative: the "
+                         f"integration's, not an error bar")
+        lines.append("  sensitive    " + (("True: no tolerance converges it"
+                                           + ("; quote the spread over seeds" if noisy else ""))
+                                          if self.sensitive else "False"))
         if self.theta_hat is not None and len(self.t):
             lines.append("  theta_hat(T) " + " ".join(f"{v:.4g}" for v in self.theta_hat[-1])
                          + (f"  (numerical error {err['theta_hat']:.1e} relative)"
-                            if "theta_hat" in err else ""))
+                            if "theta_hat" in err and not noisy else ""))
         lines.append("  series: t, pose, velocity, reference, error"
                      + "".join(f", {k}" for k in ("v_d", "v_ref", "theta_hat")
                                if getattr(self, k) is not None)
@@ -271,6 +316,7 @@ class Result:
             "sensitive": self.sensitive,
             "estimate": self.estimate,
             "rtol": self.rtol,
+            "uncertainty": uncertainty(self),
             "theta_hat_final": (_finite_or_null(_floats(self.theta_hat[-1]), "theta_hat_final", notes)
                                 if len(self.t) and self.theta_hat is not None else None),
         }
@@ -300,7 +346,8 @@ class Result:
             self._write(stage.path)
         return Path(folder)
 
-    def _write(self, folder: Path) -> None:
+    def series_columns(self) -> dict:
+        """The columns of ``timeseries.csv``: name -> series (those logged)."""
         cols = {"t": self.t, "x": self.pose[:, 0], "y": self.pose[:, 1], "psi": self.pose[:, 2],
                 "u": self.velocity[:, 0], "w": self.velocity[:, 1],
                 "x_d": self.reference[:, 0], "y_d": self.reference[:, 1]}
@@ -312,20 +359,26 @@ class Result:
         if self.theta_hat is not None:
             for i in range(6):
                 cols[f"theta_hat{i + 1}"] = self.theta_hat[:, i]
-        header = ",".join(cols) + "\n"
+        return cols
+
+    def series_text(self, lead: str = ""):
+        """The rows of ``timeseries.csv`` as text, a block at a time (no copy of the
+        whole series in memory), each row after ``lead`` (a first column's value and
+        its comma)."""
         # float32 series: the 9 digits that give each value back exactly (t is float64)
         fmt = "%.10g" if self.pose.dtype == np.float64 else "%.9g"
-        columns = list(cols.values())
+        columns = list(self.series_columns().values())
+        line = (lead.replace("%", "%%") + ",".join(["%.10g"] + [fmt] * (len(columns) - 1))
+                + "\n")
+        # formatted a block at a time (not np.savetxt: its wrapper keeps each block's
+        # text alive until the garbage collector runs, 260 MB for a 10^6-sample run)
+        for i in range(0, len(self.t), _CSV_BLOCK):
+            block = np.column_stack([c[i:i + _CSV_BLOCK] for c in columns])
+            yield (line * len(block)) % tuple(block.ravel().tolist())
 
-        line = ",".join(["%.10g"] + [fmt] * (len(columns) - 1)) + "\n"
-
-        def rows():  # formatted a block at a time: no copy of the whole series in memory
-            # (not np.savetxt: its wrapper keeps each block's text alive until the
-            # garbage collector runs, 260 MB for a 10^6-sample run)
-            for i in range(0, len(self.t), _CSV_BLOCK):
-                block = np.column_stack([c[i:i + _CSV_BLOCK] for c in columns])
-                yield (line * len(block)) % tuple(block.ravel().tolist())
-        write_atomic(folder / "timeseries.csv", header, more=rows())
+    def _write(self, folder: Path) -> None:
+        header = ",".join(self.series_columns()) + "\n"
+        write_atomic(folder / "timeseries.csv", header, more=self.series_text())
         write_atomic(folder / "summary.json", self.to_json())
 
     # plotting helpers (matplotlib is imported only when one is called)
