@@ -458,9 +458,9 @@ def experiment_scenarios(seeds=8, robot="p3dx_laser", noise=PAPER_NOISE,
         ns = None if seed is None else {**noise.as_dict(), "seed": seed}
         for case in EXPERIMENT_CONTROLLERS:
             name = f"experiment {case}, " + ("no noise" if seed is None else f"seed {seed}")
-            out.append((seed, case, base.replace(
-                case=case, noise=ns, name=name,
-                theta_hat0=estimate if case == "adaptive" else None)))
+            sc = base.replace(case=case, noise=ns, name=name)
+            out.append((seed, case, sc.replace(theta_hat0=estimate)
+                         if sc.case_spec.adaptive else sc))
     return out
 
 
@@ -637,7 +637,7 @@ def format_experiment_claims(exp: Experiment) -> str:
     st = exp.stats
     n = st["adaptive before"][2]
     first = exp.runs[0].result.scenario
-    adaptive = next(r.result.scenario for r in exp.runs if r.case == "adaptive")
+    adaptive = next(r.result.scenario for r in exp.runs if r.result.scenario.case_spec.adaptive)
     factor = adaptive.theta_hat_initial[0] / adaptive.robot.theta[0]
     noisy = first.noise is not None or any(r.seed is not None for r in exp.runs)
     engines = sorted({r.engine for r in exp.runs})

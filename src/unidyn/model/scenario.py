@@ -17,15 +17,15 @@ import numpy as np
 from . import robots, trajectories
 from .._validate import (ValidationError, choice, nonnegative, positive, positive_vector,
                          string_keys, vector)
+from .cases import CASE_SPECS, CASES, CaseSpec
 from .laws import LEAKAGE_FORMS, PAPER_GAMMA, PAPER_SIGMA
 from .unicycle import Limits, PAPER_LIMITS, loaded_theta
 from .noise import NoiseSpec, PAPER_NOISE
 from .parameters import RobotParameters, payload_schedule
 
-__all__ = ["Scenario", "CASES", "CONTROL_MODES", "VD_DOT_METHODS", "PAPER_GAMMA", "PAPER_SIGMA"]
+__all__ = ["Scenario", "CASES", "CASE_SPECS", "CONTROL_MODES", "VD_DOT_METHODS", "PAPER_GAMMA",
+           "PAPER_SIGMA"]
 
-#: The four cases of Section 5, by name, in the paper's order.
-CASES = ("kinematic", "uncompensated", "compensated", "adaptive")
 #: How the controllers run: evaluated with the plant, or sampled on a clock at Ts.
 CONTROL_MODES = ("continuous", "sampled")
 #: How the compensator gets v_d': the exact derivative of Eq. (10) along the
@@ -166,13 +166,19 @@ class Scenario:
 
     # ------------------------------------------------------------------ #
     @property
+    def case_spec(self) -> CaseSpec:
+        """What the case is (:class:`~unidyn.model.cases.CaseSpec`): which robot
+        (``.dynamic``), which compensation (``.compensated``), whether it adapts
+        (``.adaptive``)."""
+        return CASE_SPECS[self.case]
+
+    @property
     def theta_hat_initial(self) -> np.ndarray:
         """The estimate the compensator starts from (see ``theta_hat0``)."""
         if self.theta_hat0 is not None:
             return self.theta_hat0.theta
-        if self.case == "adaptive":
-            return self.robot.theta / 1.5
-        return self.robot.theta
+        divisor = self.case_spec.theta_hat_divisor
+        return self.robot.theta if divisor == 1 else self.robot.theta / divisor
 
     def theta_at(self, t) -> np.ndarray:
         """The robot's theta1..theta6 at time t, s (a number: shape (6,); an array of N
