@@ -270,7 +270,8 @@ class Scenario:
 
     @classmethod
     def from_dict(cls, data) -> "Scenario":
-        """Build from plain data (as read from TOML or JSON). Unknown keys raise."""
+        """Build from plain data (as read from TOML or JSON). Unknown keys raise. A
+        scenario file is read by :func:`unidyn.read_scenario`."""
         if not isinstance(data, dict):
             raise ValidationError(f"a scenario must be a table of fields, got {type(data).__name__}")
         _check_fields(data)
