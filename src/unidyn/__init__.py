@@ -17,7 +17,7 @@ __version__ = "0.1.0"
 
 _bdsim_path.register()
 
-__all__ = ["Scenario", "run", "simulate", "simulate_batch", "Result", "SimulationError",
+__all__ = ["Scenario", "read_scenario", "run", "simulate", "simulate_batch", "Result", "SimulationError",
            "ValidationError", "RobotParameters", "Limits", "NoiseSpec", "NO_LIMITS",
            "PAPER_LIMITS", "robots", "laws", "trajectories", "equations", "check_properties",
            "rank_test", "to_iosys", "LoopExplorer", "__version__"]
@@ -34,6 +34,8 @@ _LAZY = {
     "PAPER_LIMITS": ("model.unicycle", "PAPER_LIMITS"),
     "NoiseSpec": ("model.noise", "NoiseSpec"),
     "Scenario": ("model.scenario", "Scenario"),
+    # a scenario file (TOML) as unidyn run reads it; files are read above the model
+    "read_scenario": ("sweeps.sweep_files", "read_scenario"),
     "robots": ("model.robots", None),
     "laws": ("model.laws", None),
     "trajectories": ("model.trajectories", None),

@@ -146,8 +146,7 @@ def build_fig2(sim, scenario: Scenario, *, robot: Callable | None = None,
     bd = sim.blockdiagram(name=sc.name or f"fig2_{sc.case}")
     fig = Fig2(bd=bd, scenario=sc)
     sampled = sc.control == "sampled"
-    dynamic = sc.case != "kinematic"
-    compensated = sc.case in ("compensated", "adaptive")
+    dynamic, compensated = sc.case_spec.dynamic, sc.case_spec.compensated
     # the exact v_d' needs the rate output of our continuous K; with a user's own
     # controller the compensator falls back to its derivative filter
     analytic = compensated and sc.derivative == "analytic" and controller is None
@@ -221,8 +220,8 @@ def build_fig2(sim, scenario: Scenario, *, robot: Callable | None = None,
     command = K[0]
     if compensated:
         dargs = dict(theta_hat0=sc.theta_hat_initial, ku=sc.ku, kw=sc.kw, lu=sc.lu, lw=sc.lw,
-                     adaptive=sc.case == "adaptive", gamma=sc.gamma, sigma=sc.sigma,
-                     adapt_from=sc.adapt_from if sc.case == "adaptive" else 0.0,
+                     adaptive=sc.case_spec.adaptive, gamma=sc.gamma, sigma=sc.sigma,
+                     adapt_from=sc.adapt_from if sc.case_spec.adaptive else 0.0,
                      leakage=sc.leakage)
         if compensator is not None:
             D = compensator(bd, sc)

@@ -95,7 +95,7 @@ def _check_bounds(pose, velocity, b, t):
 def _unvouched(sc, rtol):
     """Why a complete run's accuracy is not vouched for, or "" (see :data:`HIGH_GAIN`)."""
     gamma = max(sc.gamma)
-    if sc.case != "adaptive" or gamma <= HIGH_GAIN or rtol <= HIGH_GAIN_RTOL:
+    if not sc.case_spec.adaptive or gamma <= HIGH_GAIN or rtol <= HIGH_GAIN_RTOL:
         return ""
     return (f"every sample computed, but its accuracy is not vouched for: at adaptation "
             f"gain gamma up to {gamma:g} (above {HIGH_GAIN:g}) with rtol {rtol:g}, the solver "

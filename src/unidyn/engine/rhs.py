@@ -118,15 +118,15 @@ class ClosedLoop:
         values in the order of :data:`unidyn.model.equations.LOOP_PARAMETERS`."""
         table = np.zeros((self.B, len(LOOP_PARAMETERS)))
         for i, s in enumerate(self.scenarios):
-            adaptive = s.case == "adaptive"
+            spec = s.case_spec
             tr = s.trajectory
             kind = getattr(tr, "kind", None)
             values = dict(
                 zip(THETA_NAMES, s.robot.theta),
                 a=s.a, kx=s.kx, ky=s.ky, lx=s.lx, ly=s.ly, ku=s.ku, kw=s.kw, lu=s.lu, lw=s.lw,
-                adapt_from=s.adapt_from if adaptive else np.inf, tau=s.tau,
-                filtered=float(s.derivative == "filter"), dynamic=float(s.case != "kinematic"),
-                compensated=float(s.case in ("compensated", "adaptive")),
+                adapt_from=s.adapt_from if spec.adaptive else np.inf, tau=s.tau,
+                filtered=float(s.derivative == "filter"), dynamic=float(spec.dynamic),
+                compensated=float(spec.compensated),
                 speed_u=s.limits.speed[0], speed_w=s.limits.speed[1],
                 accel_u=s.limits.accel[0], accel_w=s.limits.accel[1],
                 trajectory=TRAJECTORY_KINDS.index(kind) if kind in TRAJECTORY_KINDS else -1)

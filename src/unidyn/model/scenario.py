@@ -17,15 +17,15 @@ import numpy as np
 from . import robots, trajectories
 from .._validate import (ValidationError, choice, nonnegative, positive, positive_vector,
                          string_keys, vector)
+from .cases import CASE_SPECS, CASES, CaseSpec
 from .laws import LEAKAGE_FORMS, PAPER_GAMMA, PAPER_SIGMA
 from .unicycle import Limits, PAPER_LIMITS, loaded_theta
 from .noise import NoiseSpec, PAPER_NOISE
 from .parameters import RobotParameters, payload_schedule
 
-__all__ = ["Scenario", "CASES", "CONTROL_MODES", "VD_DOT_METHODS", "PAPER_GAMMA", "PAPER_SIGMA"]
+__all__ = ["Scenario", "CASES", "CASE_SPECS", "CONTROL_MODES", "VD_DOT_METHODS", "PAPER_GAMMA",
+           "PAPER_SIGMA"]
 
-#: The four cases of Section 5, by name, in the paper's order.
-CASES = ("kinematic", "uncompensated", "compensated", "adaptive")
 #: How the controllers run: evaluated with the plant, or sampled on a clock at Ts.
 CONTROL_MODES = ("continuous", "sampled")
 #: How the compensator gets v_d': the exact derivative of Eq. (10) along the
@@ -159,102 +159,26 @@ class Scenario:
         return super().__new__(cls)
 
     def __post_init__(self):
-        s = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
-        s("case", choice("case", self.case, CASES))
-        s("robot", robots.resolve(self.robot, "robot"))
-        s("a", positive("a", self.a))
-        s("x0", _tuple("x0", self.x0, 3))
-        s("trajectory", trajectories.from_spec(self.trajectory))
-        for k in ("kx", "ky", "lx", "ly", "ku", "kw", "lu", "lw", "T", "Ts", "tau"):
-            s(k, positive(k, getattr(self, k)))
-        if self.theta_hat0 is not None:
-            s("theta_hat0", robots.resolve(self.theta_hat0, "theta_hat0"))
-        s("gamma", tuple(positive_vector("gamma", self.gamma, 6).tolist()))
-        sig = vector("sigma", self.sigma, 6)
-        if np.any(sig < 0):
-            raise ValidationError(f"every element of sigma must be >= 0, got {sig.tolist()}")
-        s("sigma", tuple(sig.tolist()))
-        s("adapt_from", nonnegative("adapt_from", self.adapt_from))
-        s("leakage", choice("leakage", self.leakage, LEAKAGE_FORMS))
-        if isinstance(self.noise, (bool, str)) and self.noise in NO_NOISE:
-            s("noise", None)  # as scenario files write it: noise = "off"
-        if isinstance(self.noise, dict):
-            s("noise", _build("noise", NoiseSpec, self.noise))
-        elif self.noise is not None and not isinstance(self.noise, NoiseSpec):
-            raise ValidationError(f"noise must be None (or \"off\"), a NoiseSpec or a dict "
-                                  f"with position_std, velocity_std, seed; got {self.noise!r}")
-        if isinstance(self.limits, dict):
-            s("limits", _build("limits", Limits, self.limits))
-        elif not isinstance(self.limits, Limits):
-            raise ValidationError(f"limits must be a Limits or a dict with speed_max, steer_max, "
-                                  f"accel_max, angular_accel_max; got {self.limits!r}")
-        s("control", choice("control", self.control, CONTROL_MODES))
-        if self.vd_dot is not None:
-            choice("vd_dot", self.vd_dot, VD_DOT_METHODS)
-            allowed = _VD_DOT_FOR[self.control]
-            if self.vd_dot not in allowed:
-                raise ValidationError(
-                    f"vd_dot={self.vd_dot!r} cannot be used with control={self.control!r}; "
-                    f"use one of {', '.join(map(repr, allowed))} (or leave vd_dot unset)")
-        if self.Ts > self.T:
-            raise ValidationError(f"Ts must be <= T ({self.T:g} s), got {self.Ts!r}")
-        if self.T / self.Ts > MAX_SAMPLES:
-            raise ValidationError(f"T/Ts must be at most {MAX_SAMPLES:.0e} samples, got "
-                                  f"T = {self.T:g} s, Ts = {self.Ts:g} s")
-        ratio = self.T / self.Ts
-        if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
-            lo, hi = math.floor(ratio) * self.Ts, math.ceil(ratio) * self.Ts
-            raise ValidationError(
-                f"T must be a whole number of samples of Ts: T = {self.T!r} s, Ts = {self.Ts!r} s "
-                f"give T/Ts = {ratio:.6g}; use T = {lo:.10g} s or T = {hi:.10g} s "
-                f"(or a Ts that divides T)")
-        if abs(self.x0[2]) > DIVERGENCE_FACTOR:
-            raise ValidationError(f"x0: the initial heading psi must be within "
-                                  f"+-{DIVERGENCE_FACTOR:g} rad, got {self.x0[2]!r}")
-        if math.hypot(self.x0[0], self.x0[1]) > DIVERGENCE_FACTOR:  # cheap test first
-            bound = self.divergence_bounds()[0]
-            if not math.hypot(self.x0[0], self.x0[1]) <= bound:
-                raise ValidationError(
-                    f"x0: the initial position ({self.x0[0]:g}, {self.x0[1]:g}) m is more than "
-                    f"{DIVERGENCE_FACTOR:g} times the reference's size away from the origin; "
-                    f"|(x, y)| must be at most {bound:g} m")
-        le = self.log_every
-        if (isinstance(le, bool) or not isinstance(le, (int, np.integer)) or le < 1
-                or self.steps % int(le) != 0):
-            raise ValidationError(f"log_every must be an integer >= 1 that divides T/Ts = "
-                                  f"{self.steps}, got {le!r}")
-        s("log_every", int(le))
-        s("log_dtype", choice("log_dtype", self.log_dtype, LOG_DTYPES))
-        s("log_series", _log_series(self.log_series))
-        cap = MAX_LOG_BYTES // self.logged_bytes()
-        if self.steps // self.log_every > cap:
-            need = -(-self.steps // cap)
-            need = next(d for d in range(need, self.steps + 1) if self.steps % d == 0)
-            other = []
-            if self.log_dtype == "float64":
-                other.append("log_dtype='float32'")
-            if self.log_series:
-                other.append("log_series=() (only pose, velocity and reference)")
-            raise ValidationError(
-                f"T/Ts/log_every must be at most {cap:.2e} logged samples with log_dtype = "
-                f"{self.log_dtype!r} and log_series = {list(self.log_series)} "
-                f"({self.logged_bytes()} bytes a sample; {MAX_LOG_BYTES / 1e6:.0f} MB in all); "
-                f"T = {self.T:g} s, Ts = {self.Ts:g} s give {self.steps} samples: "
-                f"set log_every >= {need} (a divisor of {self.steps})"
-                + (f", or {' or '.join(other)}" if other else ""))
-        if not isinstance(self.name, str):
-            raise ValidationError(f"name must be a string, got {self.name!r}")
-        s("payload", payload_schedule(self.payload))
+        # each field through its rules (:data:`_RULES`), in order: a rule sees the
+        # fields before it already checked
+        for name, rule in _RULES:
+            object.__setattr__(self, name, rule(getattr(self, name), name, self))
 
     # ------------------------------------------------------------------ #
+    @property
+    def case_spec(self) -> CaseSpec:
+        """What the case is (:class:`~unidyn.model.cases.CaseSpec`): which robot
+        (``.dynamic``), which compensation (``.compensated``), whether it adapts
+        (``.adaptive``)."""
+        return CASE_SPECS[self.case]
+
     @property
     def theta_hat_initial(self) -> np.ndarray:
         """The estimate the compensator starts from (see ``theta_hat0``)."""
         if self.theta_hat0 is not None:
             return self.theta_hat0.theta
-        if self.case == "adaptive":
-            return self.robot.theta / 1.5
-        return self.robot.theta
+        divisor = self.case_spec.theta_hat_divisor
+        return self.robot.theta if divisor == 1 else self.robot.theta / divisor
 
     def theta_at(self, t) -> np.ndarray:
         """The robot's theta1..theta6 at time t, s (a number: shape (6,); an array of N
@@ -346,7 +270,8 @@ class Scenario:
 
     @classmethod
     def from_dict(cls, data) -> "Scenario":
-        """Build from plain data (as read from TOML or JSON). Unknown keys raise."""
+        """Build from plain data (as read from TOML or JSON). Unknown keys raise. A
+        scenario file is read by :func:`unidyn.read_scenario`."""
         if not isinstance(data, dict):
             raise ValidationError(f"a scenario must be a table of fields, got {type(data).__name__}")
         _check_fields(data)
@@ -357,6 +282,153 @@ class Scenario:
             return cls(**data)
         except TypeError as err:  # e.g. a list where a number was expected, deep inside
             raise ValidationError(f"scenario: {err}") from None
+
+
+# ------------------------------------------------------------------ the rules of the fields
+
+def _alone(check):
+    """The rule of a check that reads no other field: ``check(name, value)``."""
+    return lambda value, name, sc: check(name, value)
+
+
+def _sigma(value, name, sc):
+    sig = vector(name, value, 6)
+    if np.any(sig < 0):
+        raise ValidationError(f"every element of sigma must be >= 0, got {sig.tolist()}")
+    return tuple(sig.tolist())
+
+
+def _noise(value, name, sc):
+    if isinstance(value, (bool, str)) and value in NO_NOISE:
+        return None  # as scenario files write it: noise = "off"
+    if isinstance(value, dict):
+        return _build(name, NoiseSpec, value)
+    if value is not None and not isinstance(value, NoiseSpec):
+        raise ValidationError(f"noise must be None (or \"off\"), a NoiseSpec or a dict "
+                              f"with position_std, velocity_std, seed; got {value!r}")
+    return value
+
+
+def _limits(value, name, sc):
+    if isinstance(value, dict):
+        return _build(name, Limits, value)
+    if not isinstance(value, Limits):
+        raise ValidationError(f"limits must be a Limits or a dict with speed_max, steer_max, "
+                              f"accel_max, angular_accel_max; got {value!r}")
+    return value
+
+
+def _vd_dot(value, name, sc):
+    """After ``control``: a method that control mode can use."""
+    if value is not None:
+        choice(name, value, VD_DOT_METHODS)
+        allowed = _VD_DOT_FOR[sc.control]
+        if value not in allowed:
+            raise ValidationError(
+                f"vd_dot={value!r} cannot be used with control={sc.control!r}; "
+                f"use one of {', '.join(map(repr, allowed))} (or leave vd_dot unset)")
+    return value
+
+
+def _samples(value, name, sc):
+    """After ``T`` and ``Ts``: Ts within T, T a whole number of samples, not too many."""
+    T, Ts = sc.T, value
+    if Ts > T:
+        raise ValidationError(f"Ts must be <= T ({T:g} s), got {Ts!r}")
+    if T / Ts > MAX_SAMPLES:
+        raise ValidationError(f"T/Ts must be at most {MAX_SAMPLES:.0e} samples, got "
+                              f"T = {T:g} s, Ts = {Ts:g} s")
+    ratio = T / Ts
+    if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
+        lo, hi = math.floor(ratio) * Ts, math.ceil(ratio) * Ts
+        raise ValidationError(
+            f"T must be a whole number of samples of Ts: T = {T!r} s, Ts = {Ts!r} s "
+            f"give T/Ts = {ratio:.6g}; use T = {lo:.10g} s or T = {hi:.10g} s "
+            f"(or a Ts that divides T)")
+    return value
+
+
+def _x0_within_bounds(value, name, sc):
+    """After the reference, gains, limits and T: the start not already diverged."""
+    if abs(value[2]) > DIVERGENCE_FACTOR:
+        raise ValidationError(f"x0: the initial heading psi must be within "
+                              f"+-{DIVERGENCE_FACTOR:g} rad, got {value[2]!r}")
+    if math.hypot(value[0], value[1]) > DIVERGENCE_FACTOR:  # cheap test first
+        bound = sc.divergence_bounds()[0]
+        if not math.hypot(value[0], value[1]) <= bound:
+            raise ValidationError(
+                f"x0: the initial position ({value[0]:g}, {value[1]:g}) m is more than "
+                f"{DIVERGENCE_FACTOR:g} times the reference's size away from the origin; "
+                f"|(x, y)| must be at most {bound:g} m")
+    return value
+
+
+def _log_every(value, name, sc):
+    """After T and Ts: a whole divisor of T/Ts."""
+    if (isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1
+            or sc.steps % int(value) != 0):
+        raise ValidationError(f"log_every must be an integer >= 1 that divides T/Ts = "
+                              f"{sc.steps}, got {value!r}")
+    return int(value)
+
+
+def _log_fits(value, name, sc):
+    """After the log's fields: the log within :data:`MAX_LOG_BYTES`."""
+    cap = MAX_LOG_BYTES // sc.logged_bytes()
+    if sc.steps // sc.log_every > cap:
+        need = -(-sc.steps // cap)
+        need = next(d for d in range(need, sc.steps + 1) if sc.steps % d == 0)
+        other = []
+        if sc.log_dtype == "float64":
+            other.append("log_dtype='float32'")
+        if sc.log_series:
+            other.append("log_series=() (only pose, velocity and reference)")
+        raise ValidationError(
+            f"T/Ts/log_every must be at most {cap:.2e} logged samples with log_dtype = "
+            f"{sc.log_dtype!r} and log_series = {list(sc.log_series)} "
+            f"({sc.logged_bytes()} bytes a sample; {MAX_LOG_BYTES / 1e6:.0f} MB in all); "
+            f"T = {sc.T:g} s, Ts = {sc.Ts:g} s give {sc.steps} samples: "
+            f"set log_every >= {need} (a divisor of {sc.steps})"
+            + (f", or {' or '.join(other)}" if other else ""))
+    return value
+
+
+def _name(value, name, sc):
+    if not isinstance(value, str):
+        raise ValidationError(f"name must be a string, got {value!r}")
+    return value
+
+
+#: What :class:`Scenario` checks, in order: (field, rule). A rule takes the value as
+#: given, the field's name and the scenario (its fields before this rule already
+#: checked) and returns the value kept; a bad value raises a ValidationError of one
+#: line naming the field. A field whose rule reads other fields comes again after them.
+_RULES = (
+    ("case", _alone(lambda name, v: choice(name, v, CASES))),
+    ("robot", _alone(lambda name, v: robots.resolve(v, name))),
+    ("a", _alone(positive)),
+    ("x0", _alone(lambda name, v: _tuple(name, v, 3))),
+    ("trajectory", _alone(lambda name, v: trajectories.from_spec(v))),
+    *((k, _alone(positive))
+      for k in ("kx", "ky", "lx", "ly", "ku", "kw", "lu", "lw", "T", "Ts", "tau")),
+    ("theta_hat0", _alone(lambda name, v: None if v is None else robots.resolve(v, name))),
+    ("gamma", _alone(lambda name, v: tuple(positive_vector(name, v, 6).tolist()))),
+    ("sigma", _sigma),
+    ("adapt_from", _alone(nonnegative)),
+    ("leakage", _alone(lambda name, v: choice(name, v, LEAKAGE_FORMS))),
+    ("noise", _noise),
+    ("limits", _limits),
+    ("control", _alone(lambda name, v: choice(name, v, CONTROL_MODES))),
+    ("vd_dot", _vd_dot),
+    ("Ts", _samples),
+    ("x0", _x0_within_bounds),
+    ("log_every", _log_every),
+    ("log_dtype", _alone(lambda name, v: choice(name, v, LOG_DTYPES))),
+    ("log_series", _alone(lambda name, v: _log_series(v))),
+    ("log_series", _log_fits),
+    ("name", _name),
+    ("payload", _alone(lambda name, v: payload_schedule(v))),
+)
 
 
 def _is_preset(p: RobotParameters) -> bool:

@@ -25,6 +25,7 @@ from fractions import Fraction
 import numpy as np
 
 from . import figstyle
+from ..model.cases import CASE_SPECS
 from .figstyle import REFERENCE, START, label as _unit
 
 __all__ = ["plot_path", "plot_error", "plot_positions", "plot_velocities", "plot_theta_hat",
@@ -49,11 +50,8 @@ def _label(result):
     return figstyle.as_text(result.scenario.name) or result.scenario.case
 
 
-#: What each case of the loop is, for titles.
-CASE_TITLES = {"kinematic": "kinematic robot (v = v_d)",
-               "uncompensated": "dynamic robot, no compensation",
-               "compensated": "exact dynamic compensation",
-               "adaptive": "adaptive dynamic compensation"}
+#: What each case of the loop is, for titles (:data:`unidyn.model.cases.CASE_SPECS`).
+CASE_TITLES = {name: spec.title for name, spec in CASE_SPECS.items()}
 
 
 def run_title(scenario) -> str:
@@ -64,7 +62,7 @@ def run_title(scenario) -> str:
     gains = f"kx = ky = {s.kx:g}" if s.kx == s.ky else f"kx = {s.kx:g}, ky = {s.ky:g}"
     noise = "noise-free" if s.noise is None else f"noise seed {s.noise.seed}"
     lines = [figstyle.as_text(s.name)] if s.name else []
-    return "\n".join(lines + [CASE_TITLES[s.case],
+    return "\n".join(lines + [s.case_spec.title,
                               f"{figstyle.as_text(s.robot.name, limit=24)}, {gains}, {noise}"])
 
 
@@ -333,6 +331,6 @@ def save_figures(result, folder, dpi=figstyle.DPI) -> list:
     done(plot_error(result).figure, "error.png")
     done(plot_positions(result)[0].figure, "positions.png")
     done(plot_velocities(result)[0].figure, "velocities.png")
-    if result.scenario.case == "adaptive" and result.theta_hat is not None:
+    if result.scenario.case_spec.adaptive and result.theta_hat is not None:
         done(plot_theta_hat(result, panels=True)[0].figure, "theta_hat.png")
     return written

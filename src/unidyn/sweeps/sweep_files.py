@@ -3,7 +3,8 @@ r"""Reading and writing scenario and sweep files: one module for ``unidyn run``,
 
 - TOML: :func:`read_toml` (a scenario or sweep file), :func:`parse_toml_value` (one
   value given on the command line, ``--set kx=0.5``), :func:`read_scenario_table` (a
-  scenario file, its fields at the top level or under ``[scenario]``).
+  scenario file, its fields at the top level or under ``[scenario]``) and
+  :func:`read_scenario` (the Scenario of that file, ``unidyn.read_scenario``).
 - Sweep definitions: :func:`expand_range` (a range table ``{start, stop, step}`` or
   ``{start, stop, num, log}``), :func:`check_keys` (a table of Scenario fields and the
   special keys :data:`SPECIAL_KEYS`), :func:`scenario_from_layers` (the Scenario of
@@ -33,7 +34,7 @@ from .._validate import ValidationError, integer, positive, real
 from ..results.folders import json_ready
 from ..model.scenario import Scenario, plain_value
 
-__all__ = ["read_toml", "parse_toml_value", "read_scenario_table", "expand_range",
+__all__ = ["read_toml", "parse_toml_value", "read_scenario_table", "read_scenario", "expand_range",
            "check_keys", "scenario_from_layers", "plain", "read_metrics", "sweep_record_text",
            "read_sweep_record", "sweep_id_text", "read_sweep_id", "MissingDependency",
            "SPECIAL_KEYS", "METRICS", "MAX_POINTS", "RECORD_NAME", "ID_NAME"]
@@ -118,6 +119,15 @@ def read_scenario_table(path) -> dict:
     if set(data) == {"scenario"} and isinstance(data["scenario"], dict):
         data = data["scenario"]
     return data
+
+
+def read_scenario(path) -> Scenario:
+    """The :class:`~unidyn.Scenario` of a scenario file, as ``unidyn run FILE`` reads it
+    (``unidyn.read_scenario``): a TOML file of Scenario fields, at the top level or under
+    ``[scenario]``, with the sweeps' keys ``kxy``, ``theta_hat_scale`` and ``seed``
+    allowed. A missing file raises ``FileNotFoundError``, a bad one a
+    :class:`~unidyn.ValidationError` of one line naming the file and the field."""
+    return scenario_from_layers([(str(path), read_scenario_table(path))])
 
 
 # ------------------------------------------------------ values and scenario tables

@@ -52,6 +52,7 @@ from ..model import robots, trajectories, unicycle
 from .._validate import ValidationError, nonnegative, positive, vector
 from ..model.laws import LEAKAGE_FORMS, PAPER_GAMMA, PAPER_SIGMA
 from ..model.unicycle import NO_LIMITS, Limits
+from ..model.cases import CASE_SPECS
 from ..model.scenario import Scenario
 
 __all__ = ["to_iosys", "kinematic_iosys", "velocity_iosys", "kinematic_controller",
@@ -67,7 +68,7 @@ REFERENCE_SIGNALS = ("x_d", "y_d", "x_d_dot", "y_d_dot", "x_d_ddot", "y_d_ddot")
 #: Measurement noise added to x, y (fed to Eq. 10) and to u, w (fed to Eqs. 10, 14, 18/20).
 NOISE_SIGNALS = ("n_x", "n_y", "n_u", "n_w")
 #: The cases :func:`tracking_loop` linearises (Section 5, without adaptation).
-LINEAR_CASES = ("kinematic", "uncompensated", "compensated")
+LINEAR_CASES = tuple(name for name, spec in CASE_SPECS.items() if not spec.adaptive)
 _THETA_HAT = tuple(f"theta_hat{j}" for j in range(1, 7))
 
 
@@ -366,9 +367,9 @@ def reference_iosys(trajectory=None, name: str = "reference"):
 
 
 # ------------------------------------------------------------------- the Fig. 2 loop
-def _sensor(case):
+def _sensor(compensated: bool):
     """x, y (and u, w) plus their noise: what the controllers are fed."""
-    if case in ("kinematic", "uncompensated"):  # no controller reads u, w
+    if not compensated:  # no controller reads u, w
         def output(t, x, s, params):
             return s[0:2] + s[2:4]
         return ct.nlsys(None, output, inputs=("x", "y") + NOISE_SIGNALS,
@@ -413,13 +414,12 @@ def fig2_loop(scenario=None, *, reference: bool = True, **changes):
     if sc.payload:
         raise ValidationError("fig2_loop builds a robot of constant theta; a scenario with a "
                               "payload schedule runs in unidyn.simulate or simulate_batch")
-    case = sc.case
-    dynamic = case != "kinematic"
-    compensated = case in ("compensated", "adaptive")
+    spec = sc.case_spec
+    dynamic, compensated = spec.dynamic, spec.compensated
     robot = (to_iosys(sc.robot, sc.a, sc.limits) if dynamic
              else kinematic_iosys(sc.a, sc.limits))
     K = kinematic_controller(sc.a, sc.kx, sc.ky, sc.lx, sc.ly, rate=compensated)
-    systems = [robot, K, _sensor(case)]
+    systems = [robot, K, _sensor(compensated)]
     conn = [["sensor.x", "robot.x"], ["sensor.y", "robot.y"],
             ["kinematic_controller.x", "sensor.x_m"], ["kinematic_controller.y", "sensor.y_m"],
             ["kinematic_controller.psi", "robot.psi"]]
@@ -435,7 +435,7 @@ def fig2_loop(scenario=None, *, reference: bool = True, **changes):
     inputs += list(NOISE_SIGNALS)
     if compensated:
         D = compensator(sc.theta_hat_initial, sc.ku, sc.kw, sc.lu, sc.lw,
-                        adaptive=case == "adaptive", gamma=sc.gamma, sigma=sc.sigma,
+                        adaptive=spec.adaptive, gamma=sc.gamma, sigma=sc.sigma,
                         leakage=sc.leakage, adapt_from=sc.adapt_from)
         systems.append(D)
         conn += [["sensor.u", "robot.u"], ["sensor.w", "robot.w"],
@@ -455,7 +455,7 @@ def fig2_loop(scenario=None, *, reference: bool = True, **changes):
     if reference:
         outlist += ["reference.x_d", "reference.y_d"]
         outputs += ["x_d", "y_d"]
-    if case == "adaptive":
+    if spec.adaptive:
         outlist += [f"compensator.{s}" for s in _THETA_HAT]
         outputs += list(_THETA_HAT)
     # without compensation v_d' is not needed, nor is the reference's acceleration
@@ -474,7 +474,7 @@ def fig2_initial_state(loop) -> np.ndarray:
     idx = loop.state_index
     for s, v in zip(("x", "y", "psi"), sc.x0):
         x0[idx[f"robot_{s}"]] = v
-    if sc.case == "adaptive":
+    if sc.case_spec.adaptive:
         for j, s in enumerate(_THETA_HAT):
             x0[idx[f"compensator_{s}"]] = sc.theta_hat_initial[j]
     return x0
@@ -491,7 +491,7 @@ def simulate_fig2(scenario=None, t=None, rtol: float = 1e-9, atol: float = 1e-11
     sc = loop.scenario
     if t is None:
         t = np.arange(sc.steps + 1) * sc.Ts
-    max_step = 0.5 * sc.Ts if sc.case == "adaptive" else np.inf
+    max_step = 0.5 * sc.Ts if sc.case_spec.adaptive else np.inf
     return ct.input_output_response(
         loop, t, np.zeros((len(NOISE_SIGNALS), len(t))), fig2_initial_state(loop),
         solve_ivp_method="LSODA",
@@ -603,7 +603,7 @@ def tracking_loop(scenario=None, V: float = 0.3, **changes):
     sc = Scenario.paper(2) if scenario is None else scenario
     if changes:
         sc = sc.replace(**changes)
-    if sc.case not in LINEAR_CASES:
+    if sc.case_spec.adaptive:
         raise ValidationError(f"tracking_loop linearises the cases {', '.join(LINEAR_CASES)}, "
                               f"got {sc.case!r} (adaptation is not a linear time-invariant loop)")
     V = positive("V", V)
@@ -611,7 +611,7 @@ def tracking_loop(scenario=None, V: float = 0.3, **changes):
     loop = fig2_loop(sc, reference=False)
     x0 = np.zeros(loop.nstates)
     idx = loop.state_index
-    if sc.case != "kinematic":
+    if sc.case_spec.dynamic:
         x0[idx["robot_u"]] = V
     u0 = np.zeros(loop.ninputs)
     u0[loop.input_index["x_d_dot"]] = V
