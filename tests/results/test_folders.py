@@ -312,7 +312,8 @@ def test_a_lock_file_unidyn_did_not_make_is_refused_in_one_line_and_kept(tmp_pat
                                   "file"])
 def test_the_place_for_partial_results_is_unidyns_or_refused(tmp_path, make):
     """A partial result beside complete ones goes to ``<out>.incomplete`` only when
-    that is a folder unidyn made: never through a link, into a user's folder or file."""
+    that is a folder unidyn made: never through a link, into a user's folder or file;
+    where it cannot, the block is refused on entry, before any work is done."""
     out, theirs = tmp_path / "out", tmp_path / "theirs"
     _save(out, 1)
     theirs.mkdir()
@@ -325,10 +326,13 @@ def test_the_place_for_partial_results_is_unidyns_or_refused(tmp_path, make):
         (place / "notes.txt").write_text("mine")
     else:
         place.write_text("mine")
-    with pytest.raises(ValidationError, match="not the folder unidyn keeps partial") as err:
-        with staged(out, overwrite=True) as st:
+    ran = []
+    with pytest.raises(ValidationError, match="unidyn keeps there the partial") as err:
+        with staged(out, overwrite=True) as st:  # refused before the work, not after it
+            ran.append(True)
             _write(st.path, 2)
             st.incomplete("stopped early")
+    assert ran == [] and "nothing was run" in str(err.value)
     assert "\n" not in str(err.value) and str(place) in str(err.value)
     assert sorted(os.listdir(theirs)) == ["thesis.tex"] and _generations(out) == {1}
     assert _private(out) == []
