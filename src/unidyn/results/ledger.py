@@ -208,14 +208,20 @@ class Ledger:
         """Have ``write(path)`` write the file at a temporary path beside it (with
         ``name``'s suffix, which a figure's format is read from), then move it into
         place as ``name``. A full disk is a :class:`DiskFull` naming the file."""
+        size = None
         try:
             with _temporary(self.folder, Path(name).suffix, self.lock) as tmp:
-                write(tmp)
+                try:
+                    write(tmp)
+                except OSError:
+                    with contextlib.suppress(OSError):
+                        size = os.lstat(tmp).st_size
+                    raise
                 self.replace({name: tmp})
         except OSError as err:
             target = self.folder / name
             raise disk_full(err, f"{target} is as it was" if self.owns(name) else
-                            f"{target} was not written", target) from None
+                            f"{target} was not written", target, size) from None
         return self.folder / name
 
     def write(self, name: str, text: str) -> Path:

@@ -68,6 +68,7 @@ def disk_full(err: OSError, kept: str, path=None, written: int | None = None) ->
     if err.errno not in _FULL:
         return err
     where = path or getattr(err, "path", None) or err.filename
+    written = getattr(err, "written", None) if written is None else written
     return DiskFull(err.errno, where, kept, written) if where else err
 
 
