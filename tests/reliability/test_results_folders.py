@@ -180,7 +180,8 @@ def test_a_full_disk_names_the_file_and_keeps_the_earlier_results(tmp_path):
         line = err.strip().splitlines()[-1]
         said = re.fullmatch(
             rf"unidyn: error: No space left on device writing {re.escape(str(out))}/"
-            rf"timeseries.csv \(([0-9.]+) (bytes|kB|MB) free\); the earlier results in "
+            rf"timeseries.csv \((?:[0-9.]+ (?:bytes|kB|MB) of it written, )?([0-9.]+) "
+            rf"(bytes|kB|MB) free\); the earlier results in "
             rf"{re.escape(str(out))} are intact \(nothing was replaced\)", line)
         assert said, err
         # the free space it names is what the disk had then: a little less than now,

@@ -312,7 +312,8 @@ def test_a_lock_file_unidyn_did_not_make_is_refused_in_one_line_and_kept(tmp_pat
                                   "file"])
 def test_the_place_for_partial_results_is_unidyns_or_refused(tmp_path, make):
     """A partial result beside complete ones goes to ``<out>.incomplete`` only when
-    that is a folder unidyn made: never through a link, into a user's folder or file."""
+    that is a folder unidyn made: never through a link, into a user's folder or file;
+    where it cannot, the block is refused on entry, before any work is done."""
     out, theirs = tmp_path / "out", tmp_path / "theirs"
     _save(out, 1)
     theirs.mkdir()
@@ -325,10 +326,13 @@ def test_the_place_for_partial_results_is_unidyns_or_refused(tmp_path, make):
         (place / "notes.txt").write_text("mine")
     else:
         place.write_text("mine")
-    with pytest.raises(ValidationError, match="not the folder unidyn keeps partial") as err:
-        with staged(out, overwrite=True) as st:
+    ran = []
+    with pytest.raises(ValidationError, match="unidyn keeps there the partial") as err:
+        with staged(out, overwrite=True) as st:  # refused before the work, not after it
+            ran.append(True)
             _write(st.path, 2)
             st.incomplete("stopped early")
+    assert ran == [] and "nothing was run" in str(err.value)
     assert "\n" not in str(err.value) and str(place) in str(err.value)
     assert sorted(os.listdir(theirs)) == ["thesis.tex"] and _generations(out) == {1}
     assert _private(out) == []
@@ -640,3 +644,82 @@ def test_a_full_disk_without_a_file_name_names_the_file_being_written(tmp_path):
     assert re.search(r"written, [0-9.]+ (bytes|kB|MB|GB) free\); the earlier results in .* "
                      r"are intact", text), text
     assert _generations(out) == {1} and _private(out) == []
+
+
+def test_a_link_that_loops_or_a_folder_that_cannot_be_made_is_one_line(tmp_path):
+    loop = tmp_path / "loop"
+    loop.symlink_to(loop)
+    with pytest.raises(ValidationError, match="leads back to itself") as err:
+        with staged(loop, overwrite=False):
+            pass
+    assert "\n" not in str(err.value) and loop.is_symlink()
+    (tmp_path / "a-file").write_text("mine")
+    with pytest.raises(ValidationError, match="cannot make the folder") as err:
+        with staged(tmp_path / "a-file" / "out", overwrite=False):
+            pass
+    assert "Not a directory" in str(err.value) and (tmp_path / "a-file").read_text() == "mine"
+
+
+def test_a_block_inside_a_block_is_refused_not_silently_passed_through(tmp_path):
+    with staged(tmp_path / "out", overwrite=False) as st:
+        with pytest.raises(ValueError, match="pass the Stage"):
+            with staged(st.path, overwrite=False):
+                pass
+        _write(st.path, 1)
+    assert _generations(tmp_path / "out") == {1}
+
+
+def test_temporary_files_are_recorded_in_the_lock_and_removed_after_a_kill(tmp_path):
+    """A temporary file is created exclusively, named with a token that the folder's
+    lock records before it exists; after kill -9 the next holder of the lock removes it,
+    and a user's file with such a name, not recorded, is never touched."""
+    out = tmp_path / "out"
+    out.mkdir()
+    theirs = out / ".unidyn-tmp-0123456789ab.csv"
+    theirs.write_text("mine")
+    script = textwrap.dedent(f"""
+        import os, signal
+        from unidyn.results.folders import FolderLock, Ledger
+        lock = FolderLock({str(out)!r})
+        def write(tmp):
+            tmp.write_text("half")
+            os.kill(os.getpid(), signal.SIGKILL)
+        Ledger(lock.folder, "results", ("a.csv",), lock).write_with("a.csv", write)
+    """)
+    p = subprocess.run([sys.executable, "-c", script], timeout=120)
+    assert p.returncode == -signal.SIGKILL
+    left = sorted(n for n in os.listdir(out) if n.startswith(".unidyn-tmp-"))
+    assert len(left) == 2
+    with outdir.FolderLock(out):
+        pass
+    assert sorted(os.listdir(out)) == [theirs.name] and theirs.read_text() == "mine"
+
+
+def test_every_kind_of_write_names_its_file_on_a_full_disk(tmp_path):
+    """A full disk at a figure (write_file), a manifest or a file of a Ledger, and an
+    append: the file named, the space left, and that the earlier content is kept."""
+    import errno
+
+    def full(tmp):
+        with open(tmp, "wb") as fh:
+            fh.write(b"z" * 2500)
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    fig = tmp_path / "figure.png"
+    fig.write_bytes(b"before")
+    with pytest.raises(outdir.DiskFull) as err:
+        outdir.write_file(fig, full)
+    assert re.search(rf"writing {re.escape(str(fig))} \(2.5 kB of it written, [0-9.]+ "
+                     rf"(bytes|kB|MB|GB) free\); {re.escape(str(fig))} is as it was",
+                     str(err.value)), str(err.value)
+    assert fig.read_bytes() == b"before" and os.listdir(tmp_path) == ["figure.png"]
+    ledger = outdir.Ledger(tmp_path, "results", NAMES)
+    ledger.write("a.csv", "x\n")
+    with pytest.raises(outdir.DiskFull, match=r"writing .*a\.csv \(.* free\); .*a\.csv is as "
+                                              r"it was"):
+        ledger.write_with("a.csv", full)
+    assert (tmp_path / "a.csv").read_text() == "x\n" and ledger.owns("a.csv")
+    with pytest.raises(outdir.DiskFull, match=r"writing .*b\.csv .*b\.csv was not written"):
+        ledger.write_with("b.csv", full)
+    assert not (tmp_path / "b.csv").exists()
+    assert sorted(os.listdir(tmp_path)) == [".unidyn-results.json", "a.csv", "figure.png"]

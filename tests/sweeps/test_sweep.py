@@ -6,6 +6,7 @@ import io
 import json
 import math
 import os
+import re
 import sys
 
 import numpy as np
@@ -868,3 +869,54 @@ def test_the_mean_error_over_seeds_is_drawn_with_its_standard_error_band():
         assert "noise seeds 0-2" in ax.get_title()
     finally:
         matplotlib.pyplot.close(ax.figure)
+def _disk_fills(monkeypatch, after: int, name: str | None = None):
+    """From the ``after``-th file written through the project's one write helper on
+    (of ``name``, if given), each write fails as on a full disk, part of it written."""
+    import errno
+    from unidyn.results import ownership
+    real, count = ownership.write_file, [0]
+
+    def write_file(path, write, *args, **kw):
+        if name is None or os.path.basename(path) == name:
+            count[0] += 1
+            if count[0] > after:
+                def full(tmp, write=write):
+                    with open(tmp, "wb") as fh:
+                        fh.write(b"p" * 1000)
+                    raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+                return real(path, full, *args, **kw)
+        return real(path, write, *args, **kw)
+    monkeypatch.setattr(ownership, "write_file", write_file)
+
+
+def test_a_full_disk_at_the_figure_names_it_and_says_every_row_is_kept(tmp_path,
+                                                                         monkeypatch):
+    out = tmp_path / "out"
+    s = Sweep(base=SHORT, grid={"kx": [0.5, 1.0, 2.0]})
+
+    def plot_metrics(sweep, rows, path):  # the figure fills the disk
+        with open(path, "wb") as fh:
+            fh.write(b"png" * 400)
+        raise OSError(28, os.strerror(28))
+    monkeypatch.setattr(sw, "plot_metrics", plot_metrics)
+    with pytest.raises(OSError) as err:
+        run_sweep(s, out, progress=False)
+    text = str(err.value)
+    assert f"writing {out / 'metrics.png'} (1.2 kB of it written, " in text, text
+    assert f"free); all 3 of 3 points are in {out / 'metrics.csv'}, intact" in text
+    assert len(read_metrics(out / "metrics.csv")) == 3 and not (out / "metrics.png").exists()
+    assert not [n for n in os.listdir(out) if n.startswith(".unidyn-tmp")]
+
+
+def test_a_full_disk_on_resuming_names_the_file_and_the_rows_kept(tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    s = Sweep(base=SHORT, grid={"kx": [0.5, 1.0, 2.0]})
+    run_sweep(s, out, progress=False, chunk_size=1)
+    rows = (out / "metrics.csv").read_bytes()
+    _disk_fills(monkeypatch, after=0, name=".unidyn-sweep.json")
+    with pytest.raises(OSError) as err:
+        run_sweep(s, out, progress=False)
+    text = str(err.value)
+    assert re.search(rf"writing {re.escape(str(out))}/\S+ \(.*free\); 3 finished row\(s\) in "
+                     rf"metrics.csv \(points 0-2\), intact", text), text
+    assert (out / "metrics.csv").read_bytes() == rows

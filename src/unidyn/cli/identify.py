@@ -19,7 +19,7 @@ import re
 from ..identification.logs import COLUMNS, POSE, SCALED
 from ..identification.results import IDENTIFY_FILES
 from ..results.figstyle import save
-from ..results.folders import staged_output
+from ..results.folders import staged_output, write_atomic
 from .errors import UsageError
 from .output import out_folder
 
@@ -83,7 +83,7 @@ def unidyn_identify(args) -> int:
                                   f"log's names") from None
         except ValidationError as err:
             raise ValidationError(_cli_words(str(err))) from None
-        path = res.save(stage.path)
+        path = res.save(stage)
         _record_topics(path, logs)
         for b in logs:
             if isinstance(b, dict):
@@ -109,10 +109,10 @@ def unidyn_identify(args) -> int:
             what = "held-out log" if vlog else "the same log(s) (in-sample)"
             print(f"validation on {what}: NRMSE fit "
                   + ", ".join(f"{k} {v:.1f} %" for k, v in report.fit.items()))
-            (stage.path / "validation.json").write_text(
-                json.dumps({**report.as_dict(), "log": [_source(vlog)] if vlog else
-                            [_source(p) for p in logs], "in_sample": vlog is None},
-                           indent=2, allow_nan=False) + "\n")
+            write_atomic(stage.path / "validation.json", json.dumps(
+                {**report.as_dict(), "log": [_source(vlog)] if vlog else
+                 [_source(p) for p in logs], "in_sample": vlog is None},
+                indent=2, allow_nan=False) + "\n")
             axes = ident.plot_validation(report)
             save(axes[0].figure, stage.path / "validation.png")
     final = out  # an identification is never partial: it is where it was asked for

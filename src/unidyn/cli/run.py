@@ -133,15 +133,19 @@ def _import_animation():
 
 
 def _bag_target(args):
-    """--bag FILE.mcap checked before the run (None without --bag)."""
+    """--bag FILE.mcap checked before the run (None without --bag): a recording unidyn
+    did not write is never replaced, and one it wrote only with --overwrite."""
     if args.bag is None:
         return None
     return check_bag_target(args.bag, args.overwrite)
 
 
 def _write_bag(result, bag) -> None:
-    write_run_bag(result, bag)
-    print(f"written    {bag} (/cmd_vel, /odom, /reference)")
+    if write_run_bag(result, bag):
+        print(f"written    {bag.given} (/cmd_vel, /odom, /reference)")
+    else:
+        print(f"kept       {bag.given} as it was: an incomplete run does not replace a "
+              f"recording")
 
 
 def _run_staged(staging, sc, engine, out, animation, **options):
@@ -167,7 +171,7 @@ def _run_staged(staging, sc, engine, out, animation, **options):
         wall = time.perf_counter() - t0
         if not result.complete:
             stage.incomplete(result.message or "the run stopped early")
-        result.save(stage.path)
+        result.save(stage)
         if not interrupted:  # after Ctrl-C the data only, at once: no figures
             save_figures(result, stage.path)
         if animation is not None and not interrupted:

@@ -95,8 +95,8 @@ def unidyn_sweep(args) -> int:
                  f"engine {args.engine}")
         claims = fig11_claims(run.rows)
         table = format_fig11_claims(claims, title=f"**{title}**")
-        with FolderLock(out):  # recorded as the sweep's files, by their content
-            ledger = Ledger(output_folder(out), "sweep", SWEEP_FILES)
+        with FolderLock(out) as lock:  # recorded as the sweep's files, by their content
+            ledger = Ledger(output_folder(out), "sweep", SWEEP_FILES, lock)
             ledger.write("claims.md", table + "\n")
             ledger.write_with("fig11.png", lambda path: plot_fig11(
                 run.rows, path, title=f"IAE, T = {base.T:g} s, noise "

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..results.folders import staged_output, write_atomic
+from ..results.folders import Stage, staged_output, write_atomic
 from ..model.parameters import THETA_NAMES, RobotParameters
 
 __all__ = ["IdentificationResult", "ValidationReport"]
@@ -159,12 +159,17 @@ class IdentificationResult:
         refused unless ``overwrite`` (True or False); then its ``theta.json``,
         ``validation.json`` and ``validation.png`` are replaced or removed, nothing else,
         and only if their content proves unidyn wrote them (see
-        :mod:`unidyn.results.folders`)."""
+        :mod:`unidyn.results.folders`). Inside a
+        :func:`~unidyn.results.folders.staged_output` block, pass its
+        :class:`~unidyn.results.folders.Stage` to write into it."""
+        text = json.dumps(self.as_dict(), indent=2, allow_nan=False) + "\n"
+        if isinstance(folder, Stage):
+            write_atomic(folder.path / "theta.json", text)
+            return folder.path / "theta.json"
         with staged_output(folder, kind="identify", names=IDENTIFY_FILES,
                            overwrite=overwrite, what="identification results",
                            option="folder", flag="overwrite=True") as stage:
-            write_atomic(stage.path / "theta.json",
-                         json.dumps(self.as_dict(), indent=2, allow_nan=False) + "\n")
+            write_atomic(stage.path / "theta.json", text)
         return Path(folder) / "theta.json"
 
     def summary(self) -> str:

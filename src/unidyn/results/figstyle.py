@@ -40,8 +40,6 @@ import contextlib
 import contextvars
 import functools
 import math
-import os
-import tempfile
 import warnings
 from pathlib import Path
 
@@ -325,21 +323,14 @@ def plain_log_axis(ax, axis="y", subs=(1.0, 2.0, 5.0)):
 
 
 def save(fig, path, dpi=DPI):
-    """Write ``fig`` to ``path`` (PNG) through a temporary file and a rename, so an
-    interrupted write never leaves a half-written figure; mode as for any new file.
-    Closes the figure. Returns the path."""
+    """Write ``fig`` to ``path`` (PNG) through a temporary file and a rename
+    (:func:`unidyn.results.folders.write_file`), so an interrupted write never leaves a
+    half-written figure; a full disk names the file. Closes the figure. Returns the
+    path."""
     import matplotlib.pyplot as plt
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=path.suffix)
-    os.close(fd)
+
+    from .ownership import write_file
     try:
-        fig.savefig(tmp, dpi=dpi)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
-        os.replace(tmp, path)
+        return write_file(path, lambda tmp: fig.savefig(tmp, dpi=dpi))
     finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
         plt.close(fig)
-    return path

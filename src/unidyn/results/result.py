@@ -11,7 +11,7 @@ import numpy as np
 from .. import __version__
 from .._validate import ValidationError
 from . import plots
-from .folders import json_ready, staged_output, write_atomic
+from .folders import Stage, json_ready, staged_output, write_atomic
 
 __all__ = ["Result", "metrics", "integrals", "distance", "write_atomic", "has_noise",
            "uncertainty", "RESULT_FILES", "RUN_FILES", "METRIC_NAMES", "INTEGRAL_NAMES",
@@ -339,7 +339,12 @@ class Result:
         ``.unidyn-run.json`` proves unidyn wrote, by their content, are replaced or
         removed: a file of yours with a result's name is refused, never touched. The files are written in full before
         any is replaced, so an error or an interrupt leaves the folder as it was (see
-        :mod:`unidyn.results.folders`)."""
+        :mod:`unidyn.results.folders`). Inside a :func:`~unidyn.results.folders.staged_output`
+        block, pass its :class:`~unidyn.results.folders.Stage`: the files are written
+        into it, to be moved into place with the block's other files."""
+        if isinstance(folder, Stage):
+            self._write(folder.path)
+            return folder.path
         with staged_output(folder, kind="run", names=RUN_FILES, overwrite=overwrite,
                            what="run results", option="folder",
                            flag="overwrite=True") as stage:

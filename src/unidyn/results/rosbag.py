@@ -24,35 +24,37 @@ is not Eq. (2) while they clip, and identifies with a bias.
 from __future__ import annotations
 
 import math
-import os
-import shutil
-import tempfile
+import re
 from pathlib import Path
 
 import numpy as np
 
 from .._errors import MissingDependency, ValidationError
+from .folders import OwnedFile
 
-__all__ = ["write_run_bag", "check_bag_target"]
+__all__ = ["write_run_bag", "check_bag_target", "BAG_NAME"]
 
 _INSTALL = 'pip install "unidyn[ros]"'
+#: The names of the recordings ``--bag`` writes (their manifest ``.unidyn-bag.json``
+#: lists those unidyn wrote, with the SHA-256 of each)
+BAG_NAME = re.compile(r"[^/\0]+\.mcap", re.IGNORECASE)
 
 
-def check_bag_target(path, overwrite: bool = False) -> Path:
-    """The bag's path, checked before a run: an ``.mcap`` file name in an existing
-    folder, not already there unless ``overwrite``."""
-    path = Path(path)
-    if path.suffix.lower() != ".mcap":
-        raise ValidationError(f"--bag expects a file name ending in .mcap, got {str(path)[:80]!r}")
-    if not path.parent.is_dir():
-        raise ValidationError(f"--bag {path}: folder {path.parent} does not exist")
-    if path.exists() and not overwrite:
-        raise ValidationError(f"--bag {path} already exists; pass --overwrite to replace it")
+def check_bag_target(path, overwrite: bool = False, option: str = "--bag") -> OwnedFile:
+    """The recording to write, checked before a run: an ``.mcap`` file name in an
+    existing folder; not a link, a folder or a file unidyn did not write (a recording
+    of yours is never replaced, with or without ``overwrite``); one unidyn wrote only
+    with ``overwrite`` (see :class:`unidyn.results.folders.OwnedFile`)."""
+    if not str(path).lower().endswith(".mcap") or Path(path).name.startswith(".unidyn"):
+        raise ValidationError(f"{option} expects a file name ending in .mcap, got "
+                              f"{str(path)[:80]!r}")
+    target = OwnedFile(path, kind="bag", pattern=BAG_NAME, overwrite=overwrite,
+                       option=option)
     try:
         import rosbags  # noqa: F401
     except ImportError:
-        raise MissingDependency(f"--bag needs the rosbags package ({_INSTALL})") from None
-    return path
+        raise MissingDependency(f"{option} needs the rosbags package ({_INSTALL})") from None
+    return target
 
 
 def _time(Time, seconds: float):
@@ -60,16 +62,26 @@ def _time(Time, seconds: float):
     return Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
 
 
-def write_run_bag(result, path) -> Path:
-    """Write a run (a :class:`unidyn.results.result.Result`) to ``path`` (``.mcap``), replacing
-    it only once the new file is complete; returns the path."""
+def write_run_bag(result, path, overwrite: bool = False) -> bool:
+    """Write a run (a :class:`unidyn.results.result.Result`) to ``path`` (``.mcap``,
+    or the :class:`~unidyn.results.folders.OwnedFile` :func:`check_bag_target` gave),
+    replacing a recording only where unidyn wrote it, once the new file is complete,
+    and never with an incomplete run's. Returns whether it was written (False: an
+    incomplete run beside a recording, which is kept as it was)."""
+    target = path if isinstance(path, OwnedFile) else check_bag_target(path, overwrite)
+    return target.write(lambda folder: _write_mcap(result, folder / "run"),
+                        complete=bool(getattr(result, "complete", True)))
+
+
+def _write_mcap(result, folder: Path) -> Path:
+    """Write the run as a ROS 2 bag in the new ``folder`` (MCAP storage); returns the
+    ``.mcap`` file."""
     try:
         from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
         from rosbags.typesys import Stores, get_typestore
     except ImportError:
         raise MissingDependency(f"writing a ROS bag needs the rosbags package "
                                 f"({_INSTALL})") from None
-    path = Path(path)
     ts = get_typestore(Stores.ROS2_HUMBLE)
     T = ts.types
     Time, Header = T["builtin_interfaces/msg/Time"], T["std_msgs/msg/Header"]
@@ -90,45 +102,38 @@ def write_run_bag(result, path) -> Path:
     t_cmd = t - sc.Ts if getattr(sc, "control", "") == "sampled" else t
     first = int(np.searchsorted(t_cmd, 0.0))
     zero36 = np.zeros(36)
-    # written in a folder of its own beside the target, then the .mcap moved in place
-    tmp = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}."))
-    try:
-        folder = tmp / path.stem
-        w = Writer(folder, version=9, storage_plugin=StoragePlugin.MCAP)
-        # zstd-compressed chunks, as ros2 bag record -s mcap writes by default
-        w.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
-        with w:
-            c_cmd = w.add_connection("/cmd_vel", Twist.__msgtype__, typestore=ts)
-            c_odom = w.add_connection("/odom", Odometry.__msgtype__, typestore=ts)
-            c_ref = w.add_connection("/reference", PoseStamped.__msgtype__, typestore=ts)
-            for k in range(t.size):
-                if k + first < t.size:    # in time order: the command sent at t[k]
-                    c = _time(Time, t_cmd[k + first])
-                    twist = Twist(linear=Vector3(x=float(cmd[k + first, 0]), y=0.0, z=0.0),
-                                  angular=Vector3(x=0.0, y=0.0, z=float(cmd[k + first, 1])))
-                    w.write(c_cmd, c.sec * 1_000_000_000 + c.nanosec,
-                            ts.serialize_cdr(twist, Twist.__msgtype__))
-                stamp = _time(Time, t[k])
-                ns = stamp.sec * 1_000_000_000 + stamp.nanosec
-                psi = float(pose[k, 2])
-                odom = Odometry(
-                    header=Header(stamp=stamp, frame_id="odom"), child_frame_id="base_link",
-                    pose=PoseCov(pose=Pose(
-                        position=Point(x=float(pose[k, 0]), y=float(pose[k, 1]), z=0.0),
-                        orientation=Quaternion(x=0.0, y=0.0, z=math.sin(psi / 2),
-                                               w=math.cos(psi / 2))), covariance=zero36),
-                    twist=TwistCov(twist=Twist(
-                        linear=Vector3(x=float(vel[k, 0]), y=0.0, z=0.0),
-                        angular=Vector3(x=0.0, y=0.0, z=float(vel[k, 1]))),
-                        covariance=zero36))
-                w.write(c_odom, ns, ts.serialize_cdr(odom, Odometry.__msgtype__))
-                goal = PoseStamped(
-                    header=Header(stamp=stamp, frame_id="odom"),
-                    pose=Pose(position=Point(x=float(ref[k, 0]), y=float(ref[k, 1]), z=0.0),
-                              orientation=Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)))
-                w.write(c_ref, ns, ts.serialize_cdr(goal, PoseStamped.__msgtype__))
-        written = folder / f"{folder.name}.mcap"
-        os.replace(written, path)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
-    return path
+    # written in a private folder beside the target (see OwnedFile.write)
+    w = Writer(folder, version=9, storage_plugin=StoragePlugin.MCAP)
+    # zstd-compressed chunks, as ros2 bag record -s mcap writes by default
+    w.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+    with w:
+        c_cmd = w.add_connection("/cmd_vel", Twist.__msgtype__, typestore=ts)
+        c_odom = w.add_connection("/odom", Odometry.__msgtype__, typestore=ts)
+        c_ref = w.add_connection("/reference", PoseStamped.__msgtype__, typestore=ts)
+        for k in range(t.size):
+            if k + first < t.size:    # in time order: the command sent at t[k]
+                c = _time(Time, t_cmd[k + first])
+                twist = Twist(linear=Vector3(x=float(cmd[k + first, 0]), y=0.0, z=0.0),
+                              angular=Vector3(x=0.0, y=0.0, z=float(cmd[k + first, 1])))
+                w.write(c_cmd, c.sec * 1_000_000_000 + c.nanosec,
+                        ts.serialize_cdr(twist, Twist.__msgtype__))
+            stamp = _time(Time, t[k])
+            ns = stamp.sec * 1_000_000_000 + stamp.nanosec
+            psi = float(pose[k, 2])
+            odom = Odometry(
+                header=Header(stamp=stamp, frame_id="odom"), child_frame_id="base_link",
+                pose=PoseCov(pose=Pose(
+                    position=Point(x=float(pose[k, 0]), y=float(pose[k, 1]), z=0.0),
+                    orientation=Quaternion(x=0.0, y=0.0, z=math.sin(psi / 2),
+                                           w=math.cos(psi / 2))), covariance=zero36),
+                twist=TwistCov(twist=Twist(
+                    linear=Vector3(x=float(vel[k, 0]), y=0.0, z=0.0),
+                    angular=Vector3(x=0.0, y=0.0, z=float(vel[k, 1]))),
+                    covariance=zero36))
+            w.write(c_odom, ns, ts.serialize_cdr(odom, Odometry.__msgtype__))
+            goal = PoseStamped(
+                header=Header(stamp=stamp, frame_id="odom"),
+                pose=Pose(position=Point(x=float(ref[k, 0]), y=float(ref[k, 1]), z=0.0),
+                          orientation=Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)))
+            w.write(c_ref, ns, ts.serialize_cdr(goal, PoseStamped.__msgtype__))
+    return folder / f"{folder.name}.mcap"

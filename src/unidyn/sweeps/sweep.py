@@ -42,7 +42,6 @@ import errno
 import itertools
 import json
 import math
-import os
 import sys
 import time
 import unicodedata
@@ -63,8 +62,8 @@ from .sweep_files import (ID_NAME, MAX_POINTS, METRICS, RECORD_NAME, cell, check
                           expand_range, finished_rows, is_number, plain, text, read_rows,
                           read_sweep_id, read_sweep_record, read_toml, rows_text,
                           scenario_from_layers, sweep_id_text, sweep_record_text)
-from ..results.folders import (FolderLock, Ledger, check_manifest, foreign_files, json_ready,
-                               output_folder, staged_output)
+from ..results.folders import (FolderLock, Ledger, check_manifest, disk_full, foreign_files,
+                               json_ready, output_folder, staged_output)
 from .plots import plot_metrics
 from ..diagrams.simulate import simulate
 from ..engines import ENGINES
@@ -522,15 +521,15 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
                 rows_held = finished_rows(out / "metrics.csv") if state != "none" else []
                 if state == "same" and resume:
                     return _run_in(sweep, out, record, engine, chunk_size, progress, client,
-                                   t0, resume=True)
+                                   t0, resume=True, lock=lock)
                 if rows_held and not overwrite:
                     raise ValidationError(_refusal(out, state, detail, rows_held, resume))
                 if not rows_held:  # nothing finished to lose: start over in place
                     return _run_in(sweep, out, record, engine, chunk_size, progress, client,
-                                   t0, resume=False)
+                                   t0, resume=False, lock=lock)
                 try:
                     with staged_output(out, kind="sweep", names=SWEEP_FILES, overwrite=True,
-                                       what="sweep results", lock=False) as stage:  # held above
+                                       what="sweep results", lock=lock) as stage:  # held above
                         run = _run_in(sweep, stage.path, record, engine, chunk_size,
                                       progress, client, t0, resume=False)
                 except BaseException as err:
@@ -579,12 +578,14 @@ def _remove_if_empty(folder: Path) -> None:
         pass
 
 
-def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume) -> SweepRun:
+def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume,
+            lock=None) -> SweepRun:
     """Run the sweep in ``out`` (locked by the caller or private): resume from its rows,
     or start it afresh. Every file is written through the folder's :class:`Ledger`,
     which records its content before it changes."""
     columns = sweep.columns
-    ledger = Ledger(out, "sweep", SWEEP_FILES)
+    owner = lock if lock is not None and lock.folder == output_folder(out) else None
+    ledger = Ledger(out, "sweep", SWEEP_FILES, owner)  # (not a private folder's)
     csv_path = out / "metrics.csv"
     done = {}
     if resume and csv_path.exists():
@@ -595,11 +596,17 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
             ledger.write("metrics.csv", rows_text(columns, sorted(done.values(),
                                                                  key=lambda r: r["index"])))
     written = []  # files this call created, removed again if it fails before a row
-    if not done:
-        ledger.write("metrics.csv", rows_text(columns, []))
-        written.append("metrics.csv")
-    ledger.write(ID_NAME, sweep_id_text(record))
-    ledger.write(RECORD_NAME, sweep_record_text(record, finished=False))
+    try:
+        if not done:
+            ledger.write("metrics.csv", rows_text(columns, []))
+            written.append("metrics.csv")
+        ledger.write(ID_NAME, sweep_id_text(record))
+        ledger.write(RECORD_NAME, sweep_record_text(record, finished=False))
+    except OSError as err:
+        if err.errno not in (errno.ENOSPC, errno.EDQUOT):
+            raise
+        raise disk_full(err, f"{rows_named(done)}, intact; no point was run" if done else
+                        "no point was run") from None
     written += [ID_NAME, RECORD_NAME]
 
     pending = [p for p in sweep.points() if p.index not in done]
@@ -628,23 +635,30 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
             kept = (f"{len(set(finished_rows(csv_path)))} of {len(sweep)} points are in "
                     f"{csv_path}, intact; run the same command again to resume")
         if isinstance(err, OSError) and err.errno in (errno.ENOSPC, errno.EDQUOT):
-            raise OSError(err.errno, f"{os.strerror(err.errno)} writing "
-                                     f"{err.filename or out}; {kept}") from None
+            raise disk_full(err, kept, getattr(err, "path", None) or err.filename
+                            or csv_path) from None
         raise _kept(err, kept)
     finally:
         bar.close()
 
     rows = sorted([*done.values(), *new_rows], key=lambda r: r["index"])
-    ledger.write("metrics.csv", rows_text(columns, rows))
     failed = [r["index"] for r in rows if not r["complete"]]
     seconds = time.perf_counter() - t0
-    ledger.write(RECORD_NAME, sweep_record_text(record, finished=True, failed=failed))
-    if "seed" in sweep.axes:
-        ledger.write("statistics.csv", rows_text(statistics_columns(sweep.axes),
-                                                 seed_statistics(rows, sweep.axes)))
-    try:
-        ledger.write_with("metrics.png", lambda path: plot_metrics(sweep, rows, path))
-    except ImportError:  # no matplotlib: the data is what matters
-        pass
+    try:  # every row is in metrics.csv: a full disk from here on loses none
+        ledger.write("metrics.csv", rows_text(columns, rows))
+        ledger.write(RECORD_NAME, sweep_record_text(record, finished=True, failed=failed))
+        if "seed" in sweep.axes:
+            ledger.write("statistics.csv", rows_text(statistics_columns(sweep.axes),
+                                                     seed_statistics(rows, sweep.axes)))
+        try:
+            ledger.write_with("metrics.png", lambda path: plot_metrics(sweep, rows, path))
+        except ImportError:  # no matplotlib: the data is what matters
+            pass
+    except OSError as err:
+        if err.errno not in (errno.ENOSPC, errno.EDQUOT):
+            raise
+        raise disk_full(err, f"all {len(rows)} of {len(sweep)} points are in {csv_path}, "
+                             f"intact (free some space and run the same command again to "
+                             f"write the rest)") from None
     return SweepRun(out_dir=out, rows=rows, ran=len(new_rows), skipped=len(done),
                     seconds=seconds, failed=failed)

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import math
 import os
-import tempfile
 from dataclasses import dataclass
 from numbers import Integral
 from pathlib import Path
@@ -33,6 +32,7 @@ import numpy as np
 
 from .._validate import ValidationError, flag, positive, real, vector
 from ..results.figstyle import as_text
+from ..results.ownership import write_file
 
 __all__ = ["Motion", "animate", "show", "DEFAULT_MAX_FRAMES", "MAX_FRAMES", "SUFFIXES"]
 
@@ -356,9 +356,7 @@ def animate(result, path, fps=20, speedup=None, trail=True, frames=None, *, robo
         text = f"t = {tf:.{decimals}f} s"
         stamp.set_text(f"{title}   {text}" if title else text)
 
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=suffix)
-    os.close(fd)
-    try:
+    def write(tmp):
         if suffix == ".gif":
             _write_gif(fig, dynamic, update, times, fps, tmp)
         else:
@@ -367,13 +365,7 @@ def animate(result, path, fps=20, speedup=None, trail=True, frames=None, *, robo
                 for i, tf in enumerate(times):
                     update(i, tf)
                     writer.grab_frame()
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the usual mode
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    write_file(path, write)  # a temporary file beside it, then a rename
     return path
 
 
