@@ -869,6 +869,8 @@ def test_the_mean_error_over_seeds_is_drawn_with_its_standard_error_band():
         assert "noise seeds 0-2" in ax.get_title()
     finally:
         matplotlib.pyplot.close(ax.figure)
+
+
 def _disk_fills(monkeypatch, after: int, name: str | None = None):
     """From the ``after``-th file written through the project's one write helper on
     (of ``name``, if given), each write fails as on a full disk, part of it written."""
