@@ -14,7 +14,7 @@ SRC = Path(__file__).resolve().parents[2] / "src" / "unidyn"
 
 #: Modules that still decode a case from its name, outside the model: each is to read
 #: ``scenario.case_spec`` instead (``unidyn/model/`` is where names are decoded).
-PENDING = {"engine/rhs.py"}
+PENDING = set()
 
 
 def test_section5_cases():

@@ -70,7 +70,7 @@ class ClosedLoop:
         seeds = [None if s.noise is None else noise_seeds(s.noise.seed) for s in scs]
         self._noise_sources = [(None, None) if q is None else (
             HeldNoise(q[0], s.noise.position_std),
-            None if s.case == "kinematic" else HeldNoise(q[1], s.noise.velocity_std))
+            None if not s.case_spec.dynamic else HeldNoise(q[1], s.noise.velocity_std))
             for s, q in zip(scs, seeds)]
         self.noise_k0 = self.noise_end = 0
         self.pos_noise = self.vel_noise = np.zeros((B, 0, 2))
