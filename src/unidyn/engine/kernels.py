@@ -70,18 +70,19 @@ MAX_LOCATE = 60
 
 
 #: The per-call scratch of :func:`integrate_interval`: ``K`` (7, n) the stages' rates,
-#: ``G`` (7, m) their switches' margins, ``y`` (n,) a stage's state, ``Xn`` (n,) the step's
-#: end, ``Xd`` (n,) a state of the interpolant, ``rates`` (n,) and ``margins`` (m,) its
-#: rates and margins, ``mode`` the switches held over a step (the time switches' time,
-#: then each switch's side: :data:`unidyn.model.equations.MODE`).
+#: ``G`` (7, 2m) their m switches' margins, then the m values the switches clip, ``y`` (n,)
+#: a stage's state, ``Xn`` (n,) the step's end, ``Xd`` (n,) a state of the interpolant,
+#: ``rates`` (n,) and ``margins`` (2m,) its rates and margins, ``mode`` the switches
+#: held over a step (the time switches' time, then each switch's side:
+#: :data:`unidyn.model.equations.MODE`).
 Work = namedtuple("Work", "K G y Xn Xd rates margins mode")
 
 
 @jit(inline=True)
 def work_arrays(n, m):
     """:data:`Work` for n states and m switches."""
-    return Work(np.empty((7, n)), np.empty((7, m)), np.empty(n), np.empty(n), np.empty(n),
-                np.empty(n), np.empty(m), np.empty(m + 1))
+    return Work(np.empty((7, n)), np.empty((7, 2 * m)), np.empty(n), np.empty(n), np.empty(n),
+                np.empty(n), np.empty(2 * m), np.empty(m + 1))
 
 
 # not cached itself: numba's cache index records a signature's types by their module, so
@@ -117,7 +118,20 @@ def dp_step(f, t, x, h, args, work, rtol, atol):
         for j in range(7):
             acc += E[j] * K[j, i]
         err += (h * acc / (atol + rtol * max(abs(x[i]), abs(out[i])))) ** 2
-    return math.sqrt(err / n)
+    err = math.sqrt(err / n)
+    # the values the switches clip, as if integrated with the states: the pair's estimate
+    # of their integral over the step says whether the stages resolve them (held at a
+    # limit, they drive no rate, and no state's error sees how fast they move)
+    m = G.shape[1] // 2
+    if m > 0:
+        errs = 0.0
+        for i in range(m, 2 * m):
+            acc = 0.0
+            for j in range(7):
+                acc += E[j] * G[j, i]
+            errs += (h * acc / (atol + rtol * max(abs(G[0, i]), abs(G[6, i])))) ** 2
+        err = max(err, math.sqrt(errs / m))
+    return err
 
 
 @jit(inline=True)
@@ -133,9 +147,9 @@ def dense(x, h, K, theta, out):
 
 @jit(inline=True)
 def lowest(g):
-    """The smallest of the margins g (inf for none)."""
+    """The smallest of the margins, the first half of g (inf for none)."""
     low = math.inf
-    for j in range(g.shape[0]):
+    for j in range(g.shape[0] // 2):
         low = min(low, g[j])
     return low
 
@@ -149,41 +163,8 @@ def margin_at(f, t, x, h, args, work, theta):
     return lowest(work.margins)
 
 
-#: The stages' distinct times as fractions of the step, in order, and the row of
-#: ``Work.G`` that holds the margins there (the end: the solution's, row 6).
+#: The stages' distinct times as fractions of the step, in order.
 SAMPLE_TIMES = (0.0, 0.2, 0.3, 0.8, 8.0 / 9.0, 1.0)
-SAMPLE_ROWS = (0, 1, 2, 3, 4, 6)
-
-
-#: The middle of the widest gap between the stages' times (0.3 to 0.8 of the step).
-GAP_MIDDLE = 0.55
-
-
-@jit(inline=True)
-def held_clipped(mode):
-    """Whether a switch of the mode holds a value at its limit (its rates then hide
-    how fast the value it clips moves)."""
-    for j in range(1, mode.shape[0]):
-        if mode[j] == 1.0 or mode[j] == -1.0:
-            return True
-    return False
-
-
-@jit(inline=True)
-def predicted_zero(G, q):
-    """The earliest time (fraction of the step) at which a margin falling from sample
-    q - 1 to sample q > 0 reaches zero on the line through them, if before sample
-    q + 1 (1 for the last); else 2."""
-    a, b = SAMPLE_TIMES[q - 1], SAMPLE_TIMES[q]
-    c = SAMPLE_TIMES[q + 1] if q + 1 < len(SAMPLE_TIMES) else 1.0
-    first = 2.0
-    for j in range(G.shape[1]):
-        ma, mb = G[SAMPLE_ROWS[q - 1], j], G[SAMPLE_ROWS[q], j]
-        if ma > mb > 0.0:
-            z = b + mb * (b - a) / (ma - mb)
-            if z < c:
-                first = min(first, z)
-    return first
 
 
 @jit(inline=True)
@@ -193,39 +174,25 @@ def switch_at(f, t, x, h, args, work, rtol):
     the smallest margin on the step's interpolant (its state in ``work.Xd``), found by
     the Illinois method to :data:`SWITCH_TOL_FRACTION` or rtol.
 
-    A margin is looked at on the interpolant at the stages' times where one is negative
-    at a stage, and where one falling between two stages would reach zero before the
-    next on its line (a clipping episode shorter than the stages' spacing); a negative
-    margin at a stage state but nowhere on the interpolant keeps the step."""
+    Where a margin is negative at a stage, the margins are looked at on the interpolant
+    at the stages' times, in order, for the first negative one; one negative at a stage
+    state but nowhere on the interpolant keeps the step. No episode falls between the
+    stages unseen: the values the switches clip are resolved by the step's error control
+    (:func:`dp_step`) as the states are."""
     G = work.G
-    lo, glo, hi, ghi = 0.0, lowest(G[0]), -1.0, 0.0
     seen = False
     for s in range(1, 7):
-        if lowest(G[s]) < 0.0:
-            seen = True
+        seen = seen or lowest(G[s]) < 0.0
+    if not seen:
+        return 1.0
+    lo, glo, hi, ghi = 0.0, lowest(G[0]), -1.0, 0.0
+    for q in range(1, len(SAMPLE_TIMES)):  # the stages' times on the interpolant, in order
+        theta = SAMPLE_TIMES[q]
+        g = lowest(G[6]) if theta == 1.0 else margin_at(f, t, x, h, args, work, theta)
+        if g < 0.0:
+            hi, ghi = theta, g
             break
-    if seen:  # the stages' times on the interpolant, in order: the first negative
-        for q in range(1, len(SAMPLE_TIMES)):
-            theta = SAMPLE_TIMES[q]
-            g = lowest(G[6]) if q == len(SAMPLE_TIMES) - 1 else margin_at(f, t, x, h, args,
-                                                                           work, theta)
-            if g < 0.0:
-                hi, ghi = theta, g
-                break
-            lo, glo = theta, g
-    else:  # a margin heading for zero between two stages: where its line reaches it
-        for q in range(1, len(SAMPLE_TIMES) - 1):
-            z = predicted_zero(G, q)
-            if z < 1.0:
-                g = margin_at(f, t, x, h, args, work, z)
-                if g < 0.0:
-                    lo, glo = SAMPLE_TIMES[q], lowest(G[SAMPLE_ROWS[q]])
-                    hi, ghi = z, g
-                    break
-        if hi < 0.0 and held_clipped(work.mode):  # the widest gap's middle, where clipped
-            g = margin_at(f, t, x, h, args, work, GAP_MIDDLE)
-            if g < 0.0:
-                lo, glo, hi, ghi = SAMPLE_TIMES[2], lowest(G[2]), GAP_MIDDLE, g
+        lo, glo = theta, g
     if hi < 0.0:
         return 1.0
     tol = max(rtol, SWITCH_TOL_FRACTION)
@@ -250,19 +217,6 @@ def switch_at(f, t, x, h, args, work, rtol):
             side = 1
     dense(x, h, work.K, hi, work.Xd)
     return hi
-
-
-@jit(inline=True)
-def time_to_switch(G, h):
-    """How long until a margin falling over the step's last part (from 8/9 of it to its
-    end) reaches zero on that line (inf: none falls): the next step ends a half past
-    it, so that its stages see the switch."""
-    first = math.inf
-    for j in range(G.shape[1]):
-        ma, mb = G[4, j], G[6, j]
-        if ma > mb > 0.0:
-            first = min(first, h / 9.0 * mb / (ma - mb))
-    return first
 
 
 @jit(inline=True)
@@ -315,12 +269,13 @@ def loop_rhs(t, X, args, mode, out, margins):
     (:data:`unidyn.model.equations.LOOP_PARAMETERS`), the interval's held noise
     (position x, y, velocity u, w) and the call's Python-function references."""
     p, noise, references = args
-    d, g, _ = eq.loop_rates_held(t, X, reference(t, mode[0], p, references), p, noise,
-                                 (mode[0], mode[1], mode[2], mode[3], mode[4], mode[5], mode[6]))
+    d, g, _, v = eq.loop_rates_held(t, X, reference(t, mode[0], p, references), p, noise,
+                                    (mode[0], mode[1], mode[2], mode[3], mode[4], mode[5], mode[6]))
     for i in range(NSTATE):
         out[i] = d[i]
     for j in range(eq.NSWITCH):
         margins[j] = g[j]
+        margins[eq.NSWITCH + j] = v[j]
 
 
 @jit(inline=True)
@@ -332,8 +287,8 @@ def loop_decide(t, X, args, mode):
     p, noise, references = args
     X[S.u], X[S.w] = eq.saturate(X[S.u], p[P.speed_u]), eq.saturate(X[S.w], p[P.speed_w])
     auto = eq.AUTO
-    _, _, side = eq.loop_rates_held(t, X, reference(t, t, p, references), p, noise,
-                                    (t, auto, auto, auto, auto, auto, auto))
+    _, _, side, _ = eq.loop_rates_held(t, X, reference(t, t, p, references), p, noise,
+                                       (t, auto, auto, auto, auto, auto, auto))
     mode[0] = t
     for j in range(eq.NSWITCH):
         mode[j + 1] = side[j]
@@ -508,8 +463,6 @@ def integrate_interval(f, decide, t0, t1, X, h, args, call, work):
                     proposal = h * factor
                 elif factor < 1.0:  # the step cut to the interval's end or a time switch
                     proposal = min(proposal, h * factor)
-                if mode[1] != eq.AUTO:  # not beyond a switch the margins head for
-                    proposal = min(proposal, max(1.5 * time_to_switch(G, h), h * MIN_FACTOR))
                 for i in range(n):
                     X[i] = work.Xn[i]
                 if last and end == t1:

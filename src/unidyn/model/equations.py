@@ -400,7 +400,9 @@ def loop_rates_held(t, X, ref, p, noise, mode):
     (the 13 rates; each switch's margin, >= 0 while its held side is right
     (:func:`clip_margin`, :func:`speed_margin`); the side each switch would take here
     given the sides held before it in :data:`SWITCHES` (:func:`clip_side`,
-    :func:`speed_side`)). A reference whose radius steps is evaluated by the caller."""
+    :func:`speed_side`); the value each switch clips or holds: u_ref, w_ref, the
+    accelerations of Eq. (2) before and after their limits). A reference whose radius
+    steps is evaluated by the caller."""
     ts = mode[0]
     ud, wd, udd, wdd, G, u_ref, w_ref, um, wm = loop_signals(X, ref, p, noise)
     uc = clip_held(u_ref, p[P.speed_u], mode[1])
@@ -441,7 +443,11 @@ def loop_rates_held(t, X, ref, p, noise, mode):
              select(dynamic, clip_side(dw0, p[P.accel_w]), 0.0),
              select(dynamic, speed_side(u, du1, p[P.speed_u]), 0.0),
              select(dynamic, speed_side(w, dw1, p[P.speed_w]), 0.0))
-    return rates, margins, sides
+    # the values the switches clip: while one is held at its limit, they drive no rate
+    # and no state's error sees them (the batch engine resolves them as it resolves the states)
+    signals = (u_ref, w_ref, select(dynamic, du0, 0.0), select(dynamic, dw0, 0.0),
+               select(dynamic, du1, 0.0), select(dynamic, dw1, 0.0))
+    return rates, margins, sides, signals
 
 
 def next_switch_time(t, p):
