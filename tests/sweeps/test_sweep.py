@@ -62,8 +62,8 @@ def test_grid_expansion_order_and_special_axes():
     assert q.robot.name == "p3dx" and q.theta_hat0 is None
     np.testing.assert_allclose(q.theta_hat_initial, robots.get("p3dx").theta / 1.5)
     assert s.columns == ["index", "variant", "kxy", "seed", "case", "iae", "ise", "itae",
-                         "itse", "energy", "error_final", "numerical_error", "sensitive",
-                         "complete", "message"]
+                         "itse", "energy", "error_final", "numerical_error", "estimate",
+                         "sensitive", "complete", "message"]
     # the same spec gives the same points, and round-trips through plain data
     assert Sweep.from_dict(json.loads(json.dumps(s.to_dict()))) == s
 
@@ -471,8 +471,9 @@ def test_incomplete_points_keep_the_metrics_of_the_part_computed(tmp_path):
     bad = Scenario.paper(3, T=4.0, noise=None,
                          trajectory=FunctionTrajectory(nan_after_2s, acceleration=f8.acceleration))
     good = Scenario.paper(3, T=4.0, noise=None)
-    rows = sw._run_chunk([(0, {"k": 1}, bad), (1, {"k": 2}, good)], "batch", 1e-8, 1e-10)
-    columns = ["index", "k", "case", *files.METRICS, "numerical_error", "sensitive",
+    rows = sw._run_chunk([(0, {"k": 1}, bad, True), (1, {"k": 2}, good, True)], "batch",
+                         1e-8, 1e-10)
+    columns = ["index", "k", "case", *files.METRICS, "numerical_error", "estimate", "sensitive",
                "complete", "message"]
     path = tmp_path / "metrics.csv"
     path.write_text(rows_text(columns, rows))
@@ -701,7 +702,7 @@ def test_cli_sweep_file_resume_and_no_resume(tmp_path, capsys):
     with open(out / "metrics.csv", newline="") as fh:
         assert next(csv.reader(fh)) == ["index", "kxy", "case", "iae", "ise", "itae",
                                         "itse", "energy", "error_final", "numerical_error",
-                                        "sensitive", "complete", "message"]
+                                        "estimate", "sensitive", "complete", "message"]
 
 
 @pytest.mark.filterwarnings("ignore::RuntimeWarning")

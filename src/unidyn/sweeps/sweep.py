@@ -193,7 +193,8 @@ class Sweep:
     def columns(self) -> list:
         """The columns of metrics.csv."""
         return (["index"] + self.axes + ([] if "case" in self.axes else ["case"])
-                + list(METRICS) + ["numerical_error", "sensitive", "complete", "message"])
+                + list(METRICS) + ["numerical_error", "estimate", "sensitive", "complete",
+                                   "message"])
 
     def __len__(self) -> int:
         return len(self.points())
@@ -298,6 +299,7 @@ def _row(index, params, result) -> dict:
     return {"index": index, **params, "case": result.scenario.case,
             **{m: _metric(result.metrics[m]) for m in METRICS},
             "numerical_error": None if not error else max(float(v) for v in error.values()),
+            "estimate": result.estimate or None,
             "sensitive": bool(result.sensitive), "complete": bool(result.complete),
             "message": result.message}
 
@@ -305,7 +307,7 @@ def _row(index, params, result) -> dict:
 def _failed_row(index, params, case, message) -> dict:
     """The row of a point that failed before its first sample: no metrics."""
     return {"index": index, **params, "case": case, **{m: None for m in METRICS},
-            "numerical_error": None, "sensitive": False, "complete": False,
+            "numerical_error": None, "estimate": None, "sensitive": False, "complete": False,
             "message": message}
 
 
@@ -314,13 +316,15 @@ def _metric(v):
 
 
 def _run_chunk(points, engine: str, rtol: float, atol: float) -> list:
-    """Simulate a list of (index, params, scenario); return their metrics rows.
+    """Simulate a list of (index, params, scenario, write); return the metrics rows of
+    those to write (the others are run for the estimate their seeds share:
+    :func:`_chunks`).
 
     Runs wherever it is called (here or on a Dask worker) and returns only the
     small rows, not the time series."""
     rows = [None] * len(points)
     batch = []
-    for j, (index, params, sc) in enumerate(points):
+    for j, (index, params, sc, _) in enumerate(points):
         if engine == "batch" and sc.control == "continuous":
             batch.append(j)
             continue
@@ -330,11 +334,45 @@ def _run_chunk(points, engine: str, rtol: float, atol: float) -> list:
             print(f"unidyn: warning: sweep point {index} failed: {err}", file=sys.stderr)
             rows[j] = _failed_row(index, params, sc.case, str(err))
     if batch:
-        results = simulate_batch([points[j][2] for j in batch], rtol=rtol, atol=atol)
+        results = simulate_batch([points[j][2] for j in batch], rtol=rtol, atol=atol,
+                                 estimate="per_point")
         for j, r in zip(batch, results):
-            index, params, _ = points[j]
+            index, params, _, _ = points[j]
             rows[j] = _row(index, params, r)
-    return rows
+    return [row for row, p in zip(rows, points) if p[3]]
+
+
+def _seedless(sc):
+    """What a scenario's runs over noise seeds share: the scenario with seed 0 (None
+    without noise)."""
+    return None if sc.noise is None else repr(sc.replace(noise=dataclasses.replace(sc.noise, seed=0)))
+
+
+def _chunks(sweep, pending, size: int) -> list:
+    """The pending points in chunks of about ``size``, as (index, params, scenario,
+    write): a point's runs over noise seeds in one chunk with the run whose numerical
+    error estimate they share (the smallest seed's, :func:`unidyn.simulate_batch`'s
+    ``estimate="per_point"``), that run added unwritten where its row is written
+    already, so that every row is the same however the sweep is cut or resumed."""
+    first = {}
+    for p in sweep.points():
+        key = _seedless(p.scenario)
+        if key is not None and (key not in first
+                                or p.scenario.noise.seed < first[key].scenario.noise.seed):
+            first[key] = p
+    groups = {}
+    for p in pending:
+        key = _seedless(p.scenario)
+        groups.setdefault(p.index if key is None else key, []).append(p)
+    chunks, chunk = [], []
+    for key, members in groups.items():
+        ref = first.get(key)
+        extra = [] if ref is None or ref.index in {m.index for m in members} else [(*ref, False)]
+        chunk += extra + [(*p, True) for p in members]
+        if len(chunk) >= size:
+            chunks.append(chunk)
+            chunk = []
+    return chunks + ([chunk] if chunk else [])
 
 
 class _NoBar:
@@ -610,8 +648,7 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
     written += [ID_NAME, RECORD_NAME]
 
     pending = [p for p in sweep.points() if p.index not in done]
-    chunks = [[tuple(p) for p in pending[i:i + chunk_size]]
-              for i in range(0, len(pending), chunk_size)]
+    chunks = _chunks(sweep, pending, chunk_size)
     new_rows = []
     bar = _progress_bar(progress, len(sweep), len(done))
     try:
