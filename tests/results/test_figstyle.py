@@ -209,7 +209,8 @@ def test_a_sweep_legend_says_what_each_variant_sets_beside_its_label(tmp_path, m
     seen = _spy_saves(monkeypatch)
     plot_metrics(s, run.rows, tmp_path / "m.png")
     # the case is what the label names ("no compensation: uncompensated" said it twice)
-    assert seen[0][1] == ["a", "b: theta_hat_scale = 0.9", "\\$c\\$"]
+    # and a field in a reader's words, not its name in the files
+    assert seen[0][1] == ["a", "b: θ̂(0)/θ = 0.9", "\\$c\\$"]
 
 
 def test_a_sweep_with_long_legends_and_a_dollar_in_its_name_fits_its_figure(tmp_path,
