@@ -42,7 +42,8 @@ __all__ = ["ENGINES", "OPTIONS", "choose", "run", "warn_if_plain", "plain_cost",
 
 #: CPU seconds per sample interval of one run that the batch engine takes as plain
 #: Python, its numerical error estimated (the run, its probe and a tighter run):
-#: 2.2-3.9 ms for the paper's cases 3 and 4 on a 2020s laptop core (compiled: 0.03-0.05 ms).
+#: 2.2-3.9 ms for the paper's cases 3 and 4 on one core of an AMD EPYC server (compiled:
+#: 0.03-0.05 ms).
 PLAIN_SECONDS_PER_SAMPLE = 3e-3
 #: A job estimated to take longer than this (s) as plain Python warns at its start.
 LONG_JOB = 10.0
@@ -117,7 +118,7 @@ def run(scenario: Scenario, engine: str = "auto", *, seeds=None, **options):
     uncertainty to quote (:class:`~unidyn.sweeps.seeds.SeedRuns`)::
 
         runs = unidyn.run(unidyn.Scenario.paper(3), seeds=8)
-        print(runs)                      # iae 2.75 ± 0.02 m·s (n = 8), ...
+        print(runs)                      # iae 2.540 ± 0.067 m·s (n = 8), ...
         runs.statistics["iae_sem"]       # the standard error of the mean IAE
 
     :param engine: ``"auto"``, ``"batch"`` or ``"bdsim"`` (:func:`choose`)

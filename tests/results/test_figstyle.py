@@ -208,9 +208,9 @@ def test_a_sweep_legend_says_what_each_variant_sets_beside_its_label(tmp_path, m
     run = run_sweep(s, tmp_path / "s", progress=False)
     seen = _spy_saves(monkeypatch)
     plot_metrics(s, run.rows, tmp_path / "m.png")
-    # what each variant sets, in a reader's words (a field's name is not a word), the
-    # case left out only where the label names it already
-    assert seen[0][1] == ["a: uncompensated", "b: compensated, θ̂(0)/θ = 0.9", "\\$c\\$"]
+    # the case is what the label names ("no compensation: uncompensated" said it twice)
+    # and a field in a reader's words, not its name in the files
+    assert seen[0][1] == ["a", "b: θ̂(0)/θ = 0.9", "\\$c\\$"]
 
 
 def test_a_sweep_with_long_legends_and_a_dollar_in_its_name_fits_its_figure(tmp_path,

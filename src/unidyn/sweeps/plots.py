@@ -49,9 +49,9 @@ def _words(field: str, value) -> str:
 
 def _legend_entry(sweep, axes, key) -> str:
     """A line of a sweep's figure in its legend: what tells it from the others first
-    (its variant's label, the other axes' values), then what its variant sets, in a
-    reader's words: ``"b: compensated, θ̂(0)/θ = 0.9"``, ``"b, a = 0.15 m: compensated,
-    θ̂(0)/θ = 0.9"``."""
+    (its variant's label, the other axes' values), then the numbers its variant sets (its
+    case is what its label names), in a reader's words: ``"b: θ̂(0)/θ = 0.9"``,
+    ``"b, a = 0.15 m: θ̂(0)/θ = 0.9"``."""
     parts, sets = [], []
     for a, k in zip(axes, key):
         if a != "variant":
@@ -60,8 +60,7 @@ def _legend_entry(sweep, axes, key) -> str:
         parts.append(k)
         for v in sweep.variants:
             if text(v["label"]) == k:
-                sets = [text(x) if f == "case" else _words(f, x) for f, x in v.items()
-                        if f != "label" and not (f == "case" and text(x) in k)]
+                sets = [_words(f, x) for f, x in v.items() if f not in ("label", "case")]
     return ", ".join(parts) + (": " + ", ".join(sets) if sets else "")
 
 
