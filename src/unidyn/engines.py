@@ -152,6 +152,8 @@ def run(scenario: Scenario, engine: str = "auto", *, seeds=None, **options):
         return _run_all([scenario], chosen, options, keep_failed=False)[0]
     from .sweeps.seeds import SeedRuns, seed_scenarios
     seeds, scenarios = seed_scenarios(scenario, seeds)
+    if chosen == "batch":  # the seeds share one numerical error estimate, the first seed's
+        options = {**options, "estimate": "per_point"}
     return SeedRuns(scenario, tuple(seeds), _run_all(scenarios, chosen, options, keep_failed=True))
 
 

@@ -159,3 +159,19 @@ def test_identical_calls_give_identical_bits_whatever_ran_before():
         assert np.array_equal(getattr(first, k), getattr(again, k)), k
     assert (first.steps, first.rejected) == (again.steps, again.rejected)
     assert first.numerical_error == again.numerical_error and first.metrics == again.metrics
+
+
+def test_runs_over_noise_seeds_share_the_smallest_seed_s_estimate():
+    """estimate="per_point": the smallest seed is estimated as it is alone; the others are
+    integrated once at the tolerance it was returned at and carry its estimate, whatever
+    else is in the call."""
+    scs = [Scenario.paper(3, T=5.0, noise=NoiseSpec(seed=s), name=f"seed {s}") for s in (4, 2, 9)]
+    out = simulate_batch(scs, estimate="per_point")
+    alone, = simulate_batch([scs[1]])
+    assert out[1].metrics == alone.metrics and out[1].estimate == "tightened"
+    for r in (out[0], out[2]):
+        assert r.complete and r.estimate == "from seed 2" and r.rtol == alone.rtol
+        assert r.numerical_error == alone.numerical_error and r.sensitive == alone.sensitive
+        assert "seed 2" in r.message
+    fewer = simulate_batch([scs[2], scs[1]], estimate="per_point")
+    assert fewer[0].metrics == out[2].metrics

@@ -42,7 +42,7 @@ def test_kernel_rhs_equals_the_closed_loop_of_all_runs_as_arrays(rhs):
         k = int(rng.integers(0, loop.steps))
         ref = loop.rhs(t, X, k)
         for i in range(loop.B):
-            dX, margins = np.empty(13), np.empty(6)
+            dX, margins = np.empty(13), np.empty(12)  # the margins, then the clipped values
             mode = np.array([t] + [AUTO] * 6)  # every switch decided where it is evaluated
             rhs(t, X[i], (loop.P[i], (*loop.pos_noise[i, k], *loop.vel_noise[i, k]), ()), mode,
                 dX, margins)

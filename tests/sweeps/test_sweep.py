@@ -232,10 +232,10 @@ def test_an_interrupted_sweep_resumes_and_an_edited_one_is_refused(tmp_path, mon
     s = small_sweep()
     run_sweep(s, tmp_path / "whole", progress=False)
     cut = tmp_path / "cut"
-    _interrupted(s, cut, 2, monkeypatch, chunk_size=3)
-    assert len(csv_rows(cut)) == 1 + 6
+    _interrupted(s, cut, 2, monkeypatch, chunk_size=3)  # chunks of one point's two seeds
+    assert len(csv_rows(cut)) == 1 + 4
     run = run_sweep(s, cut, progress=False)
-    assert run.skipped == 6 and run.ran == 2
+    assert run.skipped == 4 and run.ran == 4
     assert csv_rows(cut) == csv_rows(tmp_path / "whole")
     lines = csv_rows(cut)  # a line cut short by hand: not what unidyn wrote
     (cut / "metrics.csv").write_text("\n".join(lines[:6]) + "\n" + lines[6][:12])

@@ -25,7 +25,7 @@ from ..results.result import INTEGRAL_NAMES, Result
 from .rhs import ClosedLoop
 
 __all__ = ["simulate_batch", "backend_for", "MAX_STEPS", "ACCURACY", "STATUS_MESSAGES",
-           "ESTIMATES"]
+           "ESTIMATES", "seedless"]
 
 #: The promise: a run that is not sensitive has an estimate of at most ACCURACY
 #: (relative) and its true error is within twice its estimate (:func:`simulate_batch`).
@@ -276,23 +276,25 @@ def _group(run: _Call, scs, idx, rtol, atol):
         steady = again
 
 
+def seedless(sc) -> str | None:
+    """What the runs of one scenario over noise seeds share: its text with the seed 0 and
+    no name (None without noise)."""
+    if sc.noise is None:
+        return None
+    return repr(sc.replace(noise=dataclasses.replace(sc.noise, seed=0), name=""))
+
+
 def _seed_siblings(scs) -> dict:
-    """For each run that differs from another only in its noise seed and is not the one
-    with the smallest seed among them: the index of that one (its estimate is shared)."""
+    """For each run that differs from another only in its noise seed (and name) and is
+    not the one with the smallest seed among them: the index of that one (its estimate
+    is shared)."""
+    keys = [seedless(s) for s in scs]
     first = {}
-    for i, s in enumerate(scs):
-        if s.noise is not None:
-            key = repr(s.replace(noise=dataclasses.replace(s.noise, seed=0)))
-            j = first.setdefault(key, i)
-            if s.noise.seed < scs[j].noise.seed:
-                first[key] = i
-    out = {}
-    for i, s in enumerate(scs):
-        if s.noise is not None:
-            j = first[repr(s.replace(noise=dataclasses.replace(s.noise, seed=0)))]
-            if j != i:
-                out[i] = j
-    return out
+    for i, (s, key) in enumerate(zip(scs, keys)):
+        if key is not None and (key not in first or s.noise.seed < scs[first[key]].noise.seed):
+            first[key] = i
+    return {i: first[key] for i, key in enumerate(keys)
+            if key is not None and first[key] != i}
 
 
 def _siblings(run: _Call, scs, idx, shared, atol_per_rtol):
@@ -472,7 +474,7 @@ def _estimated(r: Result, looser: Result) -> Result:
     run at :data:`TIGHTEN` times looser tolerances (about the looser one's error, which
     ``r``'s is within where the error falls with the tolerance)."""
     error = {k: ESTIMATE_FACTOR * v for k, v in _differences(r, looser).items()}
-    return _noted(r, numerical_error=error, sensitive=False)
+    return _noted(r, numerical_error=error, sensitive=False, estimate="tightened")
 
 
 def _beyond(r: Result, rtol: float) -> Result:

@@ -147,7 +147,8 @@ def experiment(seeds: int = 8, engines=("batch", "bdsim"), robot="p3dx_laser",
     runs = []
     for engine in engines:
         if engine == "batch":
-            results = simulate_batch([sc for _, _, sc in specs], progress=progress)
+            results = simulate_batch([sc for _, _, sc in specs], progress=progress,
+                                     estimate="per_point")
         else:
             results = [simulate(sc, progress=False) for _, _, sc in specs]
         for (seed, case, _), r in zip(specs, results):

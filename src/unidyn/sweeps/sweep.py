@@ -56,7 +56,7 @@ from .cluster import connect_dask, run_on_dask
 from .._errors import Interrupted
 from .._validate import MAX_NAME, ValidationError, choice, flag, integer
 from .._validate import BATCH_ATOL, BATCH_RTOL, tolerances
-from ..engine.batch import simulate_batch
+from ..engine.batch import seedless, simulate_batch
 from .statistics import seed_statistics, statistics_columns
 from .sweep_files import (ID_NAME, MAX_POINTS, METRICS, RECORD_NAME, cell, check_keys,
                           expand_range, finished_rows, is_number, plain, text, read_rows,
@@ -342,36 +342,30 @@ def _run_chunk(points, engine: str, rtol: float, atol: float) -> list:
     return [row for row, p in zip(rows, points) if p[3]]
 
 
-def _seedless(sc):
-    """What a scenario's runs over noise seeds share: the scenario with seed 0 (None
-    without noise)."""
-    return None if sc.noise is None else repr(sc.replace(noise=dataclasses.replace(sc.noise, seed=0)))
-
-
 def _chunks(sweep, pending, size: int) -> list:
-    """The pending points in chunks of about ``size``, as (index, params, scenario,
-    write): a point's runs over noise seeds in one chunk with the run whose numerical
+    """The pending points in chunks of at most ``size`` (more only where one point's seeds
+    are more), as (index, params, scenario, write): a point's runs over noise seeds in one chunk with the run whose numerical
     error estimate they share (the smallest seed's, :func:`unidyn.simulate_batch`'s
     ``estimate="per_point"``), that run added unwritten where its row is written
     already, so that every row is the same however the sweep is cut or resumed."""
     first = {}
     for p in sweep.points():
-        key = _seedless(p.scenario)
+        key = seedless(p.scenario)
         if key is not None and (key not in first
                                 or p.scenario.noise.seed < first[key].scenario.noise.seed):
             first[key] = p
     groups = {}
     for p in pending:
-        key = _seedless(p.scenario)
+        key = seedless(p.scenario)
         groups.setdefault(p.index if key is None else key, []).append(p)
     chunks, chunk = [], []
     for key, members in groups.items():
         ref = first.get(key)
         extra = [] if ref is None or ref.index in {m.index for m in members} else [(*ref, False)]
-        chunk += extra + [(*p, True) for p in members]
-        if len(chunk) >= size:
+        if chunk and len(chunk) + len(extra) + len(members) > size:  # a point's seeds stay together
             chunks.append(chunk)
             chunk = []
+        chunk += extra + [(*p, True) for p in members]
     return chunks + ([chunk] if chunk else [])
 
 
