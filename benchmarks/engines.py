@@ -32,6 +32,16 @@ rtol 1e-10, restarted at every sample) on scenarios no list of rates foresaw: fa
 references, high gains, gamma up to 1e4, every preset robot; the batch engine of this
 checkout and of REV, and the diagram.
 
+    python benchmarks/engines.py --switching [--against REV] [--random N]
+
+The switched loop at the gains where Fig. 11 ends: the runs whose acceleration limits
+switch on and off within 15 ms, and N (default 100) seeded random scenarios at gains
+20-60 with the paper's noise and limits, each at the defaults against the converged
+reference (scipy's DOP853 at rtol 1e-11, its steps capped at 1 ms); the runs that are not
+sensitive beyond twice their estimate, the share flagged sensitive, steps and rejected
+steps per run, CPU time. Then the Fig. 11 grid of the audit (4 cases x 5 gains x 250 s)
+with one seed and with five, warm. With ``--against REV`` the same rows for REV, in turn.
+
     python benchmarks/engines.py --memory            # the memory table only
     python benchmarks/engines.py --memory --long     # also two 10^7-sample runs (4-6 min)
 """
@@ -434,6 +444,126 @@ def estimate_table():
               f"| {np.mean(shaky <= 2) if len(shaky) else float('nan'):.1%} |")
 
 
+SWITCHING_SCENARIOS = """
+import numpy as np
+from unidyn import Scenario
+from unidyn.model import robots
+from unidyn.model.noise import NoiseSpec
+from unidyn.model.trajectories import Circle, FigureEight
+
+
+def switching_scenarios(n):
+    \"\"\"The audit's runs, then n seeded random ones at gains 20-60 with the paper's noise
+    and limits, all of 10 s (public API only: each version builds them).\"\"\"
+    out = [Scenario(case="compensated", robot="pioneer2", kx=30.0, ky=30.0, T=10.0,
+                    trajectory=Circle(radius=0.5, omega=2.0), noise=NoiseSpec(seed=3))]
+    out += [Scenario(case="compensated", robot=r, kx=k, ky=k, T=10.0, trajectory=tr,
+                     noise=NoiseSpec(seed=s))
+            for r, k, tr, s in (("p3dx_laser", 40.0, FigureEight(wx=1.0, wy=0.5), 126),
+                                ("pioneer2_computer", 25.0, Circle(radius=0.5, omega=2.0), 123),
+                                ("p3dx_laser", 40.0, Circle(radius=0.5, omega=2.0), 111))]
+    rng = np.random.default_rng(2026)
+    names = robots.names()
+    for _ in range(n):
+        k = float(rng.uniform(20.0, 60.0))
+        case = str(rng.choice(["compensated", "adaptive", "uncompensated"]))
+        tr = (Circle(radius=float(rng.uniform(0.3, 1.0)), omega=float(rng.uniform(0.5, 2.5)))
+              if rng.uniform() < 0.5 else FigureEight(wx=float(rng.uniform(0.3, 1.2)),
+                                                      wy=float(rng.uniform(0.15, 0.6))))
+        out.append(Scenario(case=case, robot=str(rng.choice(names)), kx=k, ky=k, T=10.0,
+                            trajectory=tr, noise=NoiseSpec(seed=int(rng.integers(1000))),
+                            adapt_from=0.0))
+    return out
+"""
+SWITCHING_PROBE = SWITCHING_SCENARIOS + """
+import json, sys, time, warnings
+from unidyn.engine.batch import simulate_batch
+warnings.simplefilter("ignore")
+scs = switching_scenarios(int(sys.argv[1]))
+t = time.process_time()
+res = simulate_batch(scs, progress=False)
+cpu = time.process_time() - t
+print(json.dumps(dict(cpu=cpu, runs=[dict(
+    complete=bool(r.complete), sensitive=bool(r.sensitive), metrics=r.metrics,
+    estimate=r.numerical_error, steps=r.steps, rejected=r.rejected,
+    pose=np.asarray(r.pose, float).tolist()) for r in res])))
+"""
+FIG11_PROBE = """
+import json, sys, tempfile, time, warnings
+warnings.simplefilter("ignore")
+from unidyn.paper import paper_fig11
+from unidyn.sweeps.sweep import run_sweep
+out = {}
+for seeds in (None, 5):
+    sweep = paper_fig11(gains=[0.5, 3.0, 10.0, 20.0, 35.0], seeds=seeds)
+    with tempfile.TemporaryDirectory() as d:
+        run_sweep(sweep, d + "/warm", progress=False) if seeds is None else None
+        t = time.perf_counter()
+        run = run_sweep(sweep, d + "/o", progress=False)
+        out[str(seeds)] = dict(seconds=time.perf_counter() - t, runs=len(run.rows),
+                               sensitive=sum(bool(r["sensitive"]) for r in run.rows))
+print(json.dumps(out))
+"""
+
+
+def switching_table(against=None, random=100):
+    """The switched loop's audit (module docstring): this checkout and REV in turn."""
+    import json
+    from unidyn.results.result import INTEGRAL_NAMES, metrics
+    namespace = {}
+    exec(SWITCHING_SCENARIOS, namespace)
+    scs = namespace["switching_scenarios"](random)
+    versions = _versions(against)
+    with tempfile.TemporaryDirectory() as tmp:
+        runs = {label: json.loads(_run(src, Path(tmp) / "cache", ["-c", SWITCHING_PROBE,
+                                                                   str(random)])[1])
+                for label, src in versions}
+        fig11 = {label: json.loads(_run(src, Path(tmp) / "cache", ["-c", FIG11_PROBE])[1])
+                 for label, src in versions}
+    loop = ClosedLoop(scs)  # one reference for all: a step for the hardest run
+    X = loop.converged()
+    t = np.arange(loop.steps + 1) * loop.Ts
+    ref = np.array([np.array(loop.reference(tt))[:2] for tt in t]).transpose(2, 0, 1)
+    truth = [metrics(t, np.hypot(*(X[i, :, :2] - ref[i]).T), X[i, :, 3:5])
+             for i in range(len(scs))]
+    print(f"\nthe switched loop: the audit's 4 runs and {random} random ones at gains 20-60 "
+          f"with noise and the paper's limits, 10 s, against DOP853 at rtol 1e-11 with its "
+          f"steps capped at 1 ms; the promise: a run that is not sensitive is within twice "
+          f"its estimate (metrics, and its position over the run)\n")
+    print("| version | runs | sensitive | not sensitive beyond twice | beyond by > 1e-4 "
+          "| worst true / estimate | median steps | median rejected | CPU [s] |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for label, out in runs.items():
+        beyond = far = 0
+        worst = 0.0
+        for r, m, x in zip(out["runs"], truth, X):
+            if r["sensitive"] or not r["complete"] or not r["estimate"]:
+                continue
+            true = max(abs(r["metrics"][k] - m[k]) / abs(m[k]) for k in INTEGRAL_NAMES)
+            pose = np.asarray(r["pose"])[:, :2]
+            true_pose = np.max(np.abs(pose - x[::1, :2][:len(pose)])) / np.max(np.abs(x[:, :2]))
+            est = max(r["estimate"][k] for k in INTEGRAL_NAMES)
+            est_pose = r["estimate"].get("position", est)
+            ratio = max(true / est if est else np.inf, true_pose / est_pose if est_pose else 0.0)
+            worst = max(worst, ratio)
+            beyond += ratio > 2
+            far += ratio > 2 and max(true, true_pose) > 1e-4
+        rs = out["runs"]
+        print(f"| {label} | {len(rs)} | {sum(r['sensitive'] for r in rs)} | {beyond} | {far} "
+              f"| {worst:.2f} | {np.median([r['steps'] for r in rs]):.0f} "
+              f"| {np.median([r['rejected'] for r in rs]):.0f} | {out['cpu']:.1f} |")
+    print("\nthe audit's Fig. 11 grid (4 cases x gains 0.5, 3, 10, 20, 35 x 250 s), warm, "
+          "through run_sweep\n")
+    print("| version | one seed [s] | five seeds [s] | five / one | sensitive, one seed "
+          "| sensitive, five seeds |")
+    print("|---|---:|---:|---:|---:|---:|")
+    for label, f in fig11.items():
+        one, five = f["None"], f["5"]
+        print(f"| {label} | {one['seconds']:.1f} | {five['seconds']:.1f} "
+              f"| {five['seconds'] / one['seconds']:.2f} | {one['sensitive']} of {one['runs']} "
+              f"| {five['sensitive']} of {five['runs']} |")
+
+
 def section5_table(against=None, repeat=2):
     """The README's job, this checkout and REV in turn (module docstring)."""
     versions = _versions(against)
@@ -558,8 +688,13 @@ def main(argv=None):
     p.add_argument("--section5", action="store_true", help="only the README's job")
     p.add_argument("--accuracy", action="store_true",
                    help="only each engine's error against converged solutions")
+    p.add_argument("--switching", action="store_true",
+                   help="only the switched loop's audit against a converged reference")
+    p.add_argument("--random", type=int, default=100, metavar="N",
+                   help="random scenarios of --switching (default 100)")
     p.add_argument("--against", metavar="REV",
-                   help="with --cold, --section5 or --accuracy: also git revision REV, in turn")
+                   help="with --cold, --section5, --accuracy or --switching: also git revision "
+                        "REV, in turn")
     p.add_argument("--repeat", type=int, default=2, help="runs of each version (--section5)")
     p.add_argument("--memory", action="store_true", help="only the memory table")
     p.add_argument("--long", action="store_true",
@@ -571,6 +706,8 @@ def main(argv=None):
         section5_table(args.against, args.repeat)
     elif args.accuracy:
         accuracy_table(args.against)
+    elif args.switching:
+        switching_table(args.against, args.random)
     elif args.memory:
         memory_table(args.long)
     else:
