@@ -473,13 +473,12 @@ def integrate_interval(f, decide, t0, t1, X, h, args, call, work):
                 if last or mode[1] == eq.AUTO:  # a time switch, or after a sliding step
                     t_switch = decide(t, X, args, mode)
                     f(t, X, args, mode, K[0], G[0])
-                    chain = 0
-                else:
+                else:  # the rates at the step's end start the next (the pair's FSAL)
                     for i in range(n):
                         K[0, i] = K[6, i]
                     for j in range(G.shape[1]):
                         G[0, j] = G[6, j]
-                    chain = 0
+                chain = 0
                 h = proposal
                 again = False
         else:
