@@ -8,6 +8,7 @@ must give back the robot identified from the log in SI units."""
 from __future__ import annotations
 
 import ast
+import json
 import functools
 import math
 import re
@@ -163,3 +164,45 @@ def test_a_singular_fit_is_one_line_naming_the_likely_cause():
         with fit_refused():
             np.linalg.eigvals(np.array([[np.nan, 1.0], [1.0, 0.0]]))
     assert "\n" not in str(err.value) and "Eq. (2)" in str(err.value)
+
+
+def _csv(path, log, header):
+    keys = list(log)
+    with open(path, "w") as fh:
+        fh.write(",".join(header) + "\n")
+        for row in zip(*(log[k] for k in keys)):
+            fh.write(",".join(f"{v:.10g}" for v in row) + "\n")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", ["measured, with a pose", "commands, no pose, --no-validate"])
+def test_the_command_line_fix_it_suggests_is_the_right_one(tmp_path, case):
+    """``unidyn identify`` on a CSV whose header names columns the wrong way round:
+    one line, whose ``--columns`` (followed as printed) identifies the robot."""
+    import shlex
+    import subprocess
+    import sys
+    log = velocities(simulated("p3dx"), pose=case.startswith("measured"))
+    header = list(log)
+    pair = MEASURED if case.startswith("measured") else COMMANDS
+    i, j = header.index(pair[0]), header.index(pair[1])
+    header[i], header[j] = header[j], header[i]
+    _csv(tmp_path / "log.csv", log, header)
+    extra = ["--no-validate"] if "no-validate" in case else []
+
+    def identify(*more):
+        p = subprocess.run([sys.executable, "-m", "unidyn", "identify", "log.csv",
+                            "--commands", "linear", *extra, *more], cwd=tmp_path,
+                           capture_output=True, text=True, timeout=600,
+                           env={**__import__("os").environ, "MPLBACKEND": "Agg"})
+        return p.returncode, p.stdout, p.stderr
+    code, _, err = identify("--out", "first")
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    fix = re.search(r"--columns (\S+)", err)
+    assert fix and fix.group(1) == f"{pair[0]}={pair[1]},{pair[1]}={pair[0]}", err
+    code, out, err = identify("--out", "fixed", *shlex.split(f"--columns {fix.group(1)}"))
+    assert code == 0, err
+    theta = json.loads((tmp_path / "fixed" / "theta.json").read_text())
+    truth = robots.get("p3dx").theta
+    for k in (1, 2, 4, 6):  # not exchanged: theta1 with theta2, theta4 with theta6
+        assert theta[f"theta{k}"] == pytest.approx(truth[k - 1], rel=0.15), (k, theta)
