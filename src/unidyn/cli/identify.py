@@ -236,4 +236,4 @@ def _record_topics(theta_json: Path, logs) -> None:
     if bags:
         d = json.loads(theta_json.read_text())
         d["bags"] = bags
-        theta_json.write_text(json.dumps(d, indent=2, allow_nan=False) + "\n")
+        write_atomic(theta_json, json.dumps(d, indent=2, allow_nan=False) + "\n")
