@@ -206,3 +206,29 @@ def test_the_command_line_fix_it_suggests_is_the_right_one(tmp_path, case):
     truth = robots.get("p3dx").theta
     for k in (1, 2, 4, 6):  # not exchanged: theta1 with theta2, theta4 with theta6
         assert theta[f"theta{k}"] == pytest.approx(truth[k - 1], rel=0.15), (k, theta)
+
+
+@pytest.mark.parametrize("unit", SHARED)
+def test_a_pose_in_m_and_radians_names_slow_velocities_in_other_units(unit):
+    """Velocities too slow for their range to show the unit (a robot creeping at
+    1.5 cm/s, turning at 0.04 rad/s), beside a pose in m and rad: the pose gives the
+    speeds in its own units, and the warning names the unit and a fix that works (in
+    mm/s the range shows it too)."""
+    truth = robots.get("p3dx")
+    exc = ident.excitation(T, DT, robot=truth, seed=0, amplitude=0.02)
+    log = velocities(ident.simulate_log(truth, exc, noise_std=NOISE / 20, seed=1,
+                                        commands="held"), pose=True)
+    right, said = run(log)
+    assert not [w for w in said if "look like they are both in a unit" in w], said
+    cols, factor = SHARED[unit]
+    for c in cols:
+        log[c] = log[c] * factor
+    _, said = run(log)
+    found = [w for w in said if "look like they are both in a unit" in w]
+    assert len(found) == 1, said
+    pose_only = found[0].split("(", 1)[1].split("), so")[0]  # the evidence
+    assert "from the pose" in pose_only or "from psi" in pose_only, found
+    assert unit == "mm/s" or "reaches" not in pose_only, found
+    fix = re.search(rf"in {re.escape(unit)}\? pass scale=(\{{[^}}]*\}})", found[0])
+    fixed, _ = run(log, scale=ast.literal_eval(fix.group(1)))
+    same_robot(fixed, right)

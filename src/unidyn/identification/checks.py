@@ -180,7 +180,7 @@ _LINEAR = ((100.0, "cm/s"), (1000.0, "mm/s"))
 _ANGULAR = ((180 / math.pi, "deg/s"), (60 / (2 * math.pi), "rpm"))
 
 
-def shared_unit_warnings(theta, stderr, u, w) -> list:
+def shared_unit_warnings(theta, stderr, u, w, pose=None) -> list:
     """Where the commands and the measured velocities share a wrong unit (u_ref and u
     both in cm/s, w_ref and w both in deg/s), which the steady gains (:func:`check_units`)
     cannot show: the warnings naming the likely units and the ``scale`` that fixes
@@ -199,6 +199,15 @@ def shared_unit_warnings(theta, stderr, u, w) -> list:
     length = (math.sqrt(abs(theta[2] * theta[1] / (theta[0] * theta[4])))
               if known[2] and known[4] and theta[0] > 0 else math.nan)
     linear, angular = [], []
+    k_u, k_w = pose if pose is not None else (math.nan, math.nan)
+    near = lambda k, units: any(abs(math.log(k / f)) < math.log(1.5)  # noqa: E731
+                                for f, _ in units) if k > 0 else False
+    if near(k_u, _LINEAR):
+        linear.append(f"|u| is {k_u:.3g} times the path's speed from the pose x, y, as "
+                      f"from a pose in m")
+    if near(k_w, _ANGULAR):
+        angular.append(f"w is {k_w:.3g} times the heading's rate from psi, as from a "
+                       f"heading in radians")
     if q_u > U_MAX:
         linear.append(f"|u| reaches {q_u:.3g} in 1 % of the rows, where a robot moves at "
                       f"most about {U_MAX:g} m/s")
@@ -255,7 +264,7 @@ def envelope_warnings(theta) -> list:
     return out
 
 
-def estimate_warnings(theta, stderr, conds, u, w, dt, rel_max) -> list:
+def estimate_warnings(theta, stderr, conds, u, w, dt, rel_max, pose=None) -> list:
     """The warnings about an estimate ``theta`` with standard errors ``stderr`` from a log
     of velocities u (m/s), w (rad/s) sampled every ``dt`` s: theta3 or theta5 unidentified
     (standard error above ``rel_max`` of its size), ill-conditioned rows (condition
@@ -290,7 +299,7 @@ def estimate_warnings(theta, stderr, conds, u, w, dt, rel_max) -> list:
                        f"{THETA_NAMES[i]} = 1 + (Ra/ka)(ka kb/Ra + Be)(...) >= 1 (identified sets "
                        f"reach 0.956): check the scale of the measured velocities against "
                        f"the commands")
-    out += shared_unit_warnings(theta, stderr, u, w)
+    out += shared_unit_warnings(theta, stderr, u, w, pose)
     out += envelope_warnings(theta)
     for i, j in ((0, 3), (1, 5)):
         tau = theta[i] / theta[j] if theta[j] > 0 else math.nan

@@ -26,7 +26,8 @@ from .checks import (check_excitation, check_memory, check_physical, check_units
 from .equation_error import SMOOTHING_METHODS, equation_error_fit, white_noise_std
 from .first_estimate import first_estimate
 from .intervals import JITTER_MIN, ci95, jitter_widening, lag_widening, measured_stamp_jitter
-from .logs import COLUMNS, IdentificationWarning, check_layout, check_measured, join_logs
+from .logs import (COLUMNS, IdentificationWarning, check_layout, check_measured, join_logs,
+                   pose_factors)
 from .output_error import output_error_fit
 from .replay import COMMAND_CONVENTIONS
 from .results import THETA_NAMES, IdentificationResult
@@ -290,7 +291,7 @@ def _identify_equation_error(lg, smoothing, window, order, rel_stderr_max, name)
     check_physical(theta, stderr)
     check_units(theta, stderr)
     warns = lg.warnings + ew + estimate_warnings(theta, stderr, conds, uk, wk, lg.dt_med,
-                                                 rel_stderr_max)
+                                                 rel_stderr_max, pose_factors(lg.D, lg.segs))
     if not lg.linear:
         warns.append(
             "the equation-error estimate treats the commands as smooth between samples; "
@@ -358,7 +359,7 @@ def _oe_intervals(lg, oe, rel_stderr_max):
                      f"parameters), so its value is arbitrary and its standard error is "
                      f"reported as inf")
     warns += estimate_warnings(theta, stderr, oe["conds"], lg.D["u"][idx], lg.D["w"][idx],
-                               lg.dt_med, rel_stderr_max)
+                               lg.dt_med, rel_stderr_max, pose_factors(lg.D, lg.segs))
     return stderr, warns + oe["warnings"]
 
 

@@ -598,14 +598,9 @@ def _by_shape(lin, ang):
 _CLEAR = 0.2
 
 
-def layout(D, segs) -> tuple:
-    """Whether the log's measured velocities and its commands are named the wrong way
-    round, each True, False or None (the log cannot tell), and the evidence, in words.
-    Only shapes, signs and correlations are compared, never magnitudes, so the answer
-    is the same in any unit of the velocities or of the pose: the heading's rate psi'
-    follows w and the path's speed |(x', y')| follows |u| (with the pose, :data:`POSE`);
-    a robot's forward speed keeps its sign while its turning rate changes sign (without
-    it); each command follows its own velocity, not the other one."""
+def _pose_rates(D, segs) -> tuple:
+    """The pieces of at least 3 rows (slices), and where the log has the pose, the
+    heading's rate psi' and the path's speed |(x', y')| in each, in the pose's units."""
     rate, speed, parts = [], [], []
     for a, b in segs:
         if b - a < 3:
@@ -617,6 +612,32 @@ def layout(D, segs) -> tuple:
             period = 360.0 if np.ptp(psi) > 2.1 * np.pi else 2 * np.pi
             rate.append(np.gradient(np.unwrap(psi, period=period), t))
             speed.append(np.hypot(np.gradient(D["x"][a:b], t), np.gradient(D["y"][a:b], t)))
+    return parts, rate, speed
+
+
+def pose_factors(D, segs):
+    """How many times the path's speed from the pose |u| is, and the heading's rate w
+    (least squares over the log), or None without a pose: near 1 when the velocities
+    are in the pose's units (m and rad, as odometry reports them)."""
+    parts, rate, speed = _pose_rates(D, segs)
+    if not rate:
+        return None
+    rate, speed = np.concatenate(rate), np.concatenate(speed)
+    u, w = (np.concatenate([D[k][s] for s in parts]) for k in ("u", "w"))
+    k_u = float(np.sum(np.abs(u) * speed) / np.sum(speed * speed)) if np.any(speed) else math.nan
+    k_w = float(np.sum(w * rate) / np.sum(rate * rate)) if np.any(rate) else math.nan
+    return k_u, k_w
+
+
+def layout(D, segs) -> tuple:
+    """Whether the log's measured velocities and its commands are named the wrong way
+    round, each True, False or None (the log cannot tell), and the evidence, in words.
+    Only shapes, signs and correlations are compared, never magnitudes, so the answer
+    is the same in any unit of the velocities or of the pose: the heading's rate psi'
+    follows w and the path's speed |(x', y')| follows |u| (with the pose, :data:`POSE`);
+    a robot's forward speed keeps its sign while its turning rate changes sign (without
+    it); each command follows its own velocity, not the other one."""
+    parts, rate, speed = _pose_rates(D, segs)
     if not parts:
         return None, None, ""
     u_ref, w_ref, u, w = (np.concatenate([D[k][s] for s in parts])
