@@ -12,7 +12,10 @@ has finished::
     print(f"written {stage.final}/")
 
 A file outside a results folder (``unidyn run --bag run.mcap``) is an
-:class:`OwnedFile`; a single file anywhere is written by :func:`write_file`.
+:class:`OwnedFile`; a single file anywhere is written by :func:`write_file`. Their
+parts: the folder's lock and the one way a file is written (an exclusive temporary
+file, then a rename) are in :mod:`unidyn.results.ownership`, the manifests in
+:mod:`unidyn.results.ledger`; this module puts them together.
 
 What a user can rely on:
 
@@ -119,7 +122,6 @@ def json_ready(value):
     if isinstance(value, float) and not math.isfinite(value):
         return None
     return value
-
 
 
 def _make_stage(lock: FolderLock, kind: str) -> tuple:
