@@ -78,7 +78,7 @@ from .ownership import (_FULL, _NOFOLLOW, _PREFIX, _STAGE_MARK, _STAGE_NAME, LOC
 
 __all__ = ["Stage", "staged_output", "OwnedFile", "Ledger", "FolderLock", "FolderInUse",
            "DiskFull", "LOCK_NAME", "MAX_MANIFEST_BYTES", "check_manifest", "foreign_files",
-           "output_folder", "write_file", "write_atomic", "disk_full", "json_ready"]
+           "output_folder", "make_output_folder", "write_file", "write_atomic", "disk_full", "json_ready"]
 
 
 def output_folder(out, option: str = "--out") -> Path:
@@ -98,9 +98,10 @@ def output_folder(out, option: str = "--out") -> Path:
     return path
 
 
-def _make_folder(path: Path, out, option: str) -> bool:
-    """Make ``path`` (``out`` followed) and its parents; True if it was made. One line
-    saying why where it cannot be."""
+def make_output_folder(out, option: str = "--out") -> bool:
+    """Make the folder ``out`` (links followed, :func:`output_folder`) and its parents;
+    True if it was made. One line saying why where it cannot be."""
+    path = output_folder(out, option)
     if path.is_dir():
         return False
     try:
@@ -207,7 +208,7 @@ def staged_output(out, *, kind: str, names, overwrite: bool, what: str = "result
     if _STAGE_NAME.match(final.name) and os.path.lexists(final / _STAGE_MARK):
         raise ValueError(f"{final} is the private folder of a staged_output block: write "
                          f"into it directly (pass the Stage), not through another block")
-    created = _make_folder(final, out, option)
+    created = make_output_folder(out, option)
     try:
         with (FolderLock(final, option) if lock is None else contextlib.nullcontext(lock)) \
                 as held_lock:
