@@ -230,9 +230,11 @@ def staged_output(out, *, kind: str, names, overwrite: bool, what: str = "result
                 with _interrupts_deferred():
                     stage.final = _commit(stage, final, kind, names, what, option)
             except OSError as err:
-                if err.errno in _FULL:
-                    raise _disk_full(err, stage, out) from None
-                raise
+                if err.errno not in _FULL:
+                    raise
+                where, kept, size = _disk_full(err, stage, out)  # while the stage is there
+                _drop_stage(held_lock, path, token, identity)  # then the space it freed
+                raise DiskFull(err.errno, where, kept, size) from None
             finally:
                 _drop_stage(held_lock, path, token, identity)
     except BaseException:
@@ -316,10 +318,10 @@ def _files_in(stage: Path) -> list:
     return sorted(out)
 
 
-def _disk_full(err: OSError, stage: Stage, out) -> OSError:
-    """The full-disk error naming the file being written (as it will be named in
-    ``out``), how much of it was written and the space left, and what became of the
-    results."""
+def _disk_full(err: OSError, stage: Stage, out) -> tuple:
+    """For the full-disk error: ``(file, kept, size)``, the file being written (as it
+    will be named in ``out``), what became of the results, and how much of the file was
+    written."""
     where = getattr(err, "path", None) or (Path(err.filename) if err.filename else None)
     if where is None or where.name.startswith(f"{_PREFIX}-tmp-"):
         where = _newest(stage.path) or where
@@ -336,7 +338,7 @@ def _disk_full(err: OSError, stage: Stage, out) -> OSError:
         kept = f"the earlier results in {out} are intact (nothing was replaced)"
     else:
         kept = f"nothing was written to {out}"
-    return DiskFull(err.errno, where or out, kept, getattr(err, "written", None) or size)
+    return where or Path(out), kept, getattr(err, "written", None) or size
 
 
 def _newest(folder: Path):
@@ -423,6 +425,7 @@ class OwnedFile:
             except OSError as err:
                 kept = (f"the earlier {self.given} is as it was" if self.held
                         else f"no {self.given} was written")
+                _drop_stage(lock, path, token, identity)  # the space it held is free again
                 raise disk_full(err, kept, self.given) from None
             finally:
                 _drop_stage(lock, path, token, identity)
