@@ -212,8 +212,8 @@ def shared_unit_warnings(theta, stderr, u, w, pose=None) -> list:
         linear.append(f"|u| reaches {q_u:.3g} in 1 % of the rows, where a robot moves at "
                       f"most about {U_MAX:g} m/s")
     if known[2] and b > B_MAX:
-        linear.append(f"|theta3|/theta1 = {b:.3g}, which bounds the centre of mass's offset "
-                      f"from the wheel axle (Section 2), is over {B_MAX:g} m")
+        linear.append(f"|theta3|/theta1 = {b:.3g} (m if u is in m/s), which bounds the centre "
+                      f"of mass's offset from the wheel axle (Section 2), is over {B_MAX:g} m")
     if length > L_MAX:
         linear.append(f"sqrt(|theta3 theta2/(theta1 theta5)|) = {length:.3g}, about the "
                       f"robot's radius of gyration, is over {L_MAX:g} m")
@@ -225,17 +225,18 @@ def shared_unit_warnings(theta, stderr, u, w, pose=None) -> list:
         angular.append(f"sqrt(|theta3 theta2/(theta1 theta5)|) = {length:.3g}, about the "
                        f"robot's radius of gyration, is under {L_MIN:g} m")
     out = []
-    for said, units, (cmd, meas, si), peak, typical in (
-            (linear, _LINEAR, _CHANNEL[3][:3], q_u, 0.6),
-            (angular, _ANGULAR, _CHANNEL[5][:3], q_w, 1.2)):
+    for said, units, (cmd, meas, si), peak, typical, off in (
+            (linear, _LINEAR, _CHANNEL[3][:3], q_u, 0.6,
+             "theta3 is off by its factor and theta5 by its inverse"),
+            (angular, _ANGULAR, _CHANNEL[5][:3], q_w, 1.2,
+             "theta3 is off by the inverse of its factor squared")):
         if not said:
             continue
         ranked = sorted(units, key=lambda fu: abs(math.log(max(peak, 1e-12) / fu[0] / typical)))
         fixes = " or ".join(f"in {unit}? pass scale={{'{cmd}': {1 / f:.6g}, '{meas}': "
                             f"{1 / f:.6g}}}" for f, unit in ranked)
         out.append(f"{cmd} and {meas} look like they are both in a unit other than {si} "
-                   f"({'; '.join(said)}), so theta3 and theta5 are off by its factor: "
-                   f"{fixes}, and identify again")
+                   f"({'; '.join(said)}), so {off}: {fixes}, and identify again")
     return out
 
 
