@@ -162,3 +162,28 @@ def test_only_mcap_names_are_taken(tmp_path, name):
     with pytest.raises(ValidationError, match="--bag"):
         check_bag_target(tmp_path / name)
     assert BAG_NAME.fullmatch("run.MCAP")
+
+
+def test_a_real_full_disk_at_the_bag_is_one_line_and_keeps_the_results(tmp_path):
+    """A recording too big for its file system (a 256 kB tmpfs): one line naming it,
+    the space left and that none was written; the run's results in --out intact; no
+    private folder or temporary file left on the small file system."""
+    small = tmp_path / "small"
+    small.mkdir()
+    p = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=256k", "tmpfs", str(small)],
+                       capture_output=True, text=True)
+    if p.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {(p.stderr or p.stdout).strip()}")
+    try:
+        (small / "notes.txt").write_text("mine\n")
+        bag = small / "run.mcap"
+        code, _, err = unidyn(tmp_path, "run", "--paper", "1", "--T", "300", "--engine",
+                              "batch", "--out", tmp_path / "out", "--bag", bag)
+        line = err.strip().splitlines()[-1]
+        assert code == 2 and line.startswith(f"unidyn: error: No space left on device "
+                                             f"writing {bag} ("), err
+        assert " free" in line and line.endswith(f"no {bag} was written"), line
+        assert sorted(os.listdir(small)) == ["notes.txt"]
+        assert (tmp_path / "out" / "summary.json").exists()
+    finally:
+        subprocess.run(["umount", str(small)], check=False)

@@ -13,6 +13,7 @@ from pathlib import Path
 from .. import identification as ident
 from .._errors import ValidationError
 from ..identification.bags import is_bag
+from ..identification.checks import fit_refused
 from ..identification.estimator import read_delay
 import re
 
@@ -92,8 +93,9 @@ def unidyn_identify(args) -> int:
                       f"({b['odom_why']})")
         print(_cli_words(res.summary()))
         if not args.no_validate:
-            with warnings.catch_warnings(record=True) as seen:  # rows the held-out log
-                warnings.simplefilter("always", ident.IdentificationWarning)  # skipped
+            with warnings.catch_warnings(record=True) as seen, fit_refused(  # rows the
+                    "the validation's simulation"):  # held-out log skipped: warnings
+                warnings.simplefilter("always", ident.IdentificationWarning)
                 report = ident.validate(res, vlog if isinstance(vlog, dict) else str(vlog),
                                         columns=columns, time_unit=args.time_unit,
                                         scale=scale) if vlog else \
@@ -234,4 +236,4 @@ def _record_topics(theta_json: Path, logs) -> None:
     if bags:
         d = json.loads(theta_json.read_text())
         d["bags"] = bags
-        theta_json.write_text(json.dumps(d, indent=2, allow_nan=False) + "\n")
+        write_atomic(theta_json, json.dumps(d, indent=2, allow_nan=False) + "\n")

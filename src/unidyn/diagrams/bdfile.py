@@ -47,6 +47,7 @@ from .._validate import ValidationError
 from ..model.parameters import RobotParameters
 from ..model.scenario import Scenario
 from ..model.unicycle import Limits
+from ..results.ownership import write_atomic
 from .fig2 import build_fig2, new_simulator
 
 __all__ = ["save_bd", "to_bd_dict", "block_parameters", "paper_fig2", "write_paper_fig2",
@@ -417,9 +418,7 @@ def save_bd(diagram, path, *, layout: dict | str | None = "fig2",
     data = to_bd_dict(diagram, layout=layout, simulation_time=simulation_time)
     text = json.dumps(data, indent=4, allow_nan=False) + "\n"
     path = Path(path)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(text, encoding="utf-8")
-    tmp.replace(path)
+    write_atomic(path, text)  # a temporary file beside it, then a rename
     return path
 
 

@@ -6,6 +6,7 @@ constants)."""
 
 from __future__ import annotations
 
+import contextlib
 import math
 
 import numpy as np
@@ -62,6 +63,20 @@ def check_memory(lg, method):
             f"the log's {lg.D['t'].size} rows need about {need / 1e9:.2g} GB of memory to "
             f"identify from and {have / 1e9:.2g} GB are available: identify from a part "
             f"(split_log), or on a machine with more memory")
+
+
+@contextlib.contextmanager
+def fit_refused(what: str = "the fit of theta"):
+    """One line, naming the likely causes, for a fit that is singular or does not
+    converge (``numpy.linalg.LinAlgError``), in place of a traceback."""
+    try:
+        yield
+    except np.linalg.LinAlgError as err:
+        raise ValidationError(
+            f"{what} failed ({err}): the log's measured velocities do not follow its "
+            f"commands through Eq. (2). Likely causes: u_ref and w_ref, or u and w, "
+            f"exchanged or in different units or signs, a time stamp offset between "
+            f"them, or too little excitation; check the log and its columns") from None
 
 
 def check_excitation(u_ref, w_ref):
@@ -149,6 +164,82 @@ def check_units(theta, stderr):
             f"to bring {big} to {si}, and identify again")
 
 
+#: A wheeled robot of the kind identified here moves at most this fast, m/s, and
+#: turns at most this fast, rad/s (the presets' limits are 1.5 m/s and a few rad/s;
+#: 5 rad/s is 0.8 turns a second): a log whose velocities go beyond in 1 % of its rows
+#: reads as velocities in smaller units, both sides alike
+U_MAX, W_MAX = 3.0, 5.0
+#: |theta3|/theta1 <= |b| (Section 2: theta3/theta1 = m b r^2 / (m r^2 + 2 Ie + 2 r kDT)),
+#: and a centre of mass is never this far (m) from the wheel axle
+B_MAX = 1.0
+#: sqrt(|theta3 theta2 / (theta1 theta5)|) is a length (m/rad: about the radius of
+#: gyration about the wheel axle, sqrt(Iz/m + b^2), Section 2), which lies within
+#: 0.13 m and 0.92 m for the presets; outside these bounds it reads as other units
+L_MIN, L_MAX = 0.02, 3.0
+_LINEAR = ((100.0, "cm/s"), (1000.0, "mm/s"))
+_ANGULAR = ((180 / math.pi, "deg/s"), (60 / (2 * math.pi), "rpm"))
+
+
+def shared_unit_warnings(theta, stderr, u, w, pose=None) -> list:
+    """Where the commands and the measured velocities share a wrong unit (u_ref and u
+    both in cm/s, w_ref and w both in deg/s), which the steady gains (:func:`check_units`)
+    cannot show: the warnings naming the likely units and the ``scale`` that fixes
+    each. The evidence does not depend on the unit used: the velocities' own range
+    (:data:`U_MAX`, :data:`W_MAX`), the offset of the centre of mass that theta3/theta1
+    bounds (:data:`B_MAX`) and the length sqrt(|theta3 theta2 / (theta1 theta5)|)
+    (:data:`L_MIN`, :data:`L_MAX`), where theta3 and theta5 are identified; with both
+    sides in one unit theta1, theta2, theta4 and theta6 do not change, theta3 scales as
+    the linear unit over the square of the angular one and theta5 as one over the
+    linear unit."""
+    theta, stderr = np.asarray(theta, float), np.asarray(stderr, float)
+    known = [bool(abs(theta[i]) > 0 and stderr[i] <= 0.3 * abs(theta[i])) for i in range(6)]
+    q_u = float(np.quantile(np.abs(u), 0.99)) if np.size(u) else 0.0
+    q_w = float(np.quantile(np.abs(w), 0.99)) if np.size(w) else 0.0
+    b = abs(theta[2]) / theta[0] if theta[0] > 0 else math.nan
+    length = (math.sqrt(abs(theta[2] * theta[1] / (theta[0] * theta[4])))
+              if known[2] and known[4] and theta[0] > 0 else math.nan)
+    linear, angular = [], []
+    k_u, k_w = pose if pose is not None else (math.nan, math.nan)
+    near = lambda k, units: any(abs(math.log(k / f)) < math.log(1.5)  # noqa: E731
+                                for f, _ in units) if k > 0 else False
+    if near(k_u, _LINEAR):
+        linear.append(f"|u| is {k_u:.3g} times the path's speed from the pose x, y, as "
+                      f"from a pose in m")
+    if near(k_w, _ANGULAR):
+        angular.append(f"w is {k_w:.3g} times the heading's rate from psi, as from a "
+                       f"heading in radians")
+    if q_u > U_MAX:
+        linear.append(f"|u| reaches {q_u:.3g} in 1 % of the rows, where a robot moves at "
+                      f"most about {U_MAX:g} m/s")
+    if known[2] and b > B_MAX:
+        linear.append(f"|theta3|/theta1 = {b:.3g} (m if u is in m/s), which bounds the centre "
+                      f"of mass's offset from the wheel axle (Section 2), is over {B_MAX:g} m")
+    if length > L_MAX:
+        linear.append(f"sqrt(|theta3 theta2/(theta1 theta5)|) = {length:.3g}, about the "
+                      f"robot's radius of gyration, is over {L_MAX:g} m")
+    if q_w > W_MAX:
+        angular.append(f"|w| reaches {q_w:.3g} in 1 % of the rows ({q_w / (2 * math.pi):.2g} "
+                       f"turns a second if rad/s), where a robot turns at most about "
+                       f"{W_MAX:g} rad/s")
+    if length < L_MIN:
+        angular.append(f"sqrt(|theta3 theta2/(theta1 theta5)|) = {length:.3g}, about the "
+                       f"robot's radius of gyration, is under {L_MIN:g} m")
+    out = []
+    for said, units, (cmd, meas, si), peak, typical, off in (
+            (linear, _LINEAR, _CHANNEL[3][:3], q_u, 0.6,
+             "theta3 is off by its factor and theta5 by its inverse"),
+            (angular, _ANGULAR, _CHANNEL[5][:3], q_w, 1.2,
+             "theta3 is off by the inverse of its factor squared")):
+        if not said:
+            continue
+        ranked = sorted(units, key=lambda fu: abs(math.log(max(peak, 1e-12) / fu[0] / typical)))
+        fixes = " or ".join(f"in {unit}? pass scale={{'{cmd}': {1 / f:.6g}, '{meas}': "
+                            f"{1 / f:.6g}}}" for f, unit in ranked)
+        out.append(f"{cmd} and {meas} look like they are both in a unit other than {si} "
+                   f"({'; '.join(said)}), so {off}: {fixes}, and identify again")
+    return out
+
+
 def envelope_warnings(theta) -> list:
     """Where an estimate lies outside the presets' range (a Khepera III to a robotic
     wheelchair carrying 125 kg, and the RobuLAB-10) by more than
@@ -174,7 +265,7 @@ def envelope_warnings(theta) -> list:
     return out
 
 
-def estimate_warnings(theta, stderr, conds, u, w, dt, rel_max) -> list:
+def estimate_warnings(theta, stderr, conds, u, w, dt, rel_max, pose=None) -> list:
     """The warnings about an estimate ``theta`` with standard errors ``stderr`` from a log
     of velocities u (m/s), w (rad/s) sampled every ``dt`` s: theta3 or theta5 unidentified
     (standard error above ``rel_max`` of its size), ill-conditioned rows (condition
@@ -209,6 +300,7 @@ def estimate_warnings(theta, stderr, conds, u, w, dt, rel_max) -> list:
                        f"{THETA_NAMES[i]} = 1 + (Ra/ka)(ka kb/Ra + Be)(...) >= 1 (identified sets "
                        f"reach 0.956): check the scale of the measured velocities against "
                        f"the commands")
+    out += shared_unit_warnings(theta, stderr, u, w, pose)
     out += envelope_warnings(theta)
     for i, j in ((0, 3), (1, 5)):
         tau = theta[i] / theta[j] if theta[j] > 0 else math.nan

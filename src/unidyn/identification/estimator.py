@@ -22,11 +22,12 @@ from .._validate import ValidationError, choice, integer, nonnegative, positive,
 from ..model.parameters import RobotParameters
 from .bags import row_commands
 from .checks import (check_excitation, check_memory, check_physical, check_units,
-                     estimate_warnings)
+                     estimate_warnings, fit_refused)
 from .equation_error import SMOOTHING_METHODS, equation_error_fit, white_noise_std
 from .first_estimate import first_estimate
 from .intervals import JITTER_MIN, ci95, jitter_widening, lag_widening, measured_stamp_jitter
-from .logs import COLUMNS, IdentificationWarning, check_layout, check_measured, join_logs
+from .logs import (COLUMNS, IdentificationWarning, check_layout, check_measured, join_logs,
+                   pose_factors)
 from .output_error import output_error_fit
 from .replay import COMMAND_CONVENTIONS
 from .results import THETA_NAMES, IdentificationResult
@@ -144,7 +145,7 @@ def identify(log, *more_logs, commands: str = "held", delay=0.0,
     lg = _read_logs((log,) + more_logs, columns, gap, time_unit, stamp_jitter, commands,
                     delay, window, noise_std, scale)
     check_memory(lg, method)
-    with _progress_bar(lg, progress) as lg.tick:
+    with _progress_bar(lg, progress) as lg.tick, fit_refused():
         res = _identify(lg, method, smoothing, window, order, rel_stderr_max, name,
                         check_commands, validate)
     return _emit(res)
@@ -247,7 +248,7 @@ def _read_logs(logs, columns, gap, time_unit, stamp_jitter, commands, delay, win
     t, u_ref, w_ref, u, w = (D[k] for k in COLUMNS)
     check_excitation(u_ref, w_ref)
     check_measured(u_ref, w_ref, u, w)
-    check_layout(D, segs, columns)
+    layout_warnings = check_layout(D, segs, columns)
     dt_med = float(np.median(np.concatenate([np.diff(t[a:b]) for a, b in segs])))
     delay_auto, delay = _delay_seconds(delay, dt_med)
     longest = max(t[b - 1] - t[a] for a, b in segs)
@@ -274,6 +275,7 @@ def _read_logs(logs, columns, gap, time_unit, stamp_jitter, commands, delay, win
                      f"step): the log is split there into pieces, each with its own initial "
                      f"state")
     warns += D["notes"]     # rows dropped or skipped, short pieces not used
+    warns += layout_warnings
     recorded = [lg for lg in logs if isinstance(lg, dict) and "commands" in lg]
     if len(recorded) != len(logs) or sum(lg["t"].size for lg in recorded) != D["t"].size:
         recorded = None
@@ -289,7 +291,7 @@ def _identify_equation_error(lg, smoothing, window, order, rel_stderr_max, name)
     check_physical(theta, stderr)
     check_units(theta, stderr)
     warns = lg.warnings + ew + estimate_warnings(theta, stderr, conds, uk, wk, lg.dt_med,
-                                                 rel_stderr_max)
+                                                 rel_stderr_max, pose_factors(lg.D, lg.segs))
     if not lg.linear:
         warns.append(
             "the equation-error estimate treats the commands as smooth between samples; "
@@ -357,7 +359,7 @@ def _oe_intervals(lg, oe, rel_stderr_max):
                      f"parameters), so its value is arbitrary and its standard error is "
                      f"reported as inf")
     warns += estimate_warnings(theta, stderr, oe["conds"], lg.D["u"][idx], lg.D["w"][idx],
-                               lg.dt_med, rel_stderr_max)
+                               lg.dt_med, rel_stderr_max, pose_factors(lg.D, lg.segs))
     return stderr, warns + oe["warnings"]
 
 

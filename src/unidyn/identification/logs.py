@@ -570,39 +570,141 @@ def check_measured(u_ref, w_ref, u, w, what="the log"):
             f"/joint_states (read_bag's wheel_radius and wheel_separation)")
 
 
-def check_layout(D, segs, columns=None) -> None:
-    """Refuse a log whose u and w (and so u_ref and w_ref) are exchanged, where it holds
-    the robot's pose (:data:`POSE`): the heading's rate psi' must follow w, and the
-    path's speed |(x', y')| must follow |u|. A log without a pose cannot be checked
-    (its parameters fit either way, theta1 with theta2 and theta4 with theta6
-    exchanged)."""
-    if "x" not in D:
-        return
-    rate, speed, u, w = [], [], [], []
+def _corr(a, b) -> float:
+    """Pearson's correlation of two series (0 where either is constant): the same in
+    any unit of either."""
+    a, b = a - np.mean(a), b - np.mean(b)
+    den = float(np.sqrt(np.sum(a * a) * np.sum(b * b)))
+    return float(np.sum(a * b)) / den if den > 0 else 0.0
+
+
+def _one_sided(x) -> float:
+    """How one-signed a velocity is, |mean| / rms, in any unit: near 1 for a robot's
+    forward speed, near 0 for its turning rate, which goes both ways."""
+    rms = float(np.sqrt(np.mean(np.square(x))))
+    return abs(float(np.mean(x))) / rms if rms > 0 else 0.0
+
+
+def _by_shape(lin, ang):
+    """Which of two velocities is the linear one by shape alone: False (as named),
+    True (exchanged) or None (the log cannot tell)."""
+    f_lin, f_ang = _one_sided(lin), _one_sided(ang)
+    if max(f_lin, f_ang) >= 0.5 and min(f_lin, f_ang) <= 0.5 * max(f_lin, f_ang):
+        return f_ang > f_lin
+    return None
+
+
+#: correlations this far apart tell two columns apart
+_CLEAR = 0.2
+
+
+def _pose_rates(D, segs) -> tuple:
+    """The pieces of at least 3 rows (slices), and where the log has the pose, the
+    heading's rate psi' and the path's speed |(x', y')| in each, in the pose's units."""
+    rate, speed, parts = [], [], []
     for a, b in segs:
         if b - a < 3:
             continue
         t = D["t"][a:b]
-        rate.append(np.gradient(np.unwrap(D["psi"][a:b]), t))
-        speed.append(np.hypot(np.gradient(D["x"][a:b], t), np.gradient(D["y"][a:b], t)))
-        u.append(D["u"][a:b])
-        w.append(D["w"][a:b])
+        parts.append(slice(a, b))
+        if "x" in D:
+            psi = D["psi"][a:b]  # radians or degrees: unwrapped in its own period
+            period = 360.0 if np.ptp(psi) > 2.1 * np.pi else 2 * np.pi
+            rate.append(np.gradient(np.unwrap(psi, period=period), t))
+            speed.append(np.hypot(np.gradient(D["x"][a:b], t), np.gradient(D["y"][a:b], t)))
+    return parts, rate, speed
+
+
+def pose_factors(D, segs):
+    """How many times the path's speed from the pose |u| is, and the heading's rate w
+    (least squares over the log), or None without a pose: near 1 when the velocities
+    are in the pose's units (m and rad, as odometry reports them)."""
+    parts, rate, speed = _pose_rates(D, segs)
     if not rate:
-        return
-    rate, speed, u, w = (np.concatenate(v) for v in (rate, speed, u, w))
-    rms = lambda a: float(np.sqrt(np.mean(np.square(a))))  # noqa: E731
-    rate_w, rate_u = rms(rate - w), rms(rate - u)
-    speed_u, speed_w = rms(speed - np.abs(u)), rms(speed - np.abs(w))
-    if rate_u < 0.5 * rate_w and speed_w < 0.5 * speed_u:
-        cmap = _column_map(columns)
-        fix = ", ".join(f"{k!r}: {cmap[o]!r}" for k, o in (("u_ref", "w_ref"), ("w_ref", "u_ref"),
-                                                     ("u", "w"), ("w", "u")))
+        return None
+    rate, speed = np.concatenate(rate), np.concatenate(speed)
+    u, w = (np.concatenate([D[k][s] for s in parts]) for k in ("u", "w"))
+    k_u = float(np.sum(np.abs(u) * speed) / np.sum(speed * speed)) if np.any(speed) else math.nan
+    k_w = float(np.sum(w * rate) / np.sum(rate * rate)) if np.any(rate) else math.nan
+    return k_u, k_w
+
+
+def layout(D, segs) -> tuple:
+    """Whether the log's measured velocities and its commands are named the wrong way
+    round, each True, False or None (the log cannot tell), and the evidence, in words.
+    Only shapes, signs and correlations are compared, never magnitudes, so the answer
+    is the same in any unit of the velocities or of the pose: the heading's rate psi'
+    follows w and the path's speed |(x', y')| follows |u| (with the pose, :data:`POSE`);
+    a robot's forward speed keeps its sign while its turning rate changes sign (without
+    it); each command follows its own velocity, not the other one."""
+    parts, rate, speed = _pose_rates(D, segs)
+    if not parts:
+        return None, None, ""
+    u_ref, w_ref, u, w = (np.concatenate([D[k][s] for s in parts])
+                          for k in ("u_ref", "w_ref", "u", "w"))
+    said = []
+    measured = None
+    if rate:
+        rate, speed = np.concatenate(rate), np.concatenate(speed)
+        r_w, r_u = abs(_corr(rate, w)), abs(_corr(rate, u))
+        s_u, s_w = _corr(speed, np.abs(u)), _corr(speed, np.abs(w))
+        if r_u > r_w + _CLEAR and s_w > s_u:
+            measured = True
+        elif r_w > r_u + _CLEAR and s_u > s_w:
+            measured = False
+        said.append(f"the heading's rate psi' correlates {r_u:.2f} with u and {r_w:.2f} "
+                    f"with w, the path's speed {s_u:.2f} with |u| and {s_w:.2f} with |w|")
+    if measured is None:
+        measured = _by_shape(u, w)
+        said.append(f"|mean|/rms is {_one_sided(u):.2f} for u and {_one_sided(w):.2f} for w")
+    lin, ang = (w, u) if measured else (u, w)
+    straight = _corr(u_ref, lin) + _corr(w_ref, ang)
+    cross = _corr(u_ref, ang) + _corr(w_ref, lin)
+    crossed = cross > straight + 2 * _CLEAR
+    said.append(f"the commands correlate {straight / 2:.2f} with their own velocities and "
+                f"{cross / 2:.2f} with the other ones")
+    if measured is not None:  # crossed: the commands are exchanged
+        return measured, crossed, "; ".join(said)
+    by_cmd = _by_shape(u_ref, w_ref)  # the commands' shapes may tell
+    said.append(f"|mean|/rms is {_one_sided(u_ref):.2f} for u_ref and "
+                f"{_one_sided(w_ref):.2f} for w_ref")
+    if by_cmd is None:
+        return None, (True if crossed else None), "; ".join(said)
+    return by_cmd != crossed, by_cmd, "; ".join(said)
+
+
+def check_layout(D, segs, columns=None) -> list:
+    """Refuse a log whose u and w, or u_ref and w_ref, or both, are exchanged (see
+    :func:`layout`), naming the ``columns=`` that maps them right; the warnings (a
+    list) when the log cannot tell (its parameters fit either way, theta1 with theta2
+    and theta4 with theta6 exchanged)."""
+    measured, commands, said = layout(D, segs)
+    cmap = _column_map(columns)
+
+    def fix(*pairs):
+        new = dict(cmap)
+        for a, b in pairs:
+            new[a], new[b] = cmap[b], cmap[a]
+        return "columns={" + ", ".join(f"{k!r}: {v!r}" for k, v in new.items()
+                                        if v != k) + "}"
+    if measured is None and commands:
         raise ValidationError(
-            f"the log's u and w look exchanged: the heading's rate psi' follows column "
-            f"{cmap['u']!r} (rms difference {rate_u:.3g}) rather than {cmap['w']!r} "
-            f"({rate_w:.3g} rad/s), and the path's speed follows {cmap['w']!r} "
-            f"({speed_w:.3g}) rather than {cmap['u']!r} ({speed_u:.3g} m/s); if the header "
-            f"names them the wrong way round, map them: columns={{{fix}}}")
+            f"the log's commands follow the other velocities ({said}): either u_ref and "
+            f"w_ref or u and w are exchanged, and this log cannot tell which (it has no "
+            f"pose x, y, psi, and its velocities change sign alike). If the measured "
+            f"velocities are named right, map the commands: {fix(('u_ref', 'w_ref'))}; if "
+            f"the commands are, map the velocities: {fix(('u', 'w'))}")
+    if measured or commands:
+        pairs = [p for p, bad in ((("u_ref", "w_ref"), commands), (("u", "w"), measured))
+                 if bad]
+        which = ", and ".join(f"{cmap[a]!r} and {cmap[b]!r}" for a, b in pairs)
+        raise ValidationError(f"the log's {which} look exchanged ({said}); if the header "
+                              f"names them the wrong way round, map them: {fix(*pairs)}")
+    if measured is None:
+        return [f"this log cannot tell u from w ({said}; no pose x, y, psi): if they are "
+                f"exchanged in its header, theta1 and theta2, theta4 and theta6 come out "
+                f"exchanged; check the columns"]
+    return []
 
 
 def split_log(log, t_split: float, columns=None,

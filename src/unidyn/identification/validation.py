@@ -13,6 +13,7 @@ from .._validate import ValidationError, choice, nonnegative, positive, vector
 from ..results.figstyle import label, size, styled, ylim_from_data
 from ..model.unicycle import NO_LIMITS, Limits
 from .replay import COMMAND_CONVENTIONS, simulate_held, simulate_stepwise
+from .checks import fit_refused
 from .logs import load_log, segments
 from .results import IdentificationResult, ValidationReport
 
@@ -67,8 +68,9 @@ def validate(theta, log, columns=None, v0=None, limits: Limits = NO_LIMITS,
         raise ValidationError(f"limits must be a unidyn.model.unicycle.Limits, got {limits!r}")
     d = load_log(log, columns, time_unit, scale)
     segs = segments(d["t"], gap)
-    return validation_report(rp, d, segs, commands, delay,
-                              None if v0 is None else vector("v0", v0, 2), limits)
+    with fit_refused("the validation's simulation"):
+        return validation_report(rp, d, segs, commands, delay,
+                                  None if v0 is None else vector("v0", v0, 2), limits)
 
 
 def validation_report(rp, d, segs, commands, delay, v0=None, limits=NO_LIMITS):

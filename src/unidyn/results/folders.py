@@ -12,7 +12,10 @@ has finished::
     print(f"written {stage.final}/")
 
 A file outside a results folder (``unidyn run --bag run.mcap``) is an
-:class:`OwnedFile`; a single file anywhere is written by :func:`write_file`.
+:class:`OwnedFile`; a single file anywhere is written by :func:`write_file`. Their
+parts: the folder's lock and the one way a file is written (an exclusive temporary
+file, then a rename) are in :mod:`unidyn.results.ownership`, the manifests in
+:mod:`unidyn.results.ledger`; this module puts them together.
 
 What a user can rely on:
 
@@ -75,7 +78,7 @@ from .ownership import (_FULL, _NOFOLLOW, _PREFIX, _STAGE_MARK, _STAGE_NAME, LOC
 
 __all__ = ["Stage", "staged_output", "OwnedFile", "Ledger", "FolderLock", "FolderInUse",
            "DiskFull", "LOCK_NAME", "MAX_MANIFEST_BYTES", "check_manifest", "foreign_files",
-           "output_folder", "write_file", "write_atomic", "disk_full", "json_ready"]
+           "output_folder", "make_output_folder", "write_file", "write_atomic", "disk_full", "json_ready"]
 
 
 def output_folder(out, option: str = "--out") -> Path:
@@ -95,9 +98,10 @@ def output_folder(out, option: str = "--out") -> Path:
     return path
 
 
-def _make_folder(path: Path, out, option: str) -> bool:
-    """Make ``path`` (``out`` followed) and its parents; True if it was made. One line
-    saying why where it cannot be."""
+def make_output_folder(out, option: str = "--out") -> bool:
+    """Make the folder ``out`` (links followed, :func:`output_folder`) and its parents;
+    True if it was made. One line saying why where it cannot be."""
+    path = output_folder(out, option)
     if path.is_dir():
         return False
     try:
@@ -119,7 +123,6 @@ def json_ready(value):
     if isinstance(value, float) and not math.isfinite(value):
         return None
     return value
-
 
 
 def _make_stage(lock: FolderLock, kind: str) -> tuple:
@@ -205,7 +208,7 @@ def staged_output(out, *, kind: str, names, overwrite: bool, what: str = "result
     if _STAGE_NAME.match(final.name) and os.path.lexists(final / _STAGE_MARK):
         raise ValueError(f"{final} is the private folder of a staged_output block: write "
                          f"into it directly (pass the Stage), not through another block")
-    created = _make_folder(final, out, option)
+    created = make_output_folder(out, option)
     try:
         with (FolderLock(final, option) if lock is None else contextlib.nullcontext(lock)) \
                 as held_lock:
@@ -227,9 +230,11 @@ def staged_output(out, *, kind: str, names, overwrite: bool, what: str = "result
                 with _interrupts_deferred():
                     stage.final = _commit(stage, final, kind, names, what, option)
             except OSError as err:
-                if err.errno in _FULL:
-                    raise _disk_full(err, stage, out) from None
-                raise
+                if err.errno not in _FULL:
+                    raise
+                where, kept, size = _disk_full(err, stage, out)  # while the stage is there
+                _drop_stage(held_lock, path, token, identity)  # then the space it freed
+                raise DiskFull(err.errno, where, kept, size) from None
             finally:
                 _drop_stage(held_lock, path, token, identity)
     except BaseException:
@@ -313,10 +318,10 @@ def _files_in(stage: Path) -> list:
     return sorted(out)
 
 
-def _disk_full(err: OSError, stage: Stage, out) -> OSError:
-    """The full-disk error naming the file being written (as it will be named in
-    ``out``), how much of it was written and the space left, and what became of the
-    results."""
+def _disk_full(err: OSError, stage: Stage, out) -> tuple:
+    """For the full-disk error: ``(file, kept, size)``, the file being written (as it
+    will be named in ``out``), what became of the results, and how much of the file was
+    written."""
     where = getattr(err, "path", None) or (Path(err.filename) if err.filename else None)
     if where is None or where.name.startswith(f"{_PREFIX}-tmp-"):
         where = _newest(stage.path) or where
@@ -333,7 +338,7 @@ def _disk_full(err: OSError, stage: Stage, out) -> OSError:
         kept = f"the earlier results in {out} are intact (nothing was replaced)"
     else:
         kept = f"nothing was written to {out}"
-    return DiskFull(err.errno, where or out, kept, getattr(err, "written", None) or size)
+    return where or Path(out), kept, getattr(err, "written", None) or size
 
 
 def _newest(folder: Path):
@@ -420,6 +425,7 @@ class OwnedFile:
             except OSError as err:
                 kept = (f"the earlier {self.given} is as it was" if self.held
                         else f"no {self.given} was written")
+                _drop_stage(lock, path, token, identity)  # the space it held is free again
                 raise disk_full(err, kept, self.given) from None
             finally:
                 _drop_stage(lock, path, token, identity)

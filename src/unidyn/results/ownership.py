@@ -317,7 +317,7 @@ def write_atomic(path, text: str, more=(), lock: FolderLock | None = None) -> No
     """Write ``text`` (then each string of the iterable ``more``) to ``path`` with
     :func:`write_file`."""
     def put(tmp):
-        with open(tmp, "w", newline="") as fh:
+        with open(tmp, "w", newline="", encoding="utf-8") as fh:
             fh.write(text)
             for chunk in more:
                 fh.write(chunk)

@@ -63,7 +63,7 @@ from .sweep_files import (ID_NAME, MAX_POINTS, METRICS, RECORD_NAME, cell, check
                           read_sweep_id, read_sweep_record, read_toml, rows_text,
                           scenario_from_layers, sweep_id_text, sweep_record_text)
 from ..results.folders import (FolderLock, Ledger, check_manifest, disk_full, foreign_files,
-                               json_ready, output_folder, staged_output)
+                               json_ready, make_output_folder, output_folder, staged_output)
 from .plots import plot_metrics
 from ..diagrams.simulate import simulate
 from ..engines import ENGINES
@@ -540,9 +540,8 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
         client, close = None, None
     else:
         client, close = connect_dask(dask_address)
-    created = not out.exists()
     try:
-        out.mkdir(parents=True, exist_ok=True)
+        created = make_output_folder(out, "out_dir")  # one line where it cannot be made
         with FolderLock(out) as lock:
             try:
                 held, foreign = Ledger(out, "sweep", SWEEP_FILES).sort()
