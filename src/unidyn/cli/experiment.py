@@ -42,7 +42,7 @@ def run_experiment(args) -> int:
     t0 = time.perf_counter()
     try:
         with staging as stage:
-            exp = experiment(seeds=seeds, engines=engines, robot=robot)
+            exp = experiment(seeds=seeds, engines=engines, robot=robot, progress=None)
             write_experiment(exp, stage.path)
     except KeyboardInterrupt:
         raise Interrupted(f"{out} is as it was before this run") from None

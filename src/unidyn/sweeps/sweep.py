@@ -67,6 +67,7 @@ from ..results.folders import (FolderLock, Ledger, check_manifest, disk_full, fo
 from .plots import plot_metrics
 from ..diagrams.simulate import simulate
 from ..engines import ENGINES
+from ..progress import Progress
 
 __all__ = ["Sweep", "SweepPoint", "SweepRun", "run_sweep", "sweep_id", "SWEEP_FILES"]
 
@@ -315,10 +316,11 @@ def _metric(v):
     return None if v is None else float(v)
 
 
-def _run_chunk(points, engine: str, rtol: float, atol: float) -> list:
+def _run_chunk(points, engine: str, rtol: float, atol: float, progress=False) -> list:
     """Simulate a list of (index, params, scenario, write); return the metrics rows of
     those to write (the others are run for the estimate their seeds share:
-    :func:`_chunks`).
+    :func:`_chunks`). ``progress``: the batch call's (``False``, or ``f(done, total)``
+    in samples).
 
     Runs wherever it is called (here or on a Dask worker) and returns only the
     small rows, not the time series."""
@@ -335,11 +337,20 @@ def _run_chunk(points, engine: str, rtol: float, atol: float) -> list:
             rows[j] = _failed_row(index, params, sc.case, str(err))
     if batch:
         results = simulate_batch([points[j][2] for j in batch], rtol=rtol, atol=atol,
-                                 estimate="per_point")
+                                 estimate="per_point", progress=progress)
         for j, r in zip(batch, results):
             index, params, _, _ = points[j]
             rows[j] = _row(index, params, r)
     return [row for row, p in zip(rows, points) if p[3]]
+
+
+def _share(bar, start: float, points: int):
+    """The progress callable of a chunk's batch call: ``bar`` moved from ``start`` by
+    the chunk's ``points`` in proportion to the call's samples done."""
+    def moved(done, total):
+        if total > 0:
+            bar.to(start + points * min(done / total, 1.0))
+    return moved
 
 
 def _chunks(sweep, pending, size: int) -> list:
@@ -367,27 +378,6 @@ def _chunks(sweep, pending, size: int) -> list:
             chunk = []
         chunk += extra + [(*p, True) for p in members]
     return chunks + ([chunk] if chunk else [])
-
-
-class _NoBar:
-    def update(self, k):
-        pass
-
-    def close(self):
-        pass
-
-
-def _progress_bar(enabled, total, initial):
-    """A tqdm progress bar on stderr, or nothing when disabled, when stderr is not a
-    terminal (a log file, a pipe, a test) or when tqdm is not installed."""
-    if not enabled or not sys.stderr.isatty():
-        return _NoBar()
-    try:
-        from tqdm import tqdm
-    except ImportError:
-        return _NoBar()
-    return tqdm(total=total, initial=initial, desc="sweep", unit="pt", file=sys.stderr,
-                dynamic_ncols=True)
 
 
 #: Every file a sweep's folder may hold (the names its manifest may list): the rows, the
@@ -644,16 +634,20 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
     pending = [p for p in sweep.points() if p.index not in done]
     chunks = _chunks(sweep, pending, chunk_size)
     new_rows = []
-    bar = _progress_bar(progress, len(sweep), len(done))
+    # points done, in fractions of a chunk as its batch call advances (not on Dask,
+    # whose workers report chunks only)
+    bar = Progress(None if progress else False, len(sweep), desc="sweep", unit="point",
+                   initial=len(done), leave=True)
     try:
         def take(rows):
             ledger.append("metrics.csv", rows_text(columns, rows, header=False))
             new_rows.extend(rows)
-            bar.update(len(rows))
+            bar.to(len(done) + len(new_rows))
 
         if client is None:
             for chunk in chunks:
-                take(_run_chunk(chunk, engine, sweep.rtol, sweep.atol))
+                share = _share(bar, len(done) + len(new_rows), sum(p[3] for p in chunk))
+                take(_run_chunk(chunk, engine, sweep.rtol, sweep.atol, progress=share))
         elif chunks:
             run_on_dask(client, _run_chunk, chunks, take, engine=engine,
                         rtol=sweep.rtol, atol=sweep.atol)
