@@ -457,3 +457,14 @@ def test_an_interrupt_lost_in_a_finaliser_is_sent_again():
         assert got == ["int"]
     finally:
         signal.signal(signal.SIGINT, previous)
+
+
+def test_a_run_without_a_scenario_says_what_it_runs_before_it_runs(tmp_path, capsys):
+    code, out, err = run_cli(capsys, "run", "--T", "1", "--engine", "batch", "--out", tmp_path)
+    assert code == 0
+    assert out.splitlines()[0] == ("running    the defaults (no scenario file, --paper or "
+                                   "--from given): case adaptive, robot p3dx_laser, T = 1 s, "
+                                   "engine batch"), out
+    code, out, _ = run_cli(capsys, "run", "--paper", "1", "--T", "1", "--engine", "batch",
+                           "--out", tmp_path / "p")
+    assert code == 0 and "the defaults" not in out

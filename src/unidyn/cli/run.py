@@ -35,6 +35,9 @@ def unidyn_run(args) -> int:
         return importlib.import_module(f"{__package__}.experiment").run_experiment(args)
     sc, engine_from = _build_scenario(args)
     engine = choose(sc, args.engine or engine_from or "auto")  # as unidyn.run chooses
+    if not (args.scenario or args.paper or args.from_):  # say what runs, before it runs
+        print(f"running    the defaults (no scenario file, --paper or --from given): case "
+              f"{sc.case}, robot {sc.robot.name}, T = {sc.T:g} s, engine {engine}", flush=True)
     out = out_folder(args.out)
     if args.seeds is not None:
         return _run_seeds(args, sc, engine, out)
@@ -157,7 +160,7 @@ def _run_staged(staging, sc, engine, out, animation, **options):
         t0 = time.perf_counter()
         interrupted = False
         try:
-            result = run(sc, engine, **options)
+            result = run(sc, engine, progress=True, **options)  # lines or a bar once past 1 s
         except SimulationError as err:
             if err.result is None:
                 raise RunFailed(f"the run failed before its first sample: {err}; "
@@ -260,7 +263,7 @@ def _run_seeds(args, sc, engine, out) -> int:
                       f"are written; kept as they are if it fails or is interrupted",
                       file=sys.stderr, flush=True)
             t0 = time.perf_counter()
-            runs = run(sc, engine, seeds=args.seeds, **tolerance_options(args))
+            runs = run(sc, engine, seeds=args.seeds, progress=True, **tolerance_options(args))
             wall = time.perf_counter() - t0
             if not runs.complete:
                 stage.incomplete(next(r.message for r in runs if not r.complete))
