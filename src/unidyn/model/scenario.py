@@ -115,8 +115,8 @@ class Scenario:
         from t (s) on the robot's mass is that multiple of the empty robot's
         (``robot``), which scales theta1, theta2, theta3, theta5
         (:func:`unidyn.model.equations.payload_theta`, Section 2); increasing times,
-        scales > 0, at most 8 rows; a number m is ``[[0, m]]``; default none; no effect
-        on a kinematic robot (case ``kinematic``). The compensator keeps its own
+        scales > 0, at most 8 rows, times within [0, T]; a number m is ``[[0, m]]``;
+        default none; no effect on a kinematic robot (case ``kinematic``). The compensator keeps its own
         estimate: exact compensation uses the empty robot's theta, adaptive
         compensation follows the change (Eq. 20).
     """
@@ -393,6 +393,15 @@ def _log_fits(value, name, sc):
     return value
 
 
+def _payload_within_run(value, name, sc):
+    """After T: a load that changes after the run's end changes nothing, so is refused."""
+    late = [t for t, _ in value if t > sc.T]
+    if late:
+        raise ValidationError(f"{name}: a row at t = {late[0]:g} s is after the run's end, "
+                              f"T = {sc.T:g} s; every row's time must be within [0, T]")
+    return value
+
+
 def _name(value, name, sc):
     if not isinstance(value, str):
         raise ValidationError(f"name must be a string, got {value!r}")
@@ -428,6 +437,7 @@ _RULES = (
     ("log_series", _log_fits),
     ("name", _name),
     ("payload", _alone(lambda name, v: payload_schedule(v))),
+    ("payload", _payload_within_run),
 )
 
 
