@@ -15,8 +15,8 @@ from functools import cached_property
 import numpy as np
 
 from . import robots, trajectories
-from .._validate import (ValidationError, choice, nonnegative, positive, positive_vector,
-                         string_keys, vector)
+from .._validate import (ValidationError, choice, did_you_mean, nonnegative, positive,
+                         positive_vector, string_keys, vector)
 from .cases import CASE_SPECS, CASES, CaseSpec
 from .laws import LEAKAGE_FORMS, PAPER_GAMMA, PAPER_SIGMA
 from .unicycle import Limits, PAPER_LIMITS, loaded_theta
@@ -484,7 +484,8 @@ def _log_series(value) -> tuple:
                               f"{', '.join(OPTIONAL_SERIES)}), got {value!r}")
     unknown = [v for v in value if v not in OPTIONAL_SERIES + ALWAYS_LOGGED]
     if unknown:
-        raise ValidationError(f"log_series: unknown series {unknown[0]!r}; allowed: "
+        raise ValidationError(f"log_series: unknown series {unknown[0]!r}"
+                              f"{did_you_mean(unknown[0], OPTIONAL_SERIES + ALWAYS_LOGGED)}; allowed: "
                               f"{', '.join(OPTIONAL_SERIES)} ({', '.join(ALWAYS_LOGGED)} "
                               f"are always logged)")
     return tuple(k for k in OPTIONAL_SERIES if k in value)
@@ -497,10 +498,8 @@ def _check_fields(data):
     known = {f.name for f in dataclasses.fields(Scenario)}
     unknown = sorted(set(data) - known)
     if unknown:
-        import difflib
-        close = difflib.get_close_matches(unknown[0], known, n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise ValidationError(f"unknown scenario field {unknown[0]!r}{hint}; "
+        raise ValidationError(f"unknown scenario field {unknown[0]!r}"
+                              f"{did_you_mean(unknown[0], known)}; "
                               f"known fields: {', '.join(sorted(known))}")
 
 
@@ -509,7 +508,8 @@ def _build(what, cls, data):
     known = {f.name for f in dataclasses.fields(cls)}
     unknown = sorted(set(data) - known)
     if unknown:
-        raise ValidationError(f"unknown {what}.{unknown[0]}; allowed: {', '.join(sorted(known))}")
+        raise ValidationError(f"unknown {what}.{unknown[0]}{did_you_mean(unknown[0], known)}; "
+                              f"allowed: {', '.join(sorted(known))}")
     return cls(**data)
 
 

@@ -54,7 +54,7 @@ import numpy as np
 from .. import __version__
 from .cluster import connect_dask, run_on_dask
 from .._errors import Interrupted
-from .._validate import MAX_NAME, ValidationError, choice, flag, integer
+from .._validate import MAX_NAME, ValidationError, choice, did_you_mean, flag, integer
 from .._validate import BATCH_ATOL, BATCH_RTOL, tolerances
 from ..engine.batch import seedless, simulate_batch
 from .statistics import seed_statistics, statistics_columns
@@ -253,7 +253,8 @@ class Sweep:
             raise ValidationError(f"a sweep must be a table, got {type(data).__name__}")
         unknown = [k for k in data if k not in _TOP_KEYS]
         if unknown:
-            raise ValidationError(f"unknown sweep key {unknown[0]!r}; allowed: "
+            raise ValidationError(f"unknown sweep key {unknown[0]!r}"
+                                  f"{did_you_mean(unknown[0], _TOP_KEYS)}; allowed: "
                                   f"{', '.join(_TOP_KEYS)}")
         return cls(**data)
 
