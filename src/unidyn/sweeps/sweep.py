@@ -648,7 +648,7 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
         if client is None:
             for chunk in chunks:
                 share = _share(bar, len(done) + len(new_rows), sum(p[3] for p in chunk))
-                take(_run_chunk(chunk, engine, sweep.rtol, sweep.atol, progress=share))
+                take(_run_chunk(chunk, engine, sweep.rtol, sweep.atol, share))
         elif chunks:
             run_on_dask(client, _run_chunk, chunks, take, engine=engine,
                         rtol=sweep.rtol, atol=sweep.atol)
