@@ -11,7 +11,7 @@ from ..paper import EXPERIMENT_FILES, EXPERIMENT_PAPER, experiment, write_experi
 from ..results.folders import staged_output
 from .arguments import tolerance_options
 from .errors import UsageError
-from .output import out_folder, shown
+from .output import out_folder, refuse_other_results, shown
 
 __all__ = ["run_experiment"]
 
@@ -35,6 +35,7 @@ def run_experiment(args) -> int:
         args.engine, (args.engine,))
     robot = args.robot or "p3dx_laser"
     out = out_folder(args.out)
+    refuse_other_results(out, "experiment")
     staging = staged_output(out, kind="experiment", names=EXPERIMENT_FILES,
                             overwrite=args.overwrite, what="experiment results")
     print(f"experiment: Section 5, robot {robot}, {seeds} noise seeds and one run without "
