@@ -94,18 +94,20 @@ class Progress:
             self.bar.total = self.total
         self.mark = self._next_mark()
 
-    def close(self):
+    def close(self, finished: bool = True):
+        """The bar removed; off a terminal, once lines were printed and the work
+        ``finished``, a last line with how much was done and how long it took."""
         if self.bar is not None:
             self.bar.close()
-        if self.lines and self.printed:
+        if self.lines and self.printed and finished:
             self._say(f"{self.desc}: {self.done:,.0f} {self.unit}s in "
                       f"{duration(self.clock() - self.start)}")
 
     def __enter__(self):
         return self
 
-    def __exit__(self, *exc):
-        self.close()
+    def __exit__(self, kind, *exc):
+        self.close(finished=kind is None)
 
     def _next_mark(self) -> float:
         """The next tenth of the total past what is done."""
