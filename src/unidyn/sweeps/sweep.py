@@ -209,8 +209,13 @@ class Sweep:
         variants = self.variants or (None,)
         axes = list(self.grid)
         index = 0
-        for v in variants:
-            for combo in itertools.product(*(self.grid[a] for a in axes)):
+        # each point's scenario is built and checked here, about a millisecond each:
+        # a large sweep says how far it is before it runs
+        n = len(variants) * math.prod(len(self.grid[a]) for a in axes)
+        with Progress(None, n, show=n >= PREPARING_SHOWN, desc="preparing the sweep",
+                      unit="point") as bar:
+            for v, combo in itertools.product(variants, itertools.product(
+                    *(self.grid[a] for a in axes))):
                 params = {} if v is None else {"variant": v["label"]}
                 params.update(zip(axes, combo))
                 layers = [("base", self.base)]
@@ -229,6 +234,7 @@ class Sweep:
                     raise ValidationError(f"{at}: {err}") from None
                 out.append(SweepPoint(index, params, sc))
                 index += 1
+                bar.advance(1)
         object.__setattr__(self, "_points", tuple(out))
         return list(out)
 
@@ -379,6 +385,11 @@ def _chunks(sweep, pending, size: int) -> list:
             chunk = []
         chunk += extra + [(*p, True) for p in members]
     return chunks + ([chunk] if chunk else [])
+
+
+#: Sweeps of at least this many points show their preparation (each point's scenario
+#: built and checked, about a millisecond each) as they show their run.
+PREPARING_SHOWN = 1000
 
 
 #: Every file a sweep's folder may hold (the names its manifest may list): the rows, the
