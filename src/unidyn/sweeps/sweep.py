@@ -366,15 +366,15 @@ def _chunks(sweep, pending, size: int) -> list:
     error estimate they share (the smallest seed's, :func:`unidyn.simulate_batch`'s
     ``estimate="per_point"``), that run added unwritten where its row is written
     already, so that every row is the same however the sweep is cut or resumed."""
-    first = {}
-    for p in sweep.points():
-        key = seedless(p.scenario)
+    first, keys = {}, {}
+    for p in sweep.points():  # (a key builds a scenario: once per point)
+        key = keys[p.index] = seedless(p.scenario)
         if key is not None and (key not in first
                                 or p.scenario.noise.seed < first[key].scenario.noise.seed):
             first[key] = p
     groups = {}
     for p in pending:
-        key = seedless(p.scenario)
+        key = keys[p.index]
         groups.setdefault(p.index if key is None else key, []).append(p)
     chunks, chunk = [], []
     for key, members in groups.items():
