@@ -129,3 +129,13 @@ def test_a_sweep_off_a_terminal_speaks_and_ends_saying_what_it_wrote(tmp_path):
     assert re.fullmatch(r"sweep: 40 points in \d+ s", said[-1]), said
     assert "\r" not in p.stderr  # no bar drawn into a pipe
     assert re.search(r"ran 40 points in [\d.]+ s; written .*o/ \(metrics.csv", p.stdout)
+
+
+def test_work_that_did_not_finish_ends_without_a_closing_line():
+    clock, out = Clock(), io.StringIO()
+    with pytest.raises(KeyboardInterrupt):
+        with Progress(None, 100, desc="cut", stream=out, clock=clock) as bar:
+            clock.now += 2
+            bar.advance(50)
+            raise KeyboardInterrupt
+    assert lines(out) == ["cut: 50 of 100 samples (50 %), 2 s elapsed, about 2 s left"]
