@@ -139,3 +139,18 @@ def test_work_that_did_not_finish_ends_without_a_closing_line():
             bar.advance(50)
             raise KeyboardInterrupt
     assert lines(out) == ["cut: 50 of 100 samples (50 %), 2 s elapsed, about 2 s left"]
+
+
+@pytest.mark.slow
+def test_a_seeds_run_off_a_terminal_speaks_and_ends_saying_what_it_wrote(tmp_path):
+    env = {**os.environ, "MPLBACKEND": "Agg"}
+    p = subprocess.run([sys.executable, "-m", "unidyn", "run", "--paper", "3", "--seeds", "200",
+                        "--engine", "batch", "--out", str(tmp_path / "o")], capture_output=True,
+                       text=True, env=env, timeout=600)
+    assert p.returncode == 0, p.stderr
+    said = [ln for ln in p.stderr.splitlines() if ln.startswith("unidyn batch: ")]
+    assert any(re.fullmatch(r"unidyn batch: [\d,]+ of [\d,]+ samples \(\d+ %\), \d+ s "
+                            r"elapsed, about \d+ s left", ln) for ln in said), p.stderr
+    assert re.fullmatch(r"unidyn batch: [\d,]+ samples in \d+ s", said[-1]), said
+    assert re.search(r"^wall time +[\d.]+ s$", p.stdout, re.M)
+    assert re.search(r"^written +.*o/ \(runs.csv", p.stdout, re.M)
