@@ -154,3 +154,14 @@ def test_a_seeds_run_off_a_terminal_speaks_and_ends_saying_what_it_wrote(tmp_pat
     assert re.fullmatch(r"unidyn batch: [\d,]+ samples in \d+ s", said[-1]), said
     assert re.search(r"^wall time +[\d.]+ s$", p.stdout, re.M)
     assert re.search(r"^written +.*o/ \(runs.csv", p.stdout, re.M)
+
+
+def test_parts_of_a_unit_count_as_not_yet_done():
+    clock, out = Clock(), io.StringIO()
+    bar = Progress(None, 2, unit="point", stream=out, clock=clock)
+    clock.now += 9
+    bar.to(1.6)  # a sweep's second point 60 % run
+    assert lines(out) == ["unidyn: 1 of 2 points (80 %), 9 s elapsed, about 2 s left"]
+    clock.now += 1.5
+    bar.to(1.9)
+    assert lines(out)[-1] == "unidyn: 1 of 2 points (95 %), 10 s elapsed, under 1 s left"

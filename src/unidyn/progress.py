@@ -119,11 +119,13 @@ class Progress:
     def _line(self, now: float):
         elapsed = now - self.start
         ran = self.done - self.initial
-        text = (f"{self.desc}: {self.done:,.0f} of {self.total:,.0f} {self.unit}s "
-                f"({math.floor(100 * min(self.done / self.total, 1)) if self.total > 0 else 100} %), "
+        whole = math.floor(self.done + 1e-9)  # points wholly done, of a part-done chunk
+        percent = math.floor(100 * min(self.done / self.total, 1)) if self.total > 0 else 100
+        text = (f"{self.desc}: {whole:,} of {self.total:,.0f} {self.unit}s ({percent} %), "
                 f"{duration(elapsed)} elapsed")
         if 0 < ran and self.done < self.total:
-            text += f", about {duration(elapsed * (self.total - self.done) / ran)} left"
+            left = elapsed * (self.total - self.done) / ran
+            text += f", {'' if left < 1 else 'about '}{duration(left)} left"
         self._say(text)
         self.last, self.mark, self.printed = now, self._next_mark(), True
 
