@@ -326,8 +326,8 @@ def _metric(v):
 def _run_chunk(points, engine: str, rtol: float, atol: float, progress=False) -> list:
     """Simulate a list of (index, params, scenario, write); return the metrics rows of
     those to write (the others are run for the estimate their seeds share:
-    :func:`_chunks`). ``progress``: the batch call's (``False``, or ``f(done, total)``
-    in samples).
+    :func:`_chunks`). ``progress``: ``False``, or ``f(done, total)`` in samples, called
+    by the chunk's batch call, or by its diagram run where the chunk is one point.
 
     Runs wherever it is called (here or on a Dask worker) and returns only the
     small rows, not the time series."""
@@ -337,8 +337,9 @@ def _run_chunk(points, engine: str, rtol: float, atol: float, progress=False) ->
         if engine == "batch" and sc.control == "continuous":
             batch.append(j)
             continue
-        try:
-            rows[j] = _row(index, params, simulate(sc))
+        try:  # a chunk's one diagram run reports to the sweep's progress, else none
+            own = progress if len(points) == 1 else False
+            rows[j] = _row(index, params, simulate(sc, progress=own))
         except (RuntimeError, ArithmeticError) as err:  # before its first sample
             print(f"unidyn: warning: sweep point {index} failed: {err}", file=sys.stderr)
             rows[j] = _failed_row(index, params, sc.case, str(err))
