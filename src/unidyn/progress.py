@@ -45,8 +45,8 @@ class Progress:
     callable ``f(done, total)``, called at every advance. ``total`` may grow while it
     runs (:meth:`grow`); ``unit`` names what is counted ("sample", "point");
     ``initial`` is the part done before (a resumed sweep's points); ``leave`` keeps
-    the bar on the terminal once closed. ``stream`` is
-    stderr by default, ``clock`` :func:`time.monotonic`."""
+    the bar on the terminal once closed. ``stream`` is stderr by default, ``clock``
+    :func:`time.monotonic` (a test passes its own)."""
 
     def __init__(self, progress, total: float, show: bool = True, desc: str = "",
                  unit: str = "sample", initial: float = 0, leave: bool = False,
