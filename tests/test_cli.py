@@ -457,3 +457,41 @@ def test_an_interrupt_lost_in_a_finaliser_is_sent_again():
         assert got == ["int"]
     finally:
         signal.signal(signal.SIGINT, previous)
+
+
+def test_a_run_without_a_scenario_says_what_it_runs_before_it_runs(tmp_path, capsys):
+    code, out, err = run_cli(capsys, "run", "--T", "1", "--engine", "batch", "--out", tmp_path)
+    assert code == 0
+    assert out.splitlines()[0] == ("running    the defaults (no scenario file, --paper or "
+                                   "--from given): case adaptive, robot p3dx_laser, T = 1 s, "
+                                   "engine batch"), out
+    code, out, _ = run_cli(capsys, "run", "--paper", "1", "--T", "1", "--engine", "batch",
+                           "--out", tmp_path / "p")
+    assert code == 0 and "the defaults" not in out
+
+
+@pytest.mark.slow
+def test_a_sweep_is_not_written_into_a_runs_folder_nor_a_run_into_a_sweeps(tmp_path, capsys):
+    run_dir, sweep_dir = tmp_path / "run", tmp_path / "sweep"
+    assert run_cli(capsys, "run", "--paper", "3", "--T", "1", "--engine", "batch",
+                   "--out", run_dir)[0] == 0
+    sweep = tmp_path / "s.toml"
+    sweep.write_text('[base]\nT = 1\nnoise = "off"\n[grid]\nkxy = [1, 2]\n')
+    assert run_cli(capsys, "sweep", sweep, "--out", sweep_dir)[0] == 0
+    before = {p.name: p.read_bytes() for d in (run_dir, sweep_dir) for p in d.iterdir()
+              if p.is_file()}
+    code, out, err = run_cli(capsys, "sweep", sweep, "--out", run_dir, "--overwrite")
+    assert code == 2 and out == ""
+    assert_one_line_error(err, f"{run_dir} holds a run (timeseries.csv, summary.json and",
+                          "; choose another --out for a sweep")
+    code, _, err = run_cli(capsys, "run", "--paper", "3", "--T", "1", "--out", sweep_dir)
+    assert code == 2
+    assert_one_line_error(err, f"{sweep_dir} holds a sweep (metrics.csv",
+                          "; choose another --out for a run")
+    code, _, err = run_cli(capsys, "run", "--paper", "3", "--T", "1", "--seeds", "2",
+                           "--out", run_dir)
+    assert code == 2
+    assert_one_line_error(err, f"{run_dir} holds a run", "; choose another --out for seed runs")
+    after = {p.name: p.read_bytes() for d in (run_dir, sweep_dir) for p in d.iterdir()
+             if p.is_file()}
+    assert after == before

@@ -12,13 +12,16 @@ batch engine); :mod:`unidyn.identification`, :mod:`unidyn.sweeps` and
 """
 
 from . import _bdsim_path
+from ._errors import (AccuracyWarning, Interrupted, MissingDependency, NonFiniteSignalError,
+                      SimulationError, SimulationInterrupted, ValidationError)
 
 __version__ = "0.1.0"
 
 _bdsim_path.register()
 
 __all__ = ["Scenario", "read_scenario", "run", "simulate", "simulate_batch", "Result", "SimulationError",
-           "ValidationError", "RobotParameters", "Limits", "NoiseSpec", "NO_LIMITS",
+           "ValidationError", "NonFiniteSignalError", "SimulationInterrupted", "Interrupted",
+           "MissingDependency", "AccuracyWarning", "RobotParameters", "Limits", "NoiseSpec", "NO_LIMITS",
            "PAPER_LIMITS", "robots", "laws", "trajectories", "equations", "check_properties",
            "rank_test", "to_iosys", "LoopExplorer", "__version__"]
 
@@ -27,7 +30,6 @@ __all__ = ["Scenario", "read_scenario", "run", "simulate", "simulate_batch", "Re
 #: Nothing heavy loads on ``import unidyn`` (numpy does when any of these is used), so
 #: the ``unidyn`` command starts with its Ctrl-C handling in place.
 _LAZY = {
-    "ValidationError": ("_validate", "ValidationError"),
     "RobotParameters": ("model.parameters", "RobotParameters"),
     "Limits": ("model.unicycle", "Limits"),
     "NO_LIMITS": ("model.unicycle", "NO_LIMITS"),
@@ -47,7 +49,6 @@ _LAZY = {
     # (bdsim loads with it), and the batch engine
     "run": ("engines", "run"),
     "simulate": ("diagrams.simulate", "simulate"),
-    "SimulationError": ("_errors", "SimulationError"),
     "simulate_batch": ("engine.batch", "simulate_batch"),
     # python-control and ipywidgets are optional (unidyn[control], unidyn[teach])
     "to_iosys": ("teaching.iosys", "to_iosys"),

@@ -1,6 +1,10 @@
 """The exception types that the command line catches, in a module that imports
 nothing heavy: the ``unidyn`` command loads it before numpy, so that its Ctrl-C
-handling is in place from the start (see :mod:`unidyn.process`)."""
+handling is in place from the start (see :mod:`unidyn.process`).
+
+Each is public as ``unidyn.<Name>`` (``unidyn.ValidationError``), and says so: its
+``__module__`` is ``unidyn``, so that a traceback and ``repr`` name it where a user
+imports it from (:data:`PUBLIC`, set at the end of this module)."""
 
 
 class ValidationError(ValueError):
@@ -51,3 +55,11 @@ class Interrupted(KeyboardInterrupt):
     def __init__(self, kept: str):
         super().__init__(kept)
         self.kept = kept
+
+
+#: The exception and warning types above, each shown and importable as ``unidyn.<Name>``.
+PUBLIC = (ValidationError, NonFiniteSignalError, AccuracyWarning, MissingDependency,
+          SimulationError, SimulationInterrupted, Interrupted)
+for _cls in PUBLIC:
+    _cls.__module__ = "unidyn"
+del _cls

@@ -144,6 +144,15 @@ def choice(name: str, value, allowed) -> str:
     return value
 
 
+def did_you_mean(given, known) -> str:
+    """`` (did you mean 'radius'?)``, naming the entry of ``known`` closest to the
+    misspelled ``given`` (a key of a table, a name), or ``""`` when none is close: the
+    hint every "unknown key" message of a scenario, a sweep file or a call carries."""
+    import difflib
+    close = difflib.get_close_matches(str(given), [str(k) for k in known], n=1, cutoff=0.5)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
 def string_keys(name: str, table) -> dict:
     """A mapping whose keys are all strings (as TOML and JSON tables are)."""
     if not isinstance(table, dict):

@@ -10,7 +10,10 @@ What this adds to typing ``bdedit FILE.bd``:
   default of 10 s (bdedit 1.4), while bdedit's File > Open menu sets it from the
   file; here the box is set as that menu does;
 - the window opens on most of the screen with the whole diagram in view, its blocks
-  drawn at the widths the file gives them (:func:`show_whole_diagram`).
+  drawn at the widths the file gives them (:func:`show_whole_diagram`);
+- bdsim's notice "package ... not loaded" for each of its toolboxes that is not
+  installed, printed each time bdedit starts a simulator, is not shown
+  (:func:`quiet_toolboxes`).
 
 unidyn's blocks are in the palette as they are for ``bdedit`` itself: every install
 ships the start-up hook that names ``unidyn`` in ``BDSIMPATH`` (see
@@ -21,6 +24,7 @@ without installing.
 from __future__ import annotations
 
 import ctypes.util
+import importlib.util
 import os
 import signal
 import sys
@@ -44,6 +48,25 @@ QT_XCB_PACKAGES = {
     "libegl1": "EGL",
     "libfontconfig1": "fontconfig",
 }
+
+
+#: The toolboxes whose blocks bdsim looks for when it starts (``BDSim(toolboxes=True)``,
+#: bdsim 1.2's default, as bdedit creates it).
+TOOLBOXES = ("roboticstoolbox", "machinevisiontoolbox")
+
+
+def quiet_toolboxes(environ=os.environ) -> None:
+    """bdsim's own switch, ``BDSIM_NO_TOOLBOXES=1`` (its ``--help`` documents it), set in
+    ``environ`` (this process's environment) unless the user set it: bdsim then looks
+    for no toolbox, and prints no "package ... not loaded: not found" for each one that
+    is not installed. The installed toolboxes are named in ``BDSIMPATH`` instead, so that
+    their blocks stay in the palette."""
+    if "BDSIM_NO_TOOLBOXES" in environ:
+        return
+    installed = [p for p in TOOLBOXES if importlib.util.find_spec(p) is not None]
+    environ["BDSIM_NO_TOOLBOXES"] = "1"
+    if installed:
+        environ["BDSIMPATH"] = ":".join(filter(None, [environ.get("BDSIMPATH"), *installed]))
 
 
 def missing_qt_packages(find_library=ctypes.util.find_library) -> list[str]:
@@ -138,6 +161,7 @@ def edit(path: str | os.PathLike) -> int:
     if not path.is_file():
         raise FileNotFoundError(f"no such .bd file: {path}")
     check_qt()
+    quiet_toolboxes()  # before bdedit starts a simulator to fill its palette
     from PySide6.QtWidgets import QApplication
 
     app = QApplication.instance() or QApplication(["bdedit"])

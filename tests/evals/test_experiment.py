@@ -2,6 +2,7 @@
 over seeds, the claims against the paper's numbers, the command line."""
 
 import math
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -138,3 +139,21 @@ def test_command_writes_the_papers_numbers_beside_the_measured(tmp_path):
     for text in ("14.38", "6.55", "9.06", "about 50 % smaller", "Why a simulation"):
         assert text in claims
     assert Path(out / "experiment.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.slow
+def test_the_experiment_off_a_terminal_says_how_far_it_is_and_what_it_wrote(tmp_path):
+    """Its diagram runs take seconds each: lines on stderr (a pipe here) with the time
+    left, then the wall time and the files written."""
+    out = tmp_path / "exp"
+    proc = subprocess.run([sys.executable, "-m", "unidyn", "run", "--paper", "experiment",
+                           "--seeds", "1", "--engine", "bdsim", "--out", str(out)],
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    said = [ln for ln in proc.stderr.splitlines() if ln.startswith("experiment, bdsim: ")]
+    assert len(said) >= 3 and "\r" not in proc.stderr, proc.stderr
+    assert any(re.search(r"\d+ of 2,400 samples \(\d+ %\), \d+ s elapsed, about \d+ s left", ln)
+               for ln in said), said
+    assert re.fullmatch(r"experiment, bdsim: 2,400 samples in \d+ s", said[-1]), said
+    assert re.search(r"^wall time +[\d.]+ s$", proc.stdout, re.M)
+    assert f"written    {out}/ (claims.md" in proc.stdout

@@ -98,6 +98,16 @@ def test_bad_schedules_get_one_clear_line(value, words):
     assert "\n" not in str(err.value) and "payload" in str(err.value)
 
 
+def test_a_payload_after_the_run_ends_is_refused_naming_the_field():
+    with pytest.raises(ValidationError) as err:
+        Scenario.paper(4, T=2.0, payload=[[100.0, 2.0]])
+    assert str(err.value) == ("payload: a row at t = 100 s is after the run's end, T = 2 s; "
+                              "every row's time must be within [0, T]")
+    assert Scenario.paper(4, T=2.0, payload=[[0.0, 2.0], [2.0, 1.0]]).payload[-1] == (2.0, 1.0)
+    with pytest.raises(ValidationError, match=r"t = 150 s is after the run's end, T = 120 s"):
+        Scenario.paper(4, payload=[[100, 2.5], [150, 1]]).replace(T=120.0)
+
+
 def test_scenario_keeps_the_schedule_through_its_dict():
     sc = Scenario.paper(4, payload=[[100, 2.5], [150, 1]])
     assert sc.payload == ((100.0, 2.5), (150.0, 1.0))

@@ -644,3 +644,18 @@ def test_divergence_bounds_follow_the_limits_or_the_reference():
     fast = free.replace(trajectory={"type": "circle", "radius": 10.0, "omega": 0.5})
     _, u, w = fast.divergence_bounds()
     assert u == pytest.approx(5.1e6, rel=1e-3) and w == pytest.approx(5.1e6 / 0.2, rel=1e-3)
+
+
+@pytest.mark.parametrize("data, meant", [
+    ({"kx_": 1.0}, "kx"),
+    ({"trajectory": {"type": "circle", "raduis": 2.0}}, "radius"),
+    ({"trajectory": {"type": "circel"}}, "circle"),
+    ({"noise": {"positon_std": 0.1}}, "position_std"),
+    ({"limits": {"speed_mx": 1.0}}, "speed_max"),
+    ({"robot": {**robots.get("p3dx").as_dict(), "thetaa4": 1.0}}, "theta4"),
+    ({"log_series": ["theta_hats"]}, "theta_hat"),
+])
+def test_a_misspelled_key_at_any_depth_is_named_with_the_one_meant(data, meant):
+    with pytest.raises(ValidationError) as err:
+        Scenario.from_dict(data)
+    assert f"(did you mean {meant!r}?)" in str(err.value) and "\n" not in str(err.value)

@@ -92,3 +92,32 @@ def test_summary_json_says_which_uncertainty_to_quote(tmp_path):
     # zero noise is no noise
     zero = NoiseSpec(position_std=0.0, velocity_std=0.0)
     assert _result(noise=zero).summary()["uncertainty"].startswith("no noise")
+
+
+def _case_result(case, noise=None):
+    t = np.linspace(0.0, 2.0, 21)
+    return Result(scenario=unidyn.Scenario.paper(case, T=2, noise=noise), t=t,
+                  pose=np.zeros((len(t), 3)), velocity=np.tile([0.3, 0.4], (len(t), 1)),
+                  reference=np.tile([3.0, 4.0], (len(t), 1)), v_d=None, v_ref=None,
+                  theta_hat=np.tile([0.2, 0.1, 0.0, 1.0, 0.0, 1.0], (len(t), 1)),
+                  engine="batch", backend="compiled", complete=True, message="")
+
+
+def test_a_result_shows_an_estimate_only_for_a_loop_that_has_one():
+    """Simulations 1-2 have no compensator, 3 compensates with fixed parameters, 4 adapts."""
+    for case in (1, 2):
+        assert "theta_hat    " not in repr(_case_result(case))
+        assert "theta_hat(T)" not in repr(_case_result(case))
+    fixed = repr(_case_result(3))
+    assert "theta_hat    0.2 0.1 0 1 0 1  (fixed: exact compensation)" in fixed
+    assert "theta_hat(T)" not in fixed
+    assert "theta_hat(T) 0.2 0.1 0 1 0 1" in repr(_case_result(4))
+
+
+def test_energy_is_printed_in_units_a_reader_can_check():
+    """u = 0.3 m/s, w = 0.4 rad/s for 2 s: 2 * (0.09 + 0.16) = 0.5, in m²/s + rad²/s."""
+    r = _case_result(4)
+    r.numerical_error = dict(_ERRORS)
+    (line,) = [ln for ln in repr(r).splitlines() if ln.startswith("  energy")]
+    assert line == ("  energy       0.5 m²/s + rad²/s (∫u² dt + ∫ω² dt)  (numerical error 2.0e-05 "
+                    "relative)")

@@ -923,3 +923,17 @@ def test_a_full_disk_on_resuming_names_the_file_and_the_rows_kept(tmp_path, monk
     assert re.search(rf"writing {re.escape(str(out))}/\S+ \(.*free\); 3 finished row\(s\) in "
                      rf"metrics.csv \(points 0-2\), intact", text), text
     assert (out / "metrics.csv").read_bytes() == rows
+
+
+@pytest.mark.parametrize("text, meant", [
+    ('nmae = "x"\n[base]\nT = 1\n[grid]\nkx = [1]\n', "name"),
+    ('[base]\nT = 1\ntrajectory = {type = "circle", raduis = 2}\n[grid]\nkx = [1]\n', "radius"),
+    ('[base]\nT = 1\n[grid]\nkxy = {start = 1, stopp = 2, step = 1}\n', "stop"),
+    ('[base]\nT = 1\n[grid]\ntheta_hat_scal = [1, 2]\n', "theta_hat_scale"),
+])
+def test_a_misspelled_key_of_a_sweep_file_is_named_with_the_one_meant(tmp_path, text, meant):
+    f = tmp_path / "s.toml"
+    f.write_text(text)
+    with pytest.raises(ValidationError) as err:
+        sw.Sweep.from_toml(f)
+    assert f"(did you mean {meant!r}?)" in str(err.value) and "\n" not in str(err.value)

@@ -133,7 +133,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--overwrite", action="store_true",
                    help="allow the finished rows in DIR to be replaced (by a different sweep, "
                         "or with --no-resume); they are kept until the new sweep has finished")
-    s.add_argument("--no-progress", action="store_true", help="no progress bar")
+    s.add_argument("--no-progress", action="store_true", help="no progress (bar or lines)")
 
     sub.add_parser("robots", help="list the preset robots",
                    description="The preset robots: theta1..theta6 and their source.",

@@ -11,7 +11,7 @@ from ..paper import EXPERIMENT_FILES, EXPERIMENT_PAPER, experiment, write_experi
 from ..results.folders import staged_output
 from .arguments import tolerance_options
 from .errors import UsageError
-from .output import out_folder, shown
+from .output import out_folder, refuse_other_results, shown
 
 __all__ = ["run_experiment"]
 
@@ -35,6 +35,7 @@ def run_experiment(args) -> int:
         args.engine, (args.engine,))
     robot = args.robot or "p3dx_laser"
     out = out_folder(args.out)
+    refuse_other_results(out, "experiment")
     staging = staged_output(out, kind="experiment", names=EXPERIMENT_FILES,
                             overwrite=args.overwrite, what="experiment results")
     print(f"experiment: Section 5, robot {robot}, {seeds} noise seeds and one run without "
@@ -42,7 +43,7 @@ def run_experiment(args) -> int:
     t0 = time.perf_counter()
     try:
         with staging as stage:
-            exp = experiment(seeds=seeds, engines=engines, robot=robot)
+            exp = experiment(seeds=seeds, engines=engines, robot=robot, progress=None)
             write_experiment(exp, stage.path)
     except KeyboardInterrupt:
         raise Interrupted(f"{out} is as it was before this run") from None

@@ -1,11 +1,24 @@
-"""Where a subcommand writes and how it says so: ``--out`` checked before any work,
-the folder the results went to as the user named it, names shortened for a line."""
+"""Where a subcommand writes and how it says so: ``--out`` checked before any work
+(a folder, holding no other kind of results), the folder the results went to as the
+user named it, names shortened for a line."""
 
 from __future__ import annotations
 
+import importlib
 from pathlib import Path
 
-from ..results.folders import output_folder
+from ..results.folders import Ledger, output_folder
+from .errors import UsageError
+
+#: The kinds of results the command writes into an --out folder, by the name of their
+#: manifest (``.unidyn-<kind>.json``): how they are called, and where their file names
+#: are (loaded only for a folder that has that manifest).
+RESULT_KINDS = {
+    "run": ("a run", "unidyn.results.result", "RUN_FILES"),
+    "seeds": ("seed runs", "unidyn.sweeps.seeds", "SEED_FILES"),
+    "experiment": ("the paper's experiment", "unidyn.paper", "EXPERIMENT_FILES"),
+    "sweep": ("a sweep", "unidyn.sweeps.sweep", "SWEEP_FILES"),
+}
 
 
 def out_folder(text: str) -> Path:
@@ -23,3 +36,22 @@ def shown(out: Path, final) -> Path:
 def short_name(name: str, limit: int = 80) -> str:
     """A scenario's or sweep's name for one line: at most ``limit`` characters."""
     return name if len(name) <= limit else name[:limit - 3] + "..."
+
+
+def refuse_other_results(out: Path, kind: str) -> None:
+    """One line, before any work, when ``out`` holds results of a kind other than
+    ``kind`` (a key of :data:`RESULT_KINDS`): a sweep is not written into a run's
+    folder, nor a run into a sweep's. A folder holds a kind when that kind's manifest
+    vouches, by content, for a file in it (:class:`~unidyn.results.folders.Ledger`)."""
+    folder = output_folder(out)
+    if not folder.is_dir():
+        return
+    for other, (what, module, attribute) in RESULT_KINDS.items():
+        if other == kind or not (folder / f".unidyn-{other}.json").exists():
+            continue
+        held, _ = Ledger(folder, other, getattr(importlib.import_module(module),
+                                                attribute)).sort()
+        if held:
+            more = f" and {len(held) - 2} more" if len(held) > 2 else ""
+            raise UsageError(f"{out} holds {what} ({', '.join(held[:2])}{more}); choose "
+                             f"another --out for {RESULT_KINDS[kind][0]}")

@@ -26,7 +26,7 @@ from ..sweeps.seeds import SEED_FILES, plus_minus
 from ..sweeps.sweep_files import METRICS, parse_toml_value, read_scenario_table, scenario_from_layers
 from .arguments import tolerance_options
 from .errors import RunFailed, UsageError
-from .output import out_folder, short_name, shown
+from .output import out_folder, refuse_other_results, short_name, shown
 
 
 def unidyn_run(args) -> int:
@@ -36,6 +36,7 @@ def unidyn_run(args) -> int:
     sc, engine_from = _build_scenario(args)
     engine = choose(sc, args.engine or engine_from or "auto")  # as unidyn.run chooses
     out = out_folder(args.out)
+    refuse_other_results(out, "run" if args.seeds is None else "seeds")
     if args.seeds is not None:
         return _run_seeds(args, sc, engine, out)
     animation = _import_animation() if args.animate else None
@@ -47,7 +48,7 @@ def unidyn_run(args) -> int:
                             what="run results")
     try:
         stage, result, wall, replaced = _run_staged(staging, sc, engine, out, animation,
-                                                    **tolerance_options(args))
+                                                    args, **tolerance_options(args))
     except Interrupted:  # interrupted, the computed part written: it says where
         raise
     except KeyboardInterrupt:
@@ -56,6 +57,14 @@ def unidyn_run(args) -> int:
     if bag is not None:
         _write_bag(result, bag)
     return status
+
+
+def _say_defaults(args, sc, engine) -> None:
+    """Without a scenario file, --paper or --from, what runs is the defaults (with the
+    flags given): said as the run starts, so that it is not a silent 200 s default."""
+    if not (args.scenario or args.paper or args.from_):
+        print(f"running    the defaults (no scenario file, --paper or --from given): case "
+              f"{sc.case}, robot {sc.robot.name}, T = {sc.T:g} s, engine {engine}", flush=True)
 
 
 def _split_set(item: str):
@@ -148,8 +157,9 @@ def _write_bag(result, bag) -> None:
               f"recording")
 
 
-def _run_staged(staging, sc, engine, out, animation, **options):
+def _run_staged(staging, sc, engine, out, animation, args, **options):
     with staging as stage:
+        _say_defaults(args, sc, engine)
         replaced = ", ".join(stage.held)
         if replaced:
             print(f"unidyn: replacing {out}/ ({replaced}) once the new run is written; "
@@ -157,7 +167,7 @@ def _run_staged(staging, sc, engine, out, animation, **options):
         t0 = time.perf_counter()
         interrupted = False
         try:
-            result = run(sc, engine, **options)
+            result = run(sc, engine, progress=True, **options)  # lines or a bar once past 1 s
         except SimulationError as err:
             if err.result is None:
                 raise RunFailed(f"the run failed before its first sample: {err}; "
@@ -255,12 +265,13 @@ def _run_seeds(args, sc, engine, out) -> int:
                             what="seed runs")
     try:
         with staging as stage:
+            _say_defaults(args, sc, engine)
             if stage.held:
                 print(f"unidyn: replacing {out}/ ({', '.join(stage.held)}) once the new runs "
                       f"are written; kept as they are if it fails or is interrupted",
                       file=sys.stderr, flush=True)
             t0 = time.perf_counter()
-            runs = run(sc, engine, seeds=args.seeds, **tolerance_options(args))
+            runs = run(sc, engine, seeds=args.seeds, progress=True, **tolerance_options(args))
             wall = time.perf_counter() - t0
             if not runs.complete:
                 stage.incomplete(next(r.message for r in runs if not r.complete))

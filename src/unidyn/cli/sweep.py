@@ -17,7 +17,7 @@ from ..sweeps.sweep import SWEEP_FILES, Sweep, rows_named, run_sweep
 from ..sweeps.sweep_files import expand_range, finished_rows, parse_toml_value
 from .arguments import tolerance_options
 from .errors import UsageError
-from .output import out_folder, short_name
+from .output import out_folder, refuse_other_results, short_name
 
 
 def unidyn_sweep(args) -> int:
@@ -51,6 +51,7 @@ def unidyn_sweep(args) -> int:
         except ValidationError as err:
             raise ValidationError(f"{args.sweep}: {err}") from None
     out = out_folder(args.out)
+    refuse_other_results(out, "sweep")
     n = len(spec)
     if args.dask is None:
         client, close = None, None

@@ -139,9 +139,10 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
         limit, the run stops (``complete=False``) when the robot's state leaves
         :meth:`~unidyn.Scenario.divergence_bounds` or the solver needs more than
         :data:`MAX_RHS_PER_SAMPLE` evaluations in one sample interval
-    :param progress: ``None`` (default: a tqdm progress bar on stderr for runs of
-        2000 samples or more, only when stderr is a terminal), ``True``, ``False``, or a
-        callable ``f(done_samples, total_samples)``
+    :param progress: ``None`` (default: for runs of 2000 samples or more, a tqdm bar on
+        stderr when it is a terminal, else a line every few seconds:
+        :class:`unidyn.progress.Progress`), ``True``, ``False``, or a callable
+        ``f(done_samples, total_samples)``
     :param builder_args: factories passed to :func:`unidyn.diagrams.build_fig2`
         (``robot=``, ``controller=``, ``compensator=``, ``trajectory=``)
     :return: :class:`Result`, its metrics over every sample computed (``log_every``

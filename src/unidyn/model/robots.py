@@ -40,7 +40,7 @@ Khepera III (0.0228 s, 0.0568 s). Use :func:`get` with one of :func:`names`::
 
 from __future__ import annotations
 
-from .._validate import ValidationError, string_keys
+from .._validate import ValidationError, did_you_mean, string_keys
 from .parameters import THETA_NAMES, RobotParameters
 
 __all__ = ["get", "names", "SPEED_LIMITS"]
@@ -117,7 +117,8 @@ def resolve(robot, what: str = "robot") -> RobotParameters:
         string_keys(what, robot)
         unknown = sorted(set(robot) - set(THETA_NAMES) - {"name", "source"})
         if unknown:
-            raise ValidationError(f"{what}: unknown key {unknown[0]!r}; a robot table has "
+            hint = did_you_mean(unknown[0], THETA_NAMES + ("name",))
+            raise ValidationError(f"{what}: unknown key {unknown[0]!r}{hint}; a robot table has "
                                   f"theta1..theta6 (and optionally name)")
         missing = [k for k in THETA_NAMES if k not in robot]
         if missing:

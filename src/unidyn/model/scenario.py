@@ -15,8 +15,8 @@ from functools import cached_property
 import numpy as np
 
 from . import robots, trajectories
-from .._validate import (ValidationError, choice, nonnegative, positive, positive_vector,
-                         string_keys, vector)
+from .._validate import (ValidationError, choice, did_you_mean, nonnegative, positive,
+                         positive_vector, string_keys, vector)
 from .cases import CASE_SPECS, CASES, CaseSpec
 from .laws import LEAKAGE_FORMS, PAPER_GAMMA, PAPER_SIGMA
 from .unicycle import Limits, PAPER_LIMITS, loaded_theta
@@ -115,8 +115,8 @@ class Scenario:
         from t (s) on the robot's mass is that multiple of the empty robot's
         (``robot``), which scales theta1, theta2, theta3, theta5
         (:func:`unidyn.model.equations.payload_theta`, Section 2); increasing times,
-        scales > 0, at most 8 rows; a number m is ``[[0, m]]``; default none; no effect
-        on a kinematic robot (case ``kinematic``). The compensator keeps its own
+        scales > 0, at most 8 rows, times within [0, T]; a number m is ``[[0, m]]``;
+        default none; no effect on a kinematic robot (case ``kinematic``). The compensator keeps its own
         estimate: exact compensation uses the empty robot's theta, adaptive
         compensation follows the change (Eq. 20).
     """
@@ -393,6 +393,15 @@ def _log_fits(value, name, sc):
     return value
 
 
+def _payload_within_run(value, name, sc):
+    """After T: a load that changes after the run's end changes nothing, so is refused."""
+    late = [t for t, _ in value if t > sc.T]
+    if late:
+        raise ValidationError(f"{name}: a row at t = {late[0]:g} s is after the run's end, "
+                              f"T = {sc.T:g} s; every row's time must be within [0, T]")
+    return value
+
+
 def _name(value, name, sc):
     if not isinstance(value, str):
         raise ValidationError(f"name must be a string, got {value!r}")
@@ -428,6 +437,7 @@ _RULES = (
     ("log_series", _log_fits),
     ("name", _name),
     ("payload", _alone(lambda name, v: payload_schedule(v))),
+    ("payload", _payload_within_run),
 )
 
 
@@ -474,7 +484,8 @@ def _log_series(value) -> tuple:
                               f"{', '.join(OPTIONAL_SERIES)}), got {value!r}")
     unknown = [v for v in value if v not in OPTIONAL_SERIES + ALWAYS_LOGGED]
     if unknown:
-        raise ValidationError(f"log_series: unknown series {unknown[0]!r}; allowed: "
+        raise ValidationError(f"log_series: unknown series {unknown[0]!r}"
+                              f"{did_you_mean(unknown[0], OPTIONAL_SERIES + ALWAYS_LOGGED)}; allowed: "
                               f"{', '.join(OPTIONAL_SERIES)} ({', '.join(ALWAYS_LOGGED)} "
                               f"are always logged)")
     return tuple(k for k in OPTIONAL_SERIES if k in value)
@@ -487,10 +498,8 @@ def _check_fields(data):
     known = {f.name for f in dataclasses.fields(Scenario)}
     unknown = sorted(set(data) - known)
     if unknown:
-        import difflib
-        close = difflib.get_close_matches(unknown[0], known, n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise ValidationError(f"unknown scenario field {unknown[0]!r}{hint}; "
+        raise ValidationError(f"unknown scenario field {unknown[0]!r}"
+                              f"{did_you_mean(unknown[0], known)}; "
                               f"known fields: {', '.join(sorted(known))}")
 
 
@@ -499,7 +508,8 @@ def _build(what, cls, data):
     known = {f.name for f in dataclasses.fields(cls)}
     unknown = sorted(set(data) - known)
     if unknown:
-        raise ValidationError(f"unknown {what}.{unknown[0]}; allowed: {', '.join(sorted(known))}")
+        raise ValidationError(f"unknown {what}.{unknown[0]}{did_you_mean(unknown[0], known)}; "
+                              f"allowed: {', '.join(sorted(known))}")
     return cls(**data)
 
 

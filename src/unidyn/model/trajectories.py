@@ -15,7 +15,7 @@ from typing import Callable
 import numpy as np
 
 from . import equations as eq
-from .._validate import ValidationError, positive, real, string_keys, vector
+from .._validate import ValidationError, did_you_mean, positive, real, string_keys, vector
 from .schedules import step_rows
 
 __all__ = ["Trajectory", "FigureEight", "Circle", "Line", "Point", "FunctionTrajectory", "from_spec",
@@ -325,19 +325,22 @@ def from_spec(spec) -> Trajectory:
     spec = dict(string_keys("trajectory", spec))
     kind = spec.pop("type", None)
     if not isinstance(kind, str):
-        raise ValidationError(f"trajectory type must be one of {', '.join(KINDS)}; got {kind!r}")
+        raise ValidationError(f"trajectory type must be one of {', '.join(KINDS)}; got {kind!r}"
+                              f"{did_you_mean(kind, KINDS)}")
     if kind == "function":
         raise ValidationError("trajectory of type 'function' wraps Python code and cannot be "
                               "rebuilt from a file; use figure_eight, circle or line, or pass a "
                               "FunctionTrajectory from Python")
     if kind not in KINDS:
-        raise ValidationError(f"trajectory type must be one of {', '.join(KINDS)}; got {kind!r}")
+        raise ValidationError(f"trajectory type must be one of {', '.join(KINDS)}; got {kind!r}"
+                              f"{did_you_mean(kind, KINDS)}")
     cls = KINDS[kind]
     import inspect
     allowed = [p for p in inspect.signature(cls).parameters]
     unknown = sorted(set(spec) - set(allowed))
     if unknown:
-        raise ValidationError(f"unknown trajectory.{unknown[0]} for type {kind!r}; "
+        raise ValidationError(f"unknown trajectory.{unknown[0]} for type {kind!r}"
+                              f"{did_you_mean(unknown[0], allowed)}; "
                               f"allowed keys: {', '.join(allowed)}")
     try:
         return cls(**spec)

@@ -24,6 +24,7 @@ from ..diagrams.simulate import simulate
 from ..engine.batch import simulate_batch
 from ..model.noise import PAPER_NOISE
 from ..model.scenario import Scenario
+from ..progress import Progress
 from ..results import figstyle
 from ..sweeps.statistics import mean_std_sem
 from .claims import BARS, VERDICTS, Claim
@@ -123,7 +124,7 @@ class Experiment:
 
 
 def experiment(seeds: int = 8, engines=("batch", "bdsim"), robot="p3dx_laser",
-               noise=PAPER_NOISE, progress: bool = False,
+               noise=PAPER_NOISE, progress=False,
                estimate: float = EXPERIMENT_ESTIMATE) -> Experiment:
     """Section 5's experiment (a real Pioneer 3-DX; the paper's last paragraphs) as
     simulated scenarios (:func:`experiment_scenarios`), run in each of ``engines``,
@@ -137,6 +138,9 @@ def experiment(seeds: int = 8, engines=("batch", "bdsim"), robot="p3dx_laser",
     :param engines: any of ``"batch"`` and ``"bdsim"``; the first gives the statistics
     :param robot: the simulated robot (a preset name or RobotParameters)
     :param noise: the measurement noise (a NoiseSpec; its seed is replaced), or None
+    :param progress: as :class:`unidyn.progress.Progress` takes it: ``None`` (a bar on
+        a terminal, a line every few seconds elsewhere), ``True``, ``False`` (nothing,
+        the default) or ``f(done, total)``, in samples of the runs, for each engine in turn
     :param estimate: the initial estimates' factor, theta_hat(0) = estimate * theta
         (the paper: "about 20 %" off, direction not given)
     """
@@ -145,18 +149,18 @@ def experiment(seeds: int = 8, engines=("batch", "bdsim"), robot="p3dx_laser",
         raise ValidationError(f"engines must be some of 'batch', 'bdsim', got {engines!r}")
     specs = experiment_scenarios(seeds, robot, noise, estimate)
     runs = []
-    for engine in engines:
-        if engine == "batch":
-            results = simulate_batch([sc for _, _, sc in specs], progress=progress,
-                                     estimate="per_point")
-        else:
-            results = [simulate(sc, progress=False) for _, _, sc in specs]
-        for (seed, case, _), r in zip(specs, results):
-            if not r.complete:
-                raise ValidationError(f"the experiment's run {r.scenario.name!r} did not "
-                                      f"complete ({engine}): {r.message}")
-            runs.append(ExperimentRun(seed, case, engine, r, {
-                w: r.window(*span)["iae"] for w, span in EXPERIMENT_WINDOWS.items()}))
+    work = sum(sc.steps for _, _, sc in specs)  # samples of one engine's runs
+    for engine in engines:  # a bar each: a sample costs the engines very different times
+        with Progress(progress, work, desc=f"experiment, {engine}") as bar:
+            if engine == "batch":  # (its own count holds the runs' probes too)
+                results = simulate_batch([sc for _, _, sc in specs], estimate="per_point",
+                                         progress=lambda d, t: bar.to(work * min(d / t, 1)))
+            else:
+                results = []
+                for _, _, sc in specs:
+                    first = bar.done
+                    results.append(simulate(sc, progress=lambda d, t, s=first: bar.to(s + d)))
+        _check_and_collect(runs, specs, results, engine)
     stats = experiment_stats(runs, engines[0])
     gap = math.nan
     if len(engines) > 1:
@@ -164,6 +168,16 @@ def experiment(seeds: int = 8, engines=("batch", "bdsim"), robot="p3dx_laser",
         gap = max(abs(r.iae[w] / by[(r.seed, r.case, engines[0])].iae[w] - 1)
                   for r in runs if r.engine != engines[0] for w in r.iae)
     return Experiment(runs, stats, gap, experiment_claims(stats, gap))
+
+
+def _check_and_collect(runs, specs, results, engine):
+    """``runs`` extended by ``engine``'s results, each with its windowed IAEs."""
+    for (seed, case, _), r in zip(specs, results):
+        if not r.complete:
+            raise ValidationError(f"the experiment's run {r.scenario.name!r} did not "
+                                  f"complete ({engine}): {r.message}")
+        runs.append(ExperimentRun(seed, case, engine, r, {
+            w: r.window(*span)["iae"] for w, span in EXPERIMENT_WINDOWS.items()}))
 
 
 def experiment_stats(runs, engine: str = "batch") -> dict:

@@ -92,7 +92,8 @@ def metrics(t, error, velocity) -> dict:
     - ``ise``: :math:`\int |\tilde h|^2 dt`, m²·s
     - ``itae``: :math:`\int t\,|\tilde h|\,dt`, m·s²
     - ``itse``: :math:`\int t\,|\tilde h|^2 dt`, m²·s² (FX44850's index)
-    - ``energy``: :math:`\int (u^2 + \omega^2)\,dt` (mixed units, as a control-effort index)
+    - ``energy``: :math:`\int (u^2 + \omega^2)\,dt`, m²/s + rad²/s (the two integrals
+      added, as a control-effort index)
     - ``error_final``: :math:`|\tilde h(T)|`, m
 
     A :class:`Result`'s metrics are these over every sample of the run, whatever it
@@ -101,9 +102,13 @@ def metrics(t, error, velocity) -> dict:
     return _metrics_of(integrals(t, error, velocity), np.asarray(error))
 
 
-#: The unit of each metric, for printing.
+#: The unit of each metric, for printing. The energy adds ∫u² dt (m²/s) and ∫ω² dt
+#: (rad²/s), as the control-effort index it is; a sum of two units, written once,
+#: simplified, as people write them (:data:`ENERGY_NOTE` says what it adds).
 METRIC_UNITS = {"iae": "m·s", "ise": "m²·s", "itae": "m·s²", "itse": "m²·s²",
-                "energy": "(m/s)²·s + (rad/s)²·s", "error_final": "m"}
+                "energy": "m²/s + rad²/s", "error_final": "m"}
+#: What the energy adds, printed beside its unit.
+ENERGY_NOTE = "∫u² dt + ∫ω² dt"
 
 
 def has_noise(scenario) -> bool:
@@ -254,6 +259,8 @@ class Result:
         for k, v in self.metrics.items():
             unit = METRIC_UNITS.get(k, "")
             line = f"  {k:12s} {'-' if v is None else f'{v:.6g}'}" + (f" {unit}" if unit else "")
+            if k == "energy":
+                line += f" ({ENERGY_NOTE})"
             if k in err and not noisy:
                 line += f"  (numerical error {err[k]:.1e} relative)"
             lines.append(line)
@@ -266,10 +273,17 @@ class Result:
         lines.append("  sensitive    " + (("True: no tolerance converges it"
                                            + ("; quote the spread over seeds" if noisy else ""))
                                           if self.sensitive else "False"))
-        if self.theta_hat is not None and len(self.t):
-            lines.append("  theta_hat(T) " + " ".join(f"{v:.4g}" for v in self.theta_hat[-1])
-                         + (f"  (numerical error {err['theta_hat']:.1e} relative)"
-                            if "theta_hat" in err and not noisy else ""))
+        spec = sc.case_spec
+        if self.theta_hat is not None and len(self.t) and spec.compensated:
+            # only what the loop has: an estimate where it adapts, the compensator's
+            # fixed parameters where it compensates exactly, nothing without compensator
+            values = " ".join(f"{v:.4g}" for v in self.theta_hat[-1])
+            if spec.adaptive:
+                lines.append(f"  theta_hat(T) {values}"
+                             + (f"  (numerical error {err['theta_hat']:.1e} relative)"
+                                if "theta_hat" in err and not noisy else ""))
+            else:
+                lines.append(f"  theta_hat    {values}  (fixed: exact compensation)")
         lines.append("  series: t, pose, velocity, reference, error"
                      + "".join(f", {k}" for k in ("v_d", "v_ref", "theta_hat")
                                if getattr(self, k) is not None)

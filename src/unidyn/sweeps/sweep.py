@@ -54,7 +54,7 @@ import numpy as np
 from .. import __version__
 from .cluster import connect_dask, run_on_dask
 from .._errors import Interrupted
-from .._validate import MAX_NAME, ValidationError, choice, flag, integer
+from .._validate import MAX_NAME, ValidationError, choice, did_you_mean, flag, integer
 from .._validate import BATCH_ATOL, BATCH_RTOL, tolerances
 from ..engine.batch import seedless, simulate_batch
 from .statistics import seed_statistics, statistics_columns
@@ -67,6 +67,7 @@ from ..results.folders import (FolderLock, Ledger, check_manifest, disk_full, fo
 from .plots import plot_metrics
 from ..diagrams.simulate import simulate
 from ..engines import ENGINES
+from ..progress import Progress
 
 __all__ = ["Sweep", "SweepPoint", "SweepRun", "run_sweep", "sweep_id", "SWEEP_FILES"]
 
@@ -208,8 +209,13 @@ class Sweep:
         variants = self.variants or (None,)
         axes = list(self.grid)
         index = 0
-        for v in variants:
-            for combo in itertools.product(*(self.grid[a] for a in axes)):
+        # each point's scenario is built and checked here, about a millisecond each:
+        # a large sweep says how far it is before it runs
+        n = len(variants) * math.prod(len(self.grid[a]) for a in axes)
+        with Progress(None, n, show=n >= PREPARING_SHOWN, desc="preparing the sweep",
+                      unit="point") as bar:
+            for v, combo in itertools.product(variants, itertools.product(
+                    *(self.grid[a] for a in axes))):
                 params = {} if v is None else {"variant": v["label"]}
                 params.update(zip(axes, combo))
                 layers = [("base", self.base)]
@@ -228,6 +234,7 @@ class Sweep:
                     raise ValidationError(f"{at}: {err}") from None
                 out.append(SweepPoint(index, params, sc))
                 index += 1
+                bar.advance(1)
         object.__setattr__(self, "_points", tuple(out))
         return list(out)
 
@@ -252,7 +259,8 @@ class Sweep:
             raise ValidationError(f"a sweep must be a table, got {type(data).__name__}")
         unknown = [k for k in data if k not in _TOP_KEYS]
         if unknown:
-            raise ValidationError(f"unknown sweep key {unknown[0]!r}; allowed: "
+            raise ValidationError(f"unknown sweep key {unknown[0]!r}"
+                                  f"{did_you_mean(unknown[0], _TOP_KEYS)}; allowed: "
                                   f"{', '.join(_TOP_KEYS)}")
         return cls(**data)
 
@@ -315,10 +323,11 @@ def _metric(v):
     return None if v is None else float(v)
 
 
-def _run_chunk(points, engine: str, rtol: float, atol: float) -> list:
+def _run_chunk(points, engine: str, rtol: float, atol: float, progress=False) -> list:
     """Simulate a list of (index, params, scenario, write); return the metrics rows of
     those to write (the others are run for the estimate their seeds share:
-    :func:`_chunks`).
+    :func:`_chunks`). ``progress``: ``False``, or ``f(done, total)`` in samples, called
+    by the chunk's batch call, or by its diagram run where the chunk is one point.
 
     Runs wherever it is called (here or on a Dask worker) and returns only the
     small rows, not the time series."""
@@ -328,18 +337,28 @@ def _run_chunk(points, engine: str, rtol: float, atol: float) -> list:
         if engine == "batch" and sc.control == "continuous":
             batch.append(j)
             continue
-        try:
-            rows[j] = _row(index, params, simulate(sc))
+        try:  # a chunk's one diagram run reports to the sweep's progress, else none
+            own = progress if len(points) == 1 else False
+            rows[j] = _row(index, params, simulate(sc, progress=own))
         except (RuntimeError, ArithmeticError) as err:  # before its first sample
             print(f"unidyn: warning: sweep point {index} failed: {err}", file=sys.stderr)
             rows[j] = _failed_row(index, params, sc.case, str(err))
     if batch:
         results = simulate_batch([points[j][2] for j in batch], rtol=rtol, atol=atol,
-                                 estimate="per_point")
+                                 estimate="per_point", progress=progress)
         for j, r in zip(batch, results):
             index, params, _, _ = points[j]
             rows[j] = _row(index, params, r)
     return [row for row, p in zip(rows, points) if p[3]]
+
+
+def _share(bar, start: float, points: int):
+    """The progress callable of a chunk's batch call: ``bar`` moved from ``start`` by
+    the chunk's ``points`` in proportion to the call's samples done."""
+    def moved(done, total):
+        if total > 0:
+            bar.to(start + points * min(done / total, 1.0))
+    return moved
 
 
 def _chunks(sweep, pending, size: int) -> list:
@@ -348,15 +367,15 @@ def _chunks(sweep, pending, size: int) -> list:
     error estimate they share (the smallest seed's, :func:`unidyn.simulate_batch`'s
     ``estimate="per_point"``), that run added unwritten where its row is written
     already, so that every row is the same however the sweep is cut or resumed."""
-    first = {}
-    for p in sweep.points():
-        key = seedless(p.scenario)
+    first, keys = {}, {}
+    for p in sweep.points():  # (a key builds a scenario: once per point)
+        key = keys[p.index] = seedless(p.scenario)
         if key is not None and (key not in first
                                 or p.scenario.noise.seed < first[key].scenario.noise.seed):
             first[key] = p
     groups = {}
     for p in pending:
-        key = seedless(p.scenario)
+        key = keys[p.index]
         groups.setdefault(p.index if key is None else key, []).append(p)
     chunks, chunk = [], []
     for key, members in groups.items():
@@ -369,25 +388,9 @@ def _chunks(sweep, pending, size: int) -> list:
     return chunks + ([chunk] if chunk else [])
 
 
-class _NoBar:
-    def update(self, k):
-        pass
-
-    def close(self):
-        pass
-
-
-def _progress_bar(enabled, total, initial):
-    """A tqdm progress bar on stderr, or nothing when disabled, when stderr is not a
-    terminal (a log file, a pipe, a test) or when tqdm is not installed."""
-    if not enabled or not sys.stderr.isatty():
-        return _NoBar()
-    try:
-        from tqdm import tqdm
-    except ImportError:
-        return _NoBar()
-    return tqdm(total=total, initial=initial, desc="sweep", unit="pt", file=sys.stderr,
-                dynamic_ncols=True)
+#: Sweeps of at least this many points show their preparation (each point's scenario
+#: built and checked, about a millisecond each) as they show their run.
+PREPARING_SHOWN = 1000
 
 
 #: Every file a sweep's folder may hold (the names its manifest may list): the rows, the
@@ -643,16 +646,20 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
     pending = [p for p in sweep.points() if p.index not in done]
     chunks = _chunks(sweep, pending, chunk_size)
     new_rows = []
-    bar = _progress_bar(progress, len(sweep), len(done))
+    # points done, in fractions of a chunk as its batch call advances (not on Dask,
+    # whose workers report chunks only)
+    bar = Progress(None if progress else False, len(sweep), desc="sweep", unit="point",
+                   initial=len(done), leave=True)
     try:
         def take(rows):
             ledger.append("metrics.csv", rows_text(columns, rows, header=False))
             new_rows.extend(rows)
-            bar.update(len(rows))
+            bar.to(len(done) + len(new_rows))
 
         if client is None:
             for chunk in chunks:
-                take(_run_chunk(chunk, engine, sweep.rtol, sweep.atol))
+                share = _share(bar, len(done) + len(new_rows), sum(p[3] for p in chunk))
+                take(_run_chunk(chunk, engine, sweep.rtol, sweep.atol, share))
         elif chunks:
             run_on_dask(client, _run_chunk, chunks, take, engine=engine,
                         rtol=sweep.rtol, atol=sweep.atol)

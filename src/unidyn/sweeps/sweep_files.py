@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from .._errors import MissingDependency
-from .._validate import ValidationError, integer, positive, real
+from .._validate import ValidationError, did_you_mean, integer, positive, real
 from ..results.folders import json_ready
 from ..model.scenario import Scenario, plain_value
 
@@ -148,7 +148,8 @@ def expand_range(where: str, spec: Mapping) -> list:
     allowed = {"start", "stop", "step", "num", "log"}
     unknown = sorted(set(spec) - allowed)
     if unknown:
-        raise ValidationError(f"{where}: unknown range key {unknown[0]!r}; a range has start, "
+        raise ValidationError(f"{where}: unknown range key {unknown[0]!r}"
+                              f"{did_you_mean(unknown[0], allowed)}; a range has start, "
                               f"stop and step (or num, with log = true for a geometric range)")
     for k in ("start", "stop"):
         if k not in spec:
@@ -195,10 +196,8 @@ def check_keys(where: str, d, allow_label: bool = False) -> dict:
         known.add("label")
     for k in d:
         if k not in known:
-            import difflib
-            close = difflib.get_close_matches(str(k), known, n=1, cutoff=0.5)  # kz: kx
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise ValidationError(f"{where}: unknown key {k!r}{hint}; allowed: scenario fields "
+            raise ValidationError(f"{where}: unknown key {k!r}{did_you_mean(k, known)}; "
+                                  f"allowed: scenario fields "
                                   f"and {', '.join(SPECIAL_KEYS)}")
     return {str(k): plain(v) for k, v in d.items()}
 
@@ -265,7 +264,8 @@ def _stacked(layers):
 def _set_field(fields, head, rest, value, where):
     """The table ``fields[head]`` with its field ``rest`` (dotted for a table in it) set."""
     if head not in fields:
-        raise ValidationError(f"{where}: unknown scenario field {head!r}")
+        raise ValidationError(f"{where}: unknown scenario field {head!r}"
+                              f"{did_you_mean(head, fields)}")
     table = fields[head]
     if table is None:
         raise ValidationError(f"{where}: {head} is off; set the whole table, e.g. "
