@@ -12,6 +12,7 @@ import pytest  # noqa: E402
 
 import unidyn  # noqa: E402,F401
 
+
 @pytest.fixture
 def sim():
     """A headless, quiet bdsim simulator that ignores pytest's command line."""

@@ -6,8 +6,8 @@ run's files and figures into a folder are whole-system checks, in the slow tier.
 
 import csv
 import json
-import re
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from unidyn.model import robots
 from unidyn.cli import main
+from unidyn.model import robots
 
 TIMESERIES_COLUMNS = ["t", "x", "y", "psi", "u", "w", "x_d", "y_d", "u_d", "w_d", "u_ref",
                       "w_ref", "error"] + [f"theta_hat{i}" for i in range(1, 7)]

@@ -48,7 +48,8 @@ def _block_classes():
     """Every bdsim block class defined in unidyn.blocks (robots, controllers, sources)."""
     from bdsim.components import Block
 
-    from unidyn.blocks import controllers, unicycles as robots, sources
+    from unidyn.blocks import controllers, sources
+    from unidyn.blocks import unicycles as robots
     found = {}
     for mod in (robots, controllers, sources):
         for name, obj in vars(mod).items():

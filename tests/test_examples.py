@@ -69,6 +69,7 @@ def test_the_lane_change_example_follows_eqs_1_and_2_and_prints_its_path(tmp_pat
     without limits, its diagram's path is Eqs. (1)-(2) integrated independently under the
     same commands; with the paper's limits it runs as a user runs it."""
     import importlib.util
+
     from scipy.integrate import solve_ivp
 
     import paper_equations

@@ -57,8 +57,8 @@ def execute(nb, kernel_spec_dir, cwd, ipython_dir=None):
     """``nb`` run in a fresh kernel of ``kernel_spec_dir`` in the folder ``cwd``; with
     ``ipython_dir``, the kernel's IPython folder (its start-up files run first)."""
     from jupyter_client.kernelspec import KernelSpecManager
-    from jupyter_core.utils import run_sync
     from jupyter_client.manager import AsyncKernelManager
+    from jupyter_core.utils import run_sync
 
     ksm = KernelSpecManager(kernel_dirs=[str(kernel_spec_dir)], ensure_native_kernel=False)
     km = AsyncKernelManager(kernel_name="python3", kernel_spec_manager=ksm)

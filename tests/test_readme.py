@@ -79,7 +79,7 @@ class Block:
 
 def markdown_blocks(path=README):
     """The fenced blocks of a Markdown file (MyST directives, ```{name}, are not code)."""
-    blocks, section, marker = [], "", ""
+    blocks, section = [], ""
     lines = path.read_text(encoding="utf-8").splitlines()
     i = 0
     while i < len(lines):

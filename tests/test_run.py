@@ -66,6 +66,7 @@ def test_a_long_plain_python_job_warns_once_at_its_start_with_its_time_and_fix()
     """250 s at Ts = 0.1 s is 2500 sample intervals; at 3 ms each, 7.5 s per run: four
     runs take 30 s and warn, one run of 2 s does not."""
     import warnings
+
     from unidyn.engines import PlainPythonWarning, plain_cost, warn_if_plain
     long = [_function_reference(250.0)] * 4
     seconds, fix = plain_cost(long)
@@ -216,6 +217,7 @@ def test_seed_runs_write_their_runs_statistics_series_and_figure(tmp_path):
 def test_unidyn_run_seeds_prints_mean_plus_minus_standard_error_and_writes_statistics(
         tmp_path, capsys):
     import csv
+
     from unidyn.sweeps.seeds import plus_minus
     assert main(["run", "--paper", "4", "--T", "3", "--seeds", "3",
                  "--out", str(tmp_path / "s")]) == 0

@@ -12,8 +12,15 @@ batch engine); :mod:`unidyn.identification`, :mod:`unidyn.sweeps` and
 """
 
 from . import _bdsim_path
-from ._errors import (AccuracyWarning, Interrupted, MissingDependency, NonFiniteSignalError,
-                      SimulationError, SimulationInterrupted, ValidationError)
+from ._errors import (
+    AccuracyWarning,
+    Interrupted,
+    MissingDependency,
+    NonFiniteSignalError,
+    SimulationError,
+    SimulationInterrupted,
+    ValidationError,
+)
 
 __version__ = "0.1.0"
 

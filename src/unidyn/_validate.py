@@ -15,7 +15,6 @@ import numpy as np
 
 from ._errors import NonFiniteSignalError, ValidationError  # noqa: F401  (defined there)
 
-
 #: The longest name a scenario, a sweep or a sweep's variant may have (it titles the
 #: figures and names the rows of metrics.csv).
 MAX_NAME = 200

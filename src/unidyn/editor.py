@@ -81,8 +81,8 @@ def missing_qt_packages(find_library=ctypes.util.find_library) -> list[str]:
 def check_qt(find_library=ctypes.util.find_library) -> None:
     """Raise :class:`MissingDependency` with one line naming what Qt lacks."""
     try:
-        import PySide6  # noqa: F401
         import bdedit  # noqa: F401
+        import PySide6  # noqa: F401
     except ImportError as err:
         raise MissingDependency(f"the editor needs {err.name}, which is not installed: "
                                 "pip install 'unidyn[teach]'") from None

@@ -22,17 +22,24 @@ import re
 
 import numpy as np
 import pytest
+from bdsim.block import Block
 
 import paper_equations
-
 import unidyn  # registers the blocks with bdsim before any BDSim is created
 import unidyn.blocks
-from bdsim.block import Block
 from unidyn import ValidationError
-from unidyn.model import robots
-from unidyn.blocks import (Circle, DynamicCompensator, DynamicUnicycle, FigureEight,
-                           KinematicController, Line, MeasurementNoise, TrajectorySource)
+from unidyn.blocks import (
+    Circle,
+    DynamicCompensator,
+    DynamicUnicycle,
+    FigureEight,
+    KinematicController,
+    Line,
+    MeasurementNoise,
+    TrajectorySource,
+)
 from unidyn.blocks.controllers import SampledDynamicCompensator, SampledKinematicController
+from unidyn.model import robots
 from unidyn.model.trajectories import FunctionTrajectory
 
 RTOL, ATOL = 1e-10, 1e-12
@@ -217,7 +224,7 @@ def comp_gains(rng):
 def test_compensator_output_is_G_theta_hat_on_random_inputs(sim):
     rng = np.random.default_rng(14)
     bd = sim.blockdiagram()
-    for i in range(100):
+    for _ in range(100):
         g = comp_gains(rng)
         k, l = (g["ku"], g["kw"]), (g["lu"], g["lw"])
         theta_hat = THETA * rng.uniform(0.5, 1.5, 6)

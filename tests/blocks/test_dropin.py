@@ -36,8 +36,8 @@ import pytest
 
 import unidyn
 from unidyn import ValidationError
-from unidyn.teaching.animation import DEFAULT_MAX_FRAMES, Motion, animate
 from unidyn.diagrams import new_simulator
+from unidyn.teaching.animation import DEFAULT_MAX_FRAMES, Motion, animate
 
 X0 = (8.0, 5.0, math.pi / 2)   # start pose (x, y, heading), as in RVC's drive-to-a-point
 GOAL = (5.0, 5.0)

@@ -10,15 +10,14 @@ from __future__ import annotations
 import math
 import re
 
+import bdsim
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-import unidyn  # registers the blocks: must come before bdsim.BDSim()
 from unidyn import Limits, ValidationError
-from unidyn.model import robots
-import bdsim
 from unidyn.blocks import DynamicUnicycle, KinematicUnicycle
+from unidyn.model import robots
 
 RTOL, ATOL = 1e-10, 1e-12
 TOL = 1e-7   # for analytic comparisons, well above the solver's error

@@ -23,9 +23,8 @@ import pytest
 
 import unidyn
 from unidyn import Scenario
-from unidyn.diagrams import bdfile
-from unidyn.diagrams.bdfile import BdFileError, PAPER_FILES
-from unidyn.diagrams import build_fig2, new_simulator
+from unidyn.diagrams import bdfile, build_fig2, new_simulator
+from unidyn.diagrams.bdfile import PAPER_FILES, BdFileError
 
 ROOT = Path(__file__).resolve().parents[2]
 BD_DIR = ROOT / "examples" / "bd"
@@ -404,8 +403,11 @@ def test_fixed_port_classes_have_the_ports_they_declare():
 
 
 def test_fixed_port_classes_refuse_port_changing_options():
-    from unidyn.blocks import (DynamicCompensatorWithRateInput, DynamicUnicycleWithVelocity,
-                               KinematicControllerWithRate)
+    from unidyn.blocks import (
+        DynamicCompensatorWithRateInput,
+        DynamicUnicycleWithVelocity,
+        KinematicControllerWithRate,
+    )
     bd = new_simulator().blockdiagram()
     for cls, kw in ((DynamicUnicycleWithVelocity, {"velocity_output": False}),
                     (DynamicUnicycleWithVelocity, {"disturbance": True}),
@@ -419,9 +421,14 @@ def test_fixed_port_classes_refuse_port_changing_options():
 
 def test_fixed_port_classes_compute_what_their_parents_compute():
     """Each fixed-port block gives its parent's outputs and derivatives on random inputs."""
-    from unidyn.blocks import (DynamicCompensator, DynamicCompensatorWithRateInput,
-                               DynamicUnicycle, DynamicUnicycleWithVelocity,
-                               KinematicController, KinematicControllerWithRate)
+    from unidyn.blocks import (
+        DynamicCompensator,
+        DynamicCompensatorWithRateInput,
+        DynamicUnicycle,
+        DynamicUnicycleWithVelocity,
+        KinematicController,
+        KinematicControllerWithRate,
+    )
     bd = new_simulator().blockdiagram()
     rng = np.random.default_rng(1)
     pairs = [(DynamicUnicycleWithVelocity(robot="p3dx_laser", a=0.2, speed_max=0.75, accel_max=0.3,

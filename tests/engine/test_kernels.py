@@ -15,7 +15,6 @@ from unidyn.model.equations import AUTO
 from unidyn.model.scenario import Scenario
 from unidyn.model.trajectories import Circle, Line
 
-
 # the kernel's right-hand side (one run at a time, its reference evaluated from the
 # parameter table) as plain Python (what runs without numba) always, and compiled where
 # numba is installed

@@ -11,11 +11,17 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from unidyn import ValidationError
+from unidyn import Scenario, ValidationError
 from unidyn.cli import main
-from unidyn.paper import (EXPERIMENT_FILES, EXPERIMENT_PAPER, ExperimentRun, experiment,
-                          experiment_claims, experiment_scenarios, experiment_stats)
-from unidyn import Scenario
+from unidyn.paper import (
+    EXPERIMENT_FILES,
+    EXPERIMENT_PAPER,
+    ExperimentRun,
+    experiment,
+    experiment_claims,
+    experiment_scenarios,
+    experiment_stats,
+)
 from unidyn.results.result import Result
 
 

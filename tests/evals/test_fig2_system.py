@@ -20,7 +20,7 @@ def _reference_run(sc):
     X = loop.initial_state()[0]
     xs = [X]
     for k in range(loop.steps):
-        r = solve_ivp(lambda t, y: loop.rhs(t, y[None], k)[0], (k * sc.Ts, (k + 1) * sc.Ts), X,
+        r = solve_ivp(lambda t, y, k=k: loop.rhs(t, y[None], k)[0], (k * sc.Ts, (k + 1) * sc.Ts), X,
                       method="DOP853", **TOL)
         X = r.y[:, -1]
         xs.append(X)

@@ -29,6 +29,7 @@ model's fit on the same noisy data to 0.1 point (the noise sets that ceiling).
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import json
 import math
@@ -38,9 +39,9 @@ import numpy as np
 import pytest
 
 from unidyn import ValidationError
-from unidyn.model import robots
 from unidyn import identification as ident
 from unidyn.identification import equation_error
+from unidyn.model import robots
 from unidyn.model.unicycle import PAPER_LIMITS, Limits
 
 DT = 0.005
@@ -420,7 +421,7 @@ def test_result_round_trips_through_theta_json(tmp_path):
     assert res.ci95.shape == (6, 2) and np.all(res.ci95[:, 0] < res.ci95[:, 1])
     assert res.residuals.shape == (res.n_samples, 2) and len(res.condition_numbers) == 2
     assert all(1.0 <= c < 100 for c in res.condition_numbers)
-    with pytest.raises(Exception):
+    with pytest.raises(dataclasses.FrozenInstanceError):
         res.theta = truth                           # frozen
 
 
@@ -453,7 +454,7 @@ def test_plot_validation_is_headless(monkeypatch):
     measured, simulated = axes[0].lines
     assert measured.get_zorder() > simulated.get_zorder()
     # the residual panels show measured minus simulated
-    for main, res, k in ((axes[0], axes[1], "u"), (axes[2], axes[3], "w")):
+    for _, res, k in ((axes[0], axes[1], "u"), (axes[2], axes[3], "w")):
         r = res.lines[-1].get_ydata()
         want = np.asarray(getattr(rep, k)) - np.asarray(getattr(rep, f"{k}_sim"))
         np.testing.assert_allclose(r[np.isfinite(r)], want)
@@ -466,6 +467,7 @@ def test_plot_validation_is_headless(monkeypatch):
 def test_a_result_prints_in_under_twenty_lines_however_many_warnings():
     import dataclasses
     import warnings as w
+
     import unidyn.datasets
     log = unidyn.datasets.path("log.csv")
     with w.catch_warnings():

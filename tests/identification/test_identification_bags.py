@@ -26,7 +26,8 @@ import pytest
 pytest.importorskip("rosbags")
 
 from rosbags.rosbag1 import Writer as Writer1  # noqa: E402
-from rosbags.rosbag2 import StoragePlugin, Writer as Writer2  # noqa: E402
+from rosbags.rosbag2 import StoragePlugin  # noqa: E402
+from rosbags.rosbag2 import Writer as Writer2
 from rosbags.typesys import Stores, get_typestore  # noqa: E402
 
 from unidyn import RobotParameters, ValidationError  # noqa: E402
@@ -55,7 +56,7 @@ def held_truth(theta, t_cmd, u_cmd, w_cmd, t_out):
         sel = np.flatnonzero((t_out >= a) & (t_out < b))
         cu, cw = u_cmd[j], w_cmd[j]
 
-        def rhs(_, x):
+        def rhs(_, x, cu=cu, cw=cw):
             u, w = x
             return [(t3 * w * w - t4 * u + cu) / t1, (-t5 * u * w - t6 * w + cw) / t2]
         sol = solve_ivp(rhs, (a, b), v, method="DOP853", rtol=1e-10, atol=1e-12,

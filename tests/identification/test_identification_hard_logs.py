@@ -20,8 +20,8 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from unidyn import ValidationError
-from unidyn.model import robots
 from unidyn import identification as ident
+from unidyn.model import robots
 
 P3 = robots.get("p3dx").theta
 NAMES = ("theta1", "theta2", "theta3", "theta4", "theta5", "theta6")

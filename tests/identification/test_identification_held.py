@@ -26,12 +26,11 @@ import functools
 
 import numpy as np
 import pytest
+from test_identification import identify  # warnings asserted, not printed
 
 from unidyn import RobotParameters, ValidationError
 from unidyn import identification as ident
 from unidyn.identification.replay import simulate_held
-
-from test_identification import identify  # warnings asserted, not printed
 
 NOISE = 0.01
 T = 120.0
@@ -60,13 +59,13 @@ def reference_velocities(theta, t, u_ref, w_ref, v0=(0.0, 0.0), delay=0.0, linea
         j = max(int(np.searchsorted(t, a - delay + 1e-9 * (b - a), side="right")) - 1, 0)
         if linear and j + 1 < t.size and a - delay >= t[0]:
             s = 1.0 / (t[j + 1] - t[j])
-            cu = lambda tt, j=j: u_ref[j] + (u_ref[j + 1] - u_ref[j]) * (tt - delay - t[j]) * s
-            cw = lambda tt, j=j: w_ref[j] + (w_ref[j + 1] - w_ref[j]) * (tt - delay - t[j]) * s
+            cu = lambda tt, j=j, s=s: u_ref[j] + (u_ref[j + 1] - u_ref[j]) * (tt - delay - t[j]) * s
+            cw = lambda tt, j=j, s=s: w_ref[j] + (w_ref[j + 1] - w_ref[j]) * (tt - delay - t[j]) * s
         else:
             cu = lambda tt, j=j: u_ref[j]
             cw = lambda tt, j=j: w_ref[j]
 
-        def rhs(tt, x):
+        def rhs(tt, x, cu=cu, cw=cw):
             u, w = x
             return [(t3 * w * w - t4 * u + cu(tt)) / t1, (-t5 * u * w - t6 * w + cw(tt)) / t2]
 

@@ -8,8 +8,8 @@ must give back the robot identified from the log in SI units."""
 from __future__ import annotations
 
 import ast
-import json
 import functools
+import json
 import math
 import re
 import warnings

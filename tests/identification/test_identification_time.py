@@ -17,12 +17,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from test_identification_hard_logs import held_velocities, make_log, multisine
+
 from unidyn import ValidationError
-from unidyn.model import robots
 from unidyn import identification as ident
 from unidyn.identification.replay import simulate_held
+from unidyn.model import robots
 
 P3 = robots.get("p3dx").theta
 HEADER = ",".join(ident.COLUMNS)

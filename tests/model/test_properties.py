@@ -11,9 +11,9 @@ import pytest
 
 import unidyn
 from unidyn import RobotParameters, ValidationError
-from unidyn.model import unicycle as model, robots
-from unidyn.model.properties import (PropertyReport, RankTestResult, check_properties,
-                               rank_test)
+from unidyn.model import robots
+from unidyn.model import unicycle as model
+from unidyn.model.properties import PropertyReport, RankTestResult, check_properties, rank_test
 
 # Table 1 of the paper and the speed limits of Section 3.2 (0.5 m/s Khepera III,
 # 1.2 m/s Pioneers, 1.5 m/s wheelchair), typed in here rather than read from the package.

@@ -16,10 +16,11 @@ import numpy as np
 import pytest
 
 import paper_equations
-
 import unidyn
-from unidyn.model import laws as control, unicycle as model, robots, trajectories
 from unidyn import Limits, RobotParameters, ValidationError
+from unidyn.model import laws as control
+from unidyn.model import robots, trajectories
+from unidyn.model import unicycle as model
 
 THETA_NAMES = ("theta1", "theta2", "theta3", "theta4", "theta5", "theta6")
 
@@ -395,7 +396,7 @@ def test_kinematics_is_velocity_of_offset_point():
         psi, u, w = x[2:]
         c = np.array([1.0, -2.0])
 
-        def h_at(s):
+        def h_at(s, c=c, u=u, psi=psi, w=w, a=a):
             # axle centre moving on a straight line to first order, heading rotating at w
             cs = c + u * s * np.array([math.cos(psi), math.sin(psi)])
             p = psi + w * s
@@ -657,7 +658,7 @@ def test_kinematic_control_rate_matches_finite_difference_along_motion():
         a = float(rng.uniform(0.1, 0.4))
         k, l = rng.uniform(0.1, 3, 2), rng.uniform(0.1, 1, 2)
 
-        def vd_at(s):
+        def vd_at(s, h=h, psi=psi, u=u, w=w, a=a, t=t, k=k, l=l):
             hs, ps = _eq1_rk4(h, psi, u, w, a, s)
             return control.kinematic_control(traj.position(t + s), traj.velocity(t + s),
                                              hs, ps, a, k, l)

@@ -22,14 +22,14 @@ import datetime as dt
 import itertools
 import math
 import re
-import tomllib
 
 import pytest
+import tomllib
 from hypothesis import HealthCheck, Phase, event, given, settings
 from hypothesis import strategies as st
 
-from unidyn.model import robots
 from unidyn.cli import main
+from unidyn.model import robots
 from unidyn.model.scenario import CASES, Scenario
 from unidyn.sweeps.sweep_files import SPECIAL_KEYS
 

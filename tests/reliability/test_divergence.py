@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 import unidyn
-from unidyn import Scenario, SimulationError, ValidationError
-from unidyn.engine.batch import ACCURACY, DECISIVE, simulate_batch
 import unidyn.results.result
+from unidyn import Scenario, ValidationError
+from unidyn.engine.batch import ACCURACY, DECISIVE, simulate_batch
 from unidyn.model.unicycle import NO_LIMITS
 
 pytestmark = pytest.mark.reliability

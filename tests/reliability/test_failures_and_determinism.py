@@ -7,13 +7,14 @@ import numpy as np
 import pytest
 
 import unidyn
-from unidyn.engine.batch import simulate_batch
 from unidyn.cli import main
+from unidyn.engine.batch import simulate_batch
 from unidyn.model.scenario import Scenario
 
 pytestmark = pytest.mark.reliability
 
-from ._faults import F8, nan_after as _nan_after
+from ._faults import F8
+from ._faults import nan_after as _nan_after
 
 
 def test_a_nan_in_the_diagram_stops_the_run_and_keeps_the_part_computed():

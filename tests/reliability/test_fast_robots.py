@@ -85,7 +85,7 @@ def test_fast_robots_under_sampled_control_are_integrated_exactly_between_ticks(
     for k in range(1, len(r.t) - 1):   # v_ref logged at t_{k+1} is the value held over (t_k, t_{k+1})
         cmd = np.clip(r.v_ref[k + 1], -lim, lim)
 
-        def f(t, v):
+        def f(t, v, cmd=cmd):
             du = (th[2] * v[1] ** 2 - th[3] * v[0] + cmd[0]) / th[0]
             dw = (-th[4] * v[0] * v[1] - th[5] * v[1] + cmd[1]) / th[1]
             return [du, dw]

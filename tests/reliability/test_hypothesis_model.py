@@ -25,8 +25,9 @@ from hypothesis import strategies as st
 import unidyn
 from unidyn import Limits, NoiseSpec, RobotParameters
 from unidyn.engine import kernels as _kernels
-from unidyn.model import unicycle as model, robots, trajectories
 from unidyn.engine.batch import ACCURACY, DECISIVE, simulate_batch
+from unidyn.model import robots, trajectories
+from unidyn.model import unicycle as model
 from unidyn.model.laws import LEAKAGE_FORMS
 from unidyn.model.scenario import CASES, PAPER_GAMMA, PAPER_SIGMA, Scenario
 

@@ -33,8 +33,15 @@ from hypothesis import strategies as st
 from unidyn import RobotParameters, ValidationError
 from unidyn.model import robots
 from unidyn.model.laws import LEAKAGE_FORMS
-from unidyn.model.scenario import ALWAYS_LOGGED, LOG_DTYPES, OPTIONAL_SERIES
-from unidyn.model.scenario import CASES, CONTROL_MODES, VD_DOT_METHODS, Scenario
+from unidyn.model.scenario import (
+    ALWAYS_LOGGED,
+    CASES,
+    CONTROL_MODES,
+    LOG_DTYPES,
+    OPTIONAL_SERIES,
+    VD_DOT_METHODS,
+    Scenario,
+)
 
 pytestmark = pytest.mark.reliability
 
@@ -374,7 +381,8 @@ def _scenario_targets():
 
 def _block(cls_name, **fixed):
     def build(param, value):
-        from unidyn.blocks import controllers, unicycles as robot_blocks, sources
+        from unidyn.blocks import controllers, sources
+        from unidyn.blocks import unicycles as robot_blocks
         cls = (getattr(robot_blocks, cls_name, None) or getattr(controllers, cls_name, None)
                or getattr(sources, cls_name))
         bd, clock = _diagram()
@@ -444,7 +452,8 @@ def test_block_parameter_table_is_complete():
     """BLOCK_PARAMETERS lists every explicit constructor parameter of every block."""
     import inspect
 
-    from unidyn.blocks import controllers, unicycles as robot_blocks, sources
+    from unidyn.blocks import controllers, sources
+    from unidyn.blocks import unicycles as robot_blocks
     for cls_name, (_, params) in BLOCK_PARAMETERS.items():
         cls = (getattr(robot_blocks, cls_name, None) or getattr(controllers, cls_name, None)
                or getattr(sources, cls_name))
@@ -684,7 +693,7 @@ PHYSICAL_KINDS = dict(m="positive", Iz="nonnegative", Ra="positive", ka="positiv
 
 def _robot_targets():
     out = []
-    for i, k in enumerate(THETAS):
+    for k in THETAS:
         kind = "positive" if k in ("theta1", "theta2", "theta4", "theta6") else "real"
         out.append(Target(f"RobotParameters.{k}", k, kind, lambda v, k=k: RobotParameters(
             **{**dict(zip(THETAS, VALID_THETA)), k: v})))

@@ -8,8 +8,8 @@ import pytest
 
 import unidyn
 from unidyn.engine.batch import simulate_batch
-from unidyn.results.result import Result, metrics
 from unidyn.model.scenario import Scenario
+from unidyn.results.result import Result, metrics
 
 pytestmark = pytest.mark.reliability
 

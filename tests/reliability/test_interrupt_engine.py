@@ -91,8 +91,8 @@ def test_ctrl_c_after_the_last_sample_leaves_a_complete_run(backend):
     the run it leaves is complete (it was "interrupted at t = T of T", incomplete); its
     error is not estimated (the estimate's runs were cut short)."""
     from unidyn import Scenario
-    from unidyn.engine.batch import simulate_batch
     from unidyn.diagrams.simulate import SimulationInterrupted
+    from unidyn.engine.batch import simulate_batch
 
     def progress(done, total):
         if done >= total:

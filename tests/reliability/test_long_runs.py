@@ -4,7 +4,6 @@ without it the estimate drifts when the reference does not excite it."""
 import numpy as np
 import pytest
 
-import unidyn
 from unidyn.engine.batch import simulate_batch
 from unidyn.model.scenario import Scenario
 from unidyn.model.trajectories import Circle

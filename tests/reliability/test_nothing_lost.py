@@ -24,7 +24,7 @@ from pathlib import Path
 
 import pytest
 
-from processes import HAS_PROC, cpu_seconds
+from processes import cpu_seconds
 
 pytestmark = pytest.mark.reliability
 

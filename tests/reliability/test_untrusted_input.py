@@ -90,8 +90,8 @@ def _warm_up(tmp_path_factory):
     f.write_text("[grid]\nkxy = [1]\n")
     assert main(["sweep", str(f), "--out", str(d / "o3"), "--T", "0.3", "--no-progress"]) == 0
     import unidyn.blocks.controllers  # noqa: F401
-    import unidyn.blocks.unicycles  # noqa: F401
     import unidyn.blocks.sources  # noqa: F401
+    import unidyn.blocks.unicycles  # noqa: F401
 
 
 @pytest.fixture
@@ -284,12 +284,12 @@ def test_code_as_a_name_is_kept_as_a_label(capsys, sandbox):
 @pytest.mark.parametrize("payload", PAYLOADS, ids=PAYLOAD_IDS)
 def test_code_in_the_python_api_is_rejected(sandbox, payload):
     from unidyn.blocks.controllers import DynamicCompensator, SampledDynamicCompensator
-    from unidyn.blocks.unicycles import DynamicUnicycle
     from unidyn.blocks.sources import TrajectorySource
+    from unidyn.blocks.unicycles import DynamicUnicycle
     from unidyn.diagrams import new_simulator
     work, calls = sandbox
     payload = _payload(payload, work)
-    for field, make in STRING_FIELDS.items():
+    for make in STRING_FIELDS.values():
         with pytest.raises(ValidationError):
             Scenario(**make(payload))
         with pytest.raises(ValidationError):

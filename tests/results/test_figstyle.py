@@ -15,10 +15,15 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 import unidyn  # noqa: E402
-from unidyn.results import figstyle  # noqa: E402
-from unidyn.results.plots import (plot_error, plot_theta_hat, reference_once,  # noqa: E402
-                          reference_period, save_figures)
 from unidyn.model.trajectories import Circle, FigureEight, Line  # noqa: E402
+from unidyn.results import figstyle  # noqa: E402
+from unidyn.results.plots import (  # noqa: E402
+    plot_error,
+    plot_theta_hat,
+    reference_once,
+    reference_period,
+    save_figures,
+)
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 

@@ -12,7 +12,8 @@ import textwrap
 import time
 
 import pytest
-from hypothesis import HealthCheck, given, settings, strategies as st
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from unidyn import ValidationError
 from unidyn.results import folders as outdir

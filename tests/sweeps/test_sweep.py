@@ -14,16 +14,16 @@ import pytest
 
 import unidyn
 from unidyn import ValidationError
+from unidyn._errors import Interrupted
+from unidyn.cli import main
+from unidyn.engine.batch import simulate_batch
 from unidyn.model import robots
-from unidyn.sweeps import sweep_files as files
+from unidyn.paper import fig11_claims, format_fig11_claims, paper_fig11
 from unidyn.results import folders as outdir
 from unidyn.sweeps import sweep as sw
-from unidyn._errors import Interrupted
-from unidyn.engine.batch import simulate_batch
-from unidyn.cli import main
-from unidyn.sweeps.sweep_files import read_metrics, rows_text
-from unidyn.paper import fig11_claims, format_fig11_claims, paper_fig11
+from unidyn.sweeps import sweep_files as files
 from unidyn.sweeps.sweep import Sweep, run_sweep
+from unidyn.sweeps.sweep_files import read_metrics, rows_text
 
 SHORT = {"T": 1.0}
 
@@ -303,7 +303,10 @@ def test_string_grid_values_round_trip_through_metrics_csv(tmp_path):
         assert clean and rows[0]["v"] == v, (v, cell(v), rows)
 
 
-def crash_after(monkeypatch, n_chunks, exc=RuntimeError("simulated crash")):
+CRASH = RuntimeError("simulated crash")
+
+
+def crash_after(monkeypatch, n_chunks, exc=CRASH):
     """Make run_sweep's chunk runner raise after ``n_chunks`` real chunks."""
     real = sw._run_chunk
     calls = []
@@ -502,7 +505,7 @@ def test_sampled_points_run_through_bdsim_in_a_batch_sweep(tmp_path):
 def test_dask_route_gives_the_local_metrics(tmp_path):
     distributed = pytest.importorskip("distributed")
     s = small_sweep()
-    local = run_sweep(s, tmp_path / "local", chunk_size=3, progress=False)
+    run_sweep(s, tmp_path / "local", chunk_size=3, progress=False)
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster:
         with distributed.Client(cluster) as client:
@@ -793,6 +796,7 @@ def test_a_seed_sweep_s_figure_draws_each_variant_s_mean_with_its_standard_error
     labels in a reader's words (no field name) and no colour twice."""
     import matplotlib
     from matplotlib.collections import PolyCollection
+
     from unidyn.paper import paper_fig11
     from unidyn.sweeps.plots import plot_metrics
     sweep = paper_fig11(T=10.0, gains=[1.0, 2.0, 4.0], seeds=3)
@@ -830,6 +834,7 @@ def test_a_seed_sweep_s_figure_draws_each_variant_s_mean_with_its_standard_error
 
 def test_a_sweep_figure_gives_each_of_twelve_lines_its_own_colour():
     import matplotlib
+
     from unidyn.sweeps.plots import plot_metrics
     sweep = Sweep(base={"case": "compensated", "T": 1.0},
                   grid={"kxy": [0.5, 1.0], "a": [0.1 * k for k in range(1, 13)]})
@@ -848,6 +853,7 @@ def test_the_mean_error_over_seeds_is_drawn_with_its_standard_error_band():
     from a robot at rest): the mean line at 7/3 m, the band ± std / sqrt(3)."""
     import matplotlib
     from matplotlib.collections import PolyCollection
+
     from unidyn.results.result import Result
     from unidyn.sweeps.seeds import SeedRuns
     sc = unidyn.Scenario.paper(3, T=2.0)
@@ -876,6 +882,7 @@ def _disk_fills(monkeypatch, after: int, name: str | None = None):
     """From the ``after``-th file written through the project's one write helper on
     (of ``name``, if given), each write fails as on a full disk, part of it written."""
     import errno
+
     from unidyn.results import ownership
     real, count = ownership.write_file, [0]
 

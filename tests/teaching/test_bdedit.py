@@ -23,9 +23,8 @@ import numpy as np
 import pytest
 
 import unidyn  # noqa: F401  (BDSIMPATH for the subprocesses)
-from unidyn.diagrams.bdfile import PAPER_FILES
-
 from processes import HAS_PROC, cpu_seconds
+from unidyn.diagrams.bdfile import PAPER_FILES
 
 ROOT = Path(__file__).resolve().parents[2]
 BD_DIR = ROOT / "examples" / "bd"

@@ -18,9 +18,10 @@ ct = pytest.importorskip("control")
 
 import unidyn  # noqa: E402
 from unidyn import NO_LIMITS, PAPER_LIMITS, ValidationError
-from unidyn.teaching import iosys
-from unidyn.model import unicycle as model, robots  # noqa: E402
+from unidyn.model import robots
+from unidyn.model import unicycle as model  # noqa: E402
 from unidyn.model.trajectories import Line  # noqa: E402
+from unidyn.teaching import iosys
 
 PRESETS = robots.names()
 
@@ -121,7 +122,8 @@ def test_kinematic_controller_is_eq_10():
                                    rtol=1e-12, atol=1e-12)
         # the rate: central difference of Eq. (10) along the motion (Eq. 1, psi' = w)
         h = 1e-6
-        def vd(dt):
+        def vd(dt, x=x, y=y, psi=psi, u=u, w=w, xd=xd, yd=yd, vxd=vxd, vyd=vyd, axd=axd,
+               ayd=ayd):
             hx = x + dt * (u * np.cos(psi) - a * w * np.sin(psi))
             hy = y + dt * (u * np.sin(psi) + a * w * np.cos(psi))
             ref = [xd + dt * vxd, yd + dt * vyd, vxd + dt * axd, vyd + dt * ayd]
@@ -354,6 +356,7 @@ def test_tracking_loop_noise_gain():
 def test_the_offset_a_defaults_as_in_the_blocks():
     """One default for a: each I/O system's is its bdsim block's."""
     import inspect
+
     from unidyn import blocks
 
     def default(f):

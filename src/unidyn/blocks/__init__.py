@@ -5,11 +5,23 @@ upper-cased class name (``bd.DYNAMICUNICYCLE(...)``), and can also be built
 directly (``DynamicUnicycle(..., bd=bd)``).
 """
 
+from .controllers import (
+    DynamicCompensator,
+    DynamicCompensatorWithRateInput,
+    KinematicController,
+    KinematicControllerWithRate,
+)
+from .sources import (
+    Circle,
+    FigureEight,
+    Line,
+    MeasurementNoise,
+    Point,
+    SensorNoise,
+    TrajectorySource,
+    trajectory_block,
+)
 from .unicycles import DynamicUnicycle, DynamicUnicycleWithVelocity, KinematicUnicycle
-from .controllers import (DynamicCompensator, DynamicCompensatorWithRateInput,
-                          KinematicController, KinematicControllerWithRate)
-from .sources import (FigureEight, Circle, Line, Point, TrajectorySource, MeasurementNoise,
-                      SensorNoise, trajectory_block)
 
 __all__ = ["DynamicUnicycle", "KinematicUnicycle", "KinematicController",
            "DynamicCompensator", "FigureEight", "Circle", "Line", "Point", "TrajectorySource",

@@ -8,12 +8,19 @@ from collections.abc import Sequence
 import numpy as np
 from bdsim.components import Clock, ContinuousBlock, FunctionBlock, SampledBlock
 
-from ..model import laws, robots
+from unidyn._validate import (
+    ValidationError,
+    choice,
+    flag,
+    nonnegative,
+    positive,
+    positive_vector,
+    vector,
+)
 from unidyn.model.laws import PAPER_GAMMA, PAPER_SIGMA
-from unidyn._validate import ValidationError, choice, flag, nonnegative, positive, positive_vector, vector
-
 from unidyn.model.parameters import RobotParameters
 
+from ..model import laws, robots
 from .arguments import check_blockargs, check_clock, check_fixed_blockargs, records_arguments
 from .signals import as_vector, check_finite
 

@@ -7,10 +7,11 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from bdsim.components import Clock, SampledBlock, SourceBlock
 
-from unidyn.model import trajectories as traj
 from unidyn._validate import ValidationError, integer, nonnegative, positive, vector
+from unidyn.model import trajectories as traj
 
 from .arguments import check_blockargs, check_clock, check_fixed_blockargs, records_arguments
+
 
 class TrajectorySource(SourceBlock):
     r"""

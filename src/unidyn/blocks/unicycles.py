@@ -7,13 +7,18 @@ from collections.abc import Sequence
 import numpy as np
 from bdsim.components import ContinuousBlock
 
-from ..model import robots, unicycle
 from unidyn._validate import ValidationError, flag, positive, real, vector
-from unidyn.model.unicycle import Limits
 from unidyn.model.parameters import RobotParameters, payload_schedule
+from unidyn.model.unicycle import Limits
 
-from .arguments import (check_blockargs, check_fixed_blockargs, limits_from_args,
-                        optional_limit, records_arguments)
+from ..model import robots, unicycle
+from .arguments import (
+    check_blockargs,
+    check_fixed_blockargs,
+    limits_from_args,
+    optional_limit,
+    records_arguments,
+)
 from .signals import as_vector, check_finite, qualified_state_names
 
 

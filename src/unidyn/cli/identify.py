@@ -6,6 +6,7 @@ command's words."""
 from __future__ import annotations
 
 import json
+import re
 import sys
 import warnings
 from pathlib import Path
@@ -15,8 +16,6 @@ from .._errors import ValidationError
 from ..identification.bags import is_bag
 from ..identification.checks import fit_refused
 from ..identification.estimator import read_delay
-import re
-
 from ..identification.logs import COLUMNS, POSE, SCALED
 from ..identification.results import IDENTIFY_FILES
 from ..results.figstyle import save

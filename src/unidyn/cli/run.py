@@ -13,8 +13,13 @@ import sys
 import time
 from pathlib import Path
 
-from .._errors import (Interrupted, MissingDependency, SimulationError, SimulationInterrupted,
-                       ValidationError)
+from .._errors import (
+    Interrupted,
+    MissingDependency,
+    SimulationError,
+    SimulationInterrupted,
+    ValidationError,
+)
 from .._validate import MAX_NAME
 from ..engines import choose, run
 from ..model.scenario import Scenario
@@ -23,7 +28,12 @@ from ..results.plots import save_figures
 from ..results.result import METRIC_UNITS, RUN_FILES, has_noise
 from ..results.rosbag import check_bag_target, write_run_bag
 from ..sweeps.seeds import SEED_FILES, plus_minus
-from ..sweeps.sweep_files import METRICS, parse_toml_value, read_scenario_table, scenario_from_layers
+from ..sweeps.sweep_files import (
+    METRICS,
+    parse_toml_value,
+    read_scenario_table,
+    scenario_from_layers,
+)
 from .arguments import tolerance_options
 from .errors import RunFailed, UsageError
 from .output import out_folder, refuse_other_results, short_name, shown

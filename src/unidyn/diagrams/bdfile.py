@@ -41,9 +41,9 @@ from pathlib import Path
 
 import numpy as np
 
+from .._validate import ValidationError
 from ..model import robots
 from ..model import trajectories as traj
-from .._validate import ValidationError
 from ..model.parameters import RobotParameters
 from ..model.scenario import Scenario
 from ..model.unicycle import Limits

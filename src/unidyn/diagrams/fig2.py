@@ -136,10 +136,16 @@ def build_fig2(sim, scenario: Scenario, *, robot: Callable | None = None,
     :return: the wired :class:`Fig2`
     """
     # bdsim loads with the blocks: when a diagram is built, not on import
-    from unidyn.blocks import (DynamicCompensator, DynamicCompensatorWithRateInput,
-                               DynamicUnicycleWithVelocity, KinematicController,
-                               KinematicControllerWithRate, KinematicUnicycle, SensorNoise,
-                               trajectory_block)
+    from unidyn.blocks import (
+        DynamicCompensator,
+        DynamicCompensatorWithRateInput,
+        DynamicUnicycleWithVelocity,
+        KinematicController,
+        KinematicControllerWithRate,
+        KinematicUnicycle,
+        SensorNoise,
+        trajectory_block,
+    )
     from unidyn.blocks.controllers import SampledDynamicCompensator, SampledKinematicController
 
     sc = scenario

@@ -11,12 +11,18 @@ import warnings
 import numpy as np
 
 from .._errors import AccuracyWarning, SimulationError, SimulationInterrupted
-from .._validate import (DEFAULT_ATOL, DEFAULT_RTOL, NonFiniteSignalError, ValidationError,
-                         positive, tolerances)
+from .._validate import (
+    DEFAULT_ATOL,
+    DEFAULT_RTOL,
+    NonFiniteSignalError,
+    ValidationError,
+    positive,
+    tolerances,
+)
 from ..model.equations import saturate
-from ..results.result import Result, distance, integrals
 from ..model.scenario import Scenario
 from ..progress import Progress
+from ..results.result import Result, distance, integrals
 
 __all__ = ["simulate", "SimulationError", "SimulationInterrupted"]
 

@@ -17,10 +17,10 @@ from concurrent.futures import ThreadPoolExecutor, wait
 import numpy as np
 
 from .._errors import SimulationInterrupted
-from ..progress import Progress
 from .._validate import BATCH_ATOL, BATCH_RTOL, ValidationError, tolerances
 from ..model.equations import TRAJECTORY_KINDS
 from ..model.scenario import ALWAYS_LOGGED, Scenario
+from ..progress import Progress
 from ..results.result import INTEGRAL_NAMES, Result
 from .rhs import ClosedLoop
 

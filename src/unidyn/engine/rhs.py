@@ -188,7 +188,7 @@ class ClosedLoop:
         X = out[:, 0] = self.initial_state()
         for k in range(self.steps):
             self.next_noise_window(k)
-            sol = solve_ivp(lambda t, x: self.rhs(t, x.reshape(self.B, NSTATE), k).ravel(),
+            sol = solve_ivp(lambda t, x, k=k: self.rhs(t, x.reshape(self.B, NSTATE), k).ravel(),
                             (k * self.Ts, (k + 1) * self.Ts), X.ravel(), method=method,
                             rtol=rtol, atol=atol, max_step=max_step)
             X = sol.y[:, -1].reshape(self.B, NSTATE).copy()

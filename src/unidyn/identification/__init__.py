@@ -67,13 +67,21 @@ log.
 
 from __future__ import annotations
 
-from .replay import COMMAND_CONVENTIONS, FAST
 from .bags import read_bag
 from .design import excitation, simulate_log
 from .equation_error import SMOOTHING_METHODS
 from .estimator import METHODS, identify
-from .logs import (COLUMNS, TIME_UNITS, IdentificationWarning, MissingColumnsError, join_logs,
-                   load_log, segments, split_log)
+from .logs import (
+    COLUMNS,
+    TIME_UNITS,
+    IdentificationWarning,
+    MissingColumnsError,
+    join_logs,
+    load_log,
+    segments,
+    split_log,
+)
+from .replay import COMMAND_CONVENTIONS
 from .results import IdentificationResult
 from .validation import ValidationReport, nrmse_fit, plot_validation, validate, validation_report
 
@@ -81,4 +89,4 @@ __all__ = ["IdentificationResult", "ValidationReport", "MissingColumnsError",
            "IdentificationWarning", "identify",
            "load_log", "read_bag", "segments", "excitation", "simulate_log", "split_log",
            "validate", "plot_validation", "COLUMNS", "TIME_UNITS", "SMOOTHING_METHODS",
-           "COMMAND_CONVENTIONS", "METHODS"]
+           "COMMAND_CONVENTIONS", "METHODS", "join_logs", "nrmse_fit", "validation_report"]

@@ -9,11 +9,11 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from ..model import robots
 from .._validate import ValidationError, choice, integer, nonnegative, positive, real, vector
+from ..model import robots
 from ..model.unicycle import NO_LIMITS, PAPER_LIMITS, Limits, unicycle_deriv
-from .replay import COMMAND_CONVENTIONS, simulate_stepwise
 from .logs import load_log
+from .replay import COMMAND_CONVENTIONS, simulate_stepwise
 
 
 def excitation(T: float, dt: float, robot=None, limits: Limits = PAPER_LIMITS,

@@ -209,12 +209,12 @@ def _filter_regression(t, u_ref, w_ref, u, w, half):
     mom = {k: np.empty(n) for k in ("DD", "DA", "AA", "AAu", "DAu", "AAuu", "AAww")}
     parts = _eq11_parts(np.stack([u, w], axis=1))
     interior = None
-    for sl, ii, A, D, interior in _filter_weights(t, half):
+    for sl, ii, A, D, interior in _filter_weights(t, half):  # noqa: B007 (the last is returned)
         ui, wi = u[ii], w[ii]
         y[sl, 0] = np.einsum("nm,nm->n", A, u_ref[ii])
         y[sl, 1] = np.einsum("nm,nm->n", A, w_ref[ii])
-        X[sl] = _filtered_eq11(parts, lambda z: np.einsum("nm,nm->n", A, z[ii]),
-                               lambda z: np.einsum("nm,nm->n", D, z[ii]))
+        X[sl] = _filtered_eq11(parts, lambda z, A=A, ii=ii: np.einsum("nm,nm->n", A, z[ii]),
+                               lambda z, D=D, ii=ii: np.einsum("nm,nm->n", D, z[ii]))
         AA, DA = A * A, D * A
         mom["DD"][sl] = np.einsum("nm,nm->n", D, D)
         mom["DA"][sl] = DA.sum(axis=1)

@@ -21,13 +21,25 @@ from tqdm import tqdm
 from .._validate import ValidationError, choice, integer, nonnegative, positive, short_repr
 from ..model.parameters import RobotParameters
 from .bags import row_commands
-from .checks import (check_excitation, check_memory, check_physical, check_units,
-                     estimate_warnings, fit_refused)
+from .checks import (
+    check_excitation,
+    check_memory,
+    check_physical,
+    check_units,
+    estimate_warnings,
+    fit_refused,
+)
 from .equation_error import SMOOTHING_METHODS, equation_error_fit, white_noise_std
 from .first_estimate import first_estimate
 from .intervals import JITTER_MIN, ci95, jitter_widening, lag_widening, measured_stamp_jitter
-from .logs import (COLUMNS, IdentificationWarning, check_layout, check_measured, join_logs,
-                   pose_factors)
+from .logs import (
+    COLUMNS,
+    IdentificationWarning,
+    check_layout,
+    check_measured,
+    join_logs,
+    pose_factors,
+)
 from .output_error import output_error_fit
 from .replay import COMMAND_CONVENTIONS
 from .results import THETA_NAMES, IdentificationResult

@@ -15,6 +15,7 @@ from .checks import check_physical
 from .equation_error import coupling, equation_error_fit
 from .logs import COLUMNS
 
+
 def first_estimate(D, segs, linear, delay, delay_auto, dt_med, smoothing, window, order, su, sw):
     """A first estimate of theta: (theta, what it came from, delay in samples)."""
     errors = []

@@ -8,8 +8,8 @@ A log holds the commands (u_ref, w_ref) a robot received and the velocities
 from __future__ import annotations
 
 import contextlib
-import math
 import csv
+import math
 import os
 import re
 import warnings
@@ -772,7 +772,7 @@ def join_logs(logs, columns=None, gap=None, time_unit=None, scale=None):
         except ValidationError as err:
             if len(logs) == 1 or isinstance(lg, (str, os.PathLike)):
                 raise
-            raise type(err)(f"log {i + 1}: {err}") if type(err) is ValidationError else err
+            raise type(err)(f"log {i + 1}: {err}") if type(err) is ValidationError else err  # noqa: B904 (err, or it named by its log)
         parts.append(d)
         sources.append(str(lg) if isinstance(lg, (str, os.PathLike)) else type(lg).__name__)
         m_, g_ = missing_rows(d["t"], gap)

@@ -13,7 +13,6 @@ import math
 
 import numpy as np
 
-from ..engine.jit import AVAILABLE as FAST
 from ..engine.jit import jit
 from ..model.equations import dynamics_components
 from ..model.unicycle import unicycle_deriv

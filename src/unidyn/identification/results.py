@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..results.folders import Stage, staged_output, write_atomic
 from ..model.parameters import THETA_NAMES, RobotParameters
+from ..results.folders import Stage, staged_output, write_atomic
 
 __all__ = ["IdentificationResult", "ValidationReport"]
 

@@ -8,13 +8,13 @@ import math
 
 import numpy as np
 
-from ..model import robots
 from .._validate import ValidationError, choice, nonnegative, positive, vector
-from ..results.figstyle import label, size, styled, ylim_from_data
+from ..model import robots
 from ..model.unicycle import NO_LIMITS, Limits
-from .replay import COMMAND_CONVENTIONS, simulate_held, simulate_stepwise
+from ..results.figstyle import label, size, styled, ylim_from_data
 from .checks import fit_refused
 from .logs import load_log, segments
+from .replay import COMMAND_CONVENTIONS, simulate_held, simulate_stepwise
 from .results import IdentificationResult, ValidationReport
 
 

@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 
 from . import equations as eq
-from .equations import SWITCH_TOL
 from .components import join, pair, parts, scalar
+from .equations import SWITCH_TOL
 
 __all__ = ["kinematic_control", "kinematic_control_rate", "kinematic_control_and_rate",
            "compensation_regressor", "compensation", "adaptation_rate", "leakage_rate",

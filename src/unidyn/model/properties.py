@@ -25,8 +25,8 @@ from numbers import Integral
 
 import numpy as np
 
-from . import robots, unicycle
 from .._validate import ValidationError, integer, positive
+from . import robots, unicycle
 from .parameters import THETA_NAMES, RobotParameters
 
 __all__ = ["PropertyResult", "PropertyReport", "check_properties",

@@ -14,14 +14,22 @@ from functools import cached_property
 
 import numpy as np
 
+from .._validate import (
+    ValidationError,
+    choice,
+    did_you_mean,
+    nonnegative,
+    positive,
+    positive_vector,
+    string_keys,
+    vector,
+)
 from . import robots, trajectories
-from .._validate import (ValidationError, choice, did_you_mean, nonnegative, positive,
-                         positive_vector, string_keys, vector)
 from .cases import CASE_SPECS, CASES, CaseSpec
 from .laws import LEAKAGE_FORMS, PAPER_GAMMA, PAPER_SIGMA
-from .unicycle import Limits, PAPER_LIMITS, loaded_theta
-from .noise import NoiseSpec, PAPER_NOISE
+from .noise import PAPER_NOISE, NoiseSpec
 from .parameters import RobotParameters, payload_schedule
+from .unicycle import PAPER_LIMITS, Limits, loaded_theta
 
 __all__ = ["Scenario", "CASES", "CASE_SPECS", "CONTROL_MODES", "VD_DOT_METHODS", "PAPER_GAMMA",
            "PAPER_SIGMA"]

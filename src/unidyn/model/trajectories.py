@@ -14,8 +14,8 @@ from typing import Callable
 
 import numpy as np
 
-from . import equations as eq
 from .._validate import ValidationError, did_you_mean, positive, real, string_keys, vector
+from . import equations as eq
 from .schedules import step_rows
 
 __all__ = ["Trajectory", "FigureEight", "Circle", "Line", "Point", "FunctionTrajectory", "from_spec",

@@ -16,9 +16,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._validate import ValidationError, positive
 from . import equations as eq
 from .components import join, pair, parts, scalar
-from .._validate import ValidationError, positive
 
 __all__ = ["Limits", "kinematics", "dynamics", "inertia", "coriolis", "damping",
            "regressor", "inverse_dynamics", "unicycle_deriv", "kinematic_unicycle_deriv",

@@ -17,13 +17,34 @@ words and the criterion both made from its numbers).
 """
 
 from .claims import BARS, Claim
-from .experiment import (EXPERIMENT_ADAPT_FROM, EXPERIMENT_CONTROLLERS, EXPERIMENT_ESTIMATE,
-                         EXPERIMENT_FILES, EXPERIMENT_PAPER, EXPERIMENT_T, EXPERIMENT_WINDOWS,
-                         Experiment, ExperimentRun, experiment, experiment_claims,
-                         experiment_scenarios, experiment_stats, format_experiment_claims,
-                         plot_experiment, write_experiment)
-from .fig11 import (FIG11_CASES, Fig11Claim, Fig11Point, fig11_claims, fig11_table,
-                    format_fig11_claims, paper_fig11, plot_fig11)
+from .experiment import (
+    EXPERIMENT_ADAPT_FROM,
+    EXPERIMENT_CONTROLLERS,
+    EXPERIMENT_ESTIMATE,
+    EXPERIMENT_FILES,
+    EXPERIMENT_PAPER,
+    EXPERIMENT_T,
+    EXPERIMENT_WINDOWS,
+    Experiment,
+    ExperimentRun,
+    experiment,
+    experiment_claims,
+    experiment_scenarios,
+    experiment_stats,
+    format_experiment_claims,
+    plot_experiment,
+    write_experiment,
+)
+from .fig11 import (
+    FIG11_CASES,
+    Fig11Claim,
+    Fig11Point,
+    fig11_claims,
+    fig11_table,
+    format_fig11_claims,
+    paper_fig11,
+    plot_fig11,
+)
 from .section5 import format_claims, section5_claims
 
 __all__ = ["Claim", "section5_claims", "format_claims", "paper_fig11", "fig11_claims",

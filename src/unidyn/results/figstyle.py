@@ -41,7 +41,6 @@ import contextvars
 import functools
 import math
 import warnings
-from pathlib import Path
 
 import numpy as np
 

@@ -69,12 +69,26 @@ import stat
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .._validate import ValidationError, flag as _flag
+from .._validate import ValidationError
+from .._validate import flag as _flag
 from ..process import finishes_on_sigterm
 from .ledger import MAX_MANIFEST_BYTES, Ledger, _manifest_path, check_manifest, foreign_files
-from .ownership import (_FULL, _NOFOLLOW, _PREFIX, _STAGE_MARK, _STAGE_NAME, LOCK_NAME, DiskFull,
-                        FolderInUse, FolderLock, _kind_of, _remove_made, disk_full,
-                        write_atomic, write_file)
+from .ownership import (
+    _FULL,
+    _NOFOLLOW,
+    _PREFIX,
+    _STAGE_MARK,
+    _STAGE_NAME,
+    LOCK_NAME,
+    DiskFull,
+    FolderInUse,
+    FolderLock,
+    _kind_of,
+    _remove_made,
+    disk_full,
+    write_atomic,
+    write_file,
+)
 
 __all__ = ["Stage", "staged_output", "OwnedFile", "Ledger", "FolderLock", "FolderInUse",
            "DiskFull", "LOCK_NAME", "MAX_MANIFEST_BYTES", "check_manifest", "foreign_files",

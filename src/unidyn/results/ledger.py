@@ -15,7 +15,16 @@ import uuid
 from pathlib import Path
 
 from .._validate import ValidationError
-from .ownership import _FULL, _PREFIX, _SHA256, FolderLock, _temporary, disk_full, write_atomic, write_file
+from .ownership import (
+    _FULL,
+    _PREFIX,
+    _SHA256,
+    FolderLock,
+    _temporary,
+    disk_full,
+    write_atomic,
+    write_file,
+)
 
 __all__ = ["Ledger", "check_manifest", "foreign_files", "MAX_MANIFEST_BYTES"]
 

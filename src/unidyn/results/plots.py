@@ -24,9 +24,10 @@ from fractions import Fraction
 
 import numpy as np
 
-from . import figstyle
 from ..model.cases import CASE_SPECS
-from .figstyle import REFERENCE, START, label as _unit
+from . import figstyle
+from .figstyle import REFERENCE, START
+from .figstyle import label as _unit
 
 __all__ = ["plot_path", "plot_error", "plot_positions", "plot_velocities", "plot_theta_hat",
            "compare_paths", "compare_errors", "save_figures", "reference_period",

@@ -9,8 +9,8 @@ import math
 
 import numpy as np
 
-from ..results import figstyle
 from .._validate import choice
+from ..results import figstyle
 from .statistics import mean_std_sem
 from .sweep_files import METRICS, is_number, text
 

@@ -245,8 +245,8 @@ class SeedRuns:
         write_atomic(folder / "summary.json", json.dumps(self.summary(), indent=2,
                                                          allow_nan=False) + "\n")
         try:
-            from .plots import plot_seed_error
             from ..results import figstyle
+            from .plots import plot_seed_error
             with figstyle.style():
                 figstyle.save(plot_seed_error(self).figure, folder / "error.png")
         except ImportError:  # no matplotlib: the data is what matters

@@ -52,22 +52,57 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from .cluster import connect_dask, run_on_dask
 from .._errors import Interrupted
-from .._validate import MAX_NAME, ValidationError, choice, did_you_mean, flag, integer
-from .._validate import BATCH_ATOL, BATCH_RTOL, tolerances
-from ..engine.batch import seedless, simulate_batch
-from .statistics import seed_statistics, statistics_columns
-from .sweep_files import (ID_NAME, MAX_POINTS, METRICS, RECORD_NAME, cell, check_keys,
-                          expand_range, finished_rows, is_number, plain, text, read_rows,
-                          read_sweep_id, read_sweep_record, read_toml, rows_text,
-                          scenario_from_layers, sweep_id_text, sweep_record_text)
-from ..results.folders import (FolderLock, Ledger, check_manifest, disk_full, foreign_files,
-                               json_ready, make_output_folder, output_folder, staged_output)
-from .plots import plot_metrics
+from .._validate import (
+    BATCH_ATOL,
+    BATCH_RTOL,
+    MAX_NAME,
+    ValidationError,
+    choice,
+    did_you_mean,
+    flag,
+    integer,
+    tolerances,
+)
 from ..diagrams.simulate import simulate
+from ..engine.batch import seedless, simulate_batch
 from ..engines import ENGINES
 from ..progress import Progress
+from ..results.folders import (
+    FolderLock,
+    Ledger,
+    check_manifest,
+    disk_full,
+    foreign_files,
+    json_ready,
+    make_output_folder,
+    output_folder,
+    staged_output,
+)
+from .cluster import connect_dask, run_on_dask
+from .plots import plot_metrics
+from .statistics import seed_statistics, statistics_columns
+from .sweep_files import (
+    ID_NAME,
+    MAX_POINTS,
+    METRICS,
+    RECORD_NAME,
+    cell,
+    check_keys,
+    expand_range,
+    finished_rows,
+    is_number,
+    plain,
+    read_rows,
+    read_sweep_id,
+    read_sweep_record,
+    read_toml,
+    rows_text,
+    scenario_from_layers,
+    sweep_id_text,
+    sweep_record_text,
+    text,
+)
 
 __all__ = ["Sweep", "SweepPoint", "SweepRun", "run_sweep", "sweep_id", "SWEEP_FILES"]
 
@@ -567,7 +602,7 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
                         run = _run_in(sweep, stage.path, record, engine, chunk_size,
                                       progress, client, t0, resume=False)
                 except BaseException as err:
-                    raise _kept(err, f"{out} is as it was ({rows_named(rows_held)}); the "
+                    raise _kept(err, f"{out} is as it was ({rows_named(rows_held)}); the "  # noqa: B904 (err itself, or Ctrl-C as Interrupted)
                                      f"new sweep's rows were discarded")
                 run.out_dir = out
                 run.replaced = tuple(rows_held)
@@ -674,7 +709,7 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
         if isinstance(err, OSError) and err.errno in (errno.ENOSPC, errno.EDQUOT):
             raise disk_full(err, kept, getattr(err, "path", None) or err.filename
                             or csv_path) from None
-        raise _kept(err, kept)
+        raise _kept(err, kept)  # noqa: B904 (err itself, or Ctrl-C as Interrupted)
     finally:
         bar.close()
 

@@ -31,8 +31,8 @@ import numpy as np
 
 from .._errors import MissingDependency
 from .._validate import ValidationError, did_you_mean, integer, positive, real
-from ..results.folders import json_ready
 from ..model.scenario import Scenario, plain_value
+from ..results.folders import json_ready
 
 __all__ = ["read_toml", "parse_toml_value", "read_scenario_table", "read_scenario", "expand_range",
            "check_keys", "scenario_from_layers", "plain", "read_metrics", "sweep_record_text",

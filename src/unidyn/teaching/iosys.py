@@ -47,13 +47,12 @@ except ImportError:  # pragma: no cover - exercised by a test that hides the pac
 
 import numpy as np
 
-from ..model import laws
-from ..model import robots, trajectories, unicycle
 from .._validate import ValidationError, nonnegative, positive, vector
-from ..model.laws import LEAKAGE_FORMS, PAPER_GAMMA, PAPER_SIGMA
-from ..model.unicycle import NO_LIMITS, Limits
+from ..model import laws, robots, trajectories, unicycle
 from ..model.cases import CASE_SPECS
+from ..model.laws import LEAKAGE_FORMS, PAPER_GAMMA, PAPER_SIGMA
 from ..model.scenario import Scenario
+from ..model.unicycle import NO_LIMITS, Limits
 
 __all__ = ["to_iosys", "kinematic_iosys", "velocity_iosys", "kinematic_controller",
            "compensator", "reference_iosys", "fig2_loop", "fig2_initial_state",

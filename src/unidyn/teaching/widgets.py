@@ -26,13 +26,13 @@ import time
 
 import numpy as np
 
-from ..results import figstyle
-from ..model import robots
 from .._validate import ValidationError, positive, real
 from ..engine.batch import simulate_batch
+from ..model import robots
 from ..model.noise import PAPER_NOISE
 from ..model.parameters import MASS_PARAMETERS, RobotParameters
 from ..model.scenario import Scenario
+from ..results import figstyle
 
 __all__ = ["LoopExplorer", "with_payload", "MASS_PARAMETERS"]
 
@@ -134,8 +134,8 @@ class LoopExplorer:
     # ------------------------------------------------------------------ #
     @figstyle.styled
     def _make_figure(self):
-        from matplotlib.figure import Figure
         from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
         fig = Figure(figsize=figstyle.size(2, 0.38), layout="constrained")
         FigureCanvasAgg(fig)
         ax_path, ax_err = fig.subplots(1, 2, width_ratios=(1, 1.6))
