@@ -88,7 +88,7 @@ def _row(seed, result) -> dict:
     return {"seed": seed, "case": result.scenario.case,
             **{m: None if result.metrics[m] is None else float(result.metrics[m])
                for m in METRICS},
-            "numerical_error": max(map(float, error.values())) if error else None,
+            "numerical_error": max(float(error[m]) for m in METRICS) if error else None,
             "estimate": getattr(result, "estimate", None), "sensitive": bool(result.sensitive),
             "complete": bool(result.complete), "message": result.message}
 

@@ -341,7 +341,8 @@ def _row(index, params, result) -> dict:
     error = result.numerical_error
     return {"index": index, **params, "case": result.scenario.case,
             **{m: _metric(result.metrics[m]) for m in METRICS},
-            "numerical_error": None if not error else max(float(v) for v in error.values()),
+            # the row's numbers: its metrics' estimates (the series' are the run's)
+            "numerical_error": None if not error else max(float(error[m]) for m in METRICS),
             "estimate": result.estimate or None,
             "sensitive": bool(result.sensitive), "complete": bool(result.complete),
             "message": result.message}
