@@ -130,3 +130,21 @@ def test_two_threads_with_their_own_python_references_each_get_their_own_answer(
             for a, b in zip(alone, together):
                 assert np.array_equal(a.pose, b.pose) and np.array_equal(a.reference, b.reference)
     assert not np.allclose(alone[0].reference, alone[1].reference)
+
+
+def test_a_speed_limit_reached_at_a_step_s_end_is_held_exactly():
+    """The angular speed reaches its limit exactly at a sample (constant angular
+    acceleration 1.745 rad/s² from 0 for 1 s, Ts = 0.05 s): the step that ends there ends
+    on the switch, and the logged speed is within the limit, not one rounding beyond it."""
+    from unidyn.engine.batch import simulate_batch
+    from unidyn.model.trajectories import FigureEight
+    from unidyn.model.unicycle import Limits
+    limits = Limits(speed_max=0.75, steer_max=1.745, accel_max=0.3, angular_accel_max=1.745)
+    sc = Scenario(case="uncompensated", robot="wheelchair_55kg", a=0.5, x0=(1.0, 0.0, 1.5),
+                  trajectory=FigureEight(ax=1.0, ay=2.0, wx=1.0, wy=0.8125, center=(1.0, 0.0)),
+                  kx=1.0, ky=1.0, lx=1.0, ly=1.0, noise=None, limits=limits, T=3.0, Ts=0.05)
+    r, = simulate_batch([sc])
+    assert r.complete
+    assert np.all(np.abs(r.velocity[:, 0]) <= limits.speed_max)
+    assert np.all(np.abs(r.velocity[:, 1]) <= limits.steer_max)
+    assert np.any(np.abs(r.velocity[:, 1]) == limits.steer_max)  # it does reach the limit

@@ -163,14 +163,16 @@ def margin_at(f, t, x, h, args, work, theta):
     return lowest(work.margins)
 
 
+#: What :func:`switch_at` returns for a step in which no switch flips.
+NO_SWITCH = 2.0
 #: The stages' distinct times as fractions of the step, in order.
 SAMPLE_TIMES = (0.0, 0.2, 0.3, 0.8, 8.0 / 9.0, 1.0)
 
 
 @jit(inline=True)
 def switch_at(f, t, x, h, args, work, rtol):
-    """Where the first switch of a kept step flips, as a fraction of its length: 1 where
-    it finds none; else the end of the bracket just past the first crossing of zero by
+    """Where the first switch of a kept step flips, as a fraction of its length (1: at its
+    end): :data:`NO_SWITCH` where it finds none; else the end of the bracket just past the first crossing of zero by
     the smallest margin on the step's interpolant (its state in ``work.Xd``), found by
     the Illinois method to :data:`SWITCH_TOL_FRACTION` or rtol.
 
@@ -184,7 +186,7 @@ def switch_at(f, t, x, h, args, work, rtol):
     for s in range(1, 7):
         seen = seen or lowest(G[s]) < 0.0
     if not seen:
-        return 1.0
+        return NO_SWITCH
     lo, glo, hi, ghi = 0.0, lowest(G[0]), -1.0, 0.0
     for q in range(1, len(SAMPLE_TIMES)):  # the stages' times on the interpolant, in order
         theta = SAMPLE_TIMES[q]
@@ -194,7 +196,7 @@ def switch_at(f, t, x, h, args, work, rtol):
             break
         lo, glo = theta, g
     if hi < 0.0:
-        return 1.0
+        return NO_SWITCH
     tol = max(rtol, SWITCH_TOL_FRACTION)
     glo = max(glo, 0.0)
     side = 0  # which end moved last (Illinois: halve the other's value when one repeats)
@@ -443,8 +445,10 @@ def integrate_interval(f, decide, t0, t1, X, h, args, call, work):
         if err <= 1.0:  # kept (an error estimate that is NaN is not)
             kept += 1
             factor = min(1.0, step_factor(err)) if again else step_factor(err)
-            theta = 1.0 if mode[1] == eq.AUTO else switch_at(f, t, X, h, args, work, call.rtol)
-            if theta < 1.0:  # ended on a switch: the mode is decided again there
+            theta = NO_SWITCH if mode[1] == eq.AUTO else switch_at(f, t, X, h, args, work,
+                                                                    call.rtol)
+            switched = theta == 1.0  # a switch at the step's end: the mode decided there
+            if theta < 1.0 or (switched and not last):  # ended on a switch: decided there
                 for i in range(n):
                     X[i] = work.Xd[i]
                 t = t + theta * h
@@ -466,7 +470,7 @@ def integrate_interval(f, decide, t0, t1, X, h, args, call, work):
                 for i in range(n):
                     X[i] = work.Xn[i]
                 if last and end == t1:
-                    if mode[1] == eq.AUTO:  # the step that decided as it went: back on the limits
+                    if mode[1] == eq.AUTO or switched:  # back on the limits
                         decide(t1, X, args, mode)
                     return proposal, kept, rejected, OK
                 t = end if last else t + h

@@ -175,7 +175,7 @@ def clip_held(x, limit, held):
 
 def clip_margin(x, limit, held):
     """How far x is inside the side ``held`` of its clip (-1, 0, +1): >= 0 while that
-    side is the one x lies on (for 0: limit - |x|; for +1: x - limit)."""
+    side is the one x lies on (for 0: limit minus the size of x; for +1: x - limit)."""
     return select(held == 0.0, limit - abs(x), select(held > 0.0, x - limit, -x - limit))
 
 
@@ -194,7 +194,7 @@ def speed_held(v, dv, speed, held):
 
 def speed_margin(v, dv, speed, held):
     """>= 0 while v's side ``held`` is right: not held (0), v within its limit
-    (speed - |v|); held at +1 or -1, dv pushing it outward (held dv)."""
+    (speed minus the size of v); held at +1 or -1, dv pushing it outward (held dv)."""
     return select(held == 0.0, speed - abs(v), held * dv)
 
 
