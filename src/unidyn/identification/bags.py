@@ -349,7 +349,7 @@ def read_bag(path, cmd: str | None = None, odom: str | None = None,
     :param wheel_joints: (left, right) joint names; default the one joint whose
         name holds "left" and the one whose name holds "right" (preferring names
         with "wheel")
-    :raises MissingDependency: without the rosbags package (``pip install
+    :raises unidyn.MissingDependency: without the rosbags package (``pip install
         "unidyn[ros]"``)
     :raises ValidationError: one line naming the file and what is wrong: not a
         bag, unreadable (truncated or corrupt), no command or odometry topic (or
