@@ -453,7 +453,9 @@ def loop_rates_held(t, X, ref, p, noise, mode):
 def next_switch_time(t, p):
     """The first time after t (by more than :data:`SWITCH_TOL`) at which a time switch
     of the loop with parameters p flips: adaptation on (``adapt_from``), a payload
-    step, a radius step of a circle; inf if none. The batch engine ends a step there."""
+    step, a radius step of a circle; inf if none. The batch engine ends a step there.
+    Scalar arguments only (one run's t and parameter row): unlike the rest of this
+    module, it branches on values."""
     first = math.inf
     if p[P.adapt_from] > t + SWITCH_TOL:
         first = min(first, p[P.adapt_from])

@@ -20,7 +20,6 @@ from .ownership import (
     _PREFIX,
     _SHA256,
     FolderLock,
-    _temporary,
     disk_full,
     write_atomic,
     write_file,
@@ -217,21 +216,10 @@ class Ledger:
         """Have ``write(path)`` write the file at a temporary path beside it (with
         ``name``'s suffix, which a figure's format is read from), then move it into
         place as ``name``. A full disk is a :class:`DiskFull` naming the file."""
-        size = None
-        try:
-            with _temporary(self.folder, Path(name).suffix, self.lock) as tmp:
-                try:
-                    write(tmp)
-                except OSError:
-                    with contextlib.suppress(OSError):
-                        size = os.lstat(tmp).st_size
-                    raise
-                self.replace({name: tmp})
-        except OSError as err:
-            target = self.folder / name
-            raise disk_full(err, f"{target} is as it was" if self.owns(name) else
-                            f"{target} was not written", target, size) from None
-        return self.folder / name
+        target = self.folder / name
+        return write_file(target, write, self.lock, place=lambda tmp: self.replace({name: tmp}),
+                          kept=lambda: (f"{target} is as it was" if self.owns(name)
+                                        else f"{target} was not written"))
 
     def write(self, name: str, text: str) -> Path:
         """Write ``text`` as ``name``, atomically (a temporary file, then a rename)."""

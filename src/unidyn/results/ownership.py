@@ -287,12 +287,13 @@ def _temporary(folder: Path, suffix: str = "", lock: FolderLock | None = None):
             lock.forget(path.name)
 
 
-def write_file(path, write, lock: FolderLock | None = None, kept: str | None = None) -> Path:
+def write_file(path, write, lock: FolderLock | None = None, kept=None, place=None) -> Path:
     """Write one file: ``write(tmp)`` fills a temporary file beside ``path`` (see
-    :func:`_temporary`), which is then renamed to ``path``, so an interrupted write
-    never leaves a half-written file that looks complete. An error names ``path``; a
-    full disk is a :class:`DiskFull` saying ``kept`` (by default, that ``path`` is
-    unchanged). Returns ``path``."""
+    :func:`_temporary`), which ``place(tmp)`` then moves into place (by default a rename
+    to ``path``), so an interrupted write never leaves a half-written file that looks
+    complete. An error names ``path``; a full disk is a :class:`DiskFull` saying
+    ``kept()`` (by default, whether ``path`` is as it was or was not written).
+    Returns ``path``."""
     path, size = Path(path), None
     try:
         with _temporary(path.parent, path.suffix, lock) as tmp:
@@ -302,11 +303,15 @@ def write_file(path, write, lock: FolderLock | None = None, kept: str | None = N
                 with contextlib.suppress(OSError):
                     size = os.lstat(tmp).st_size
                 raise
-            os.replace(tmp, path)
+            if place is None:
+                os.replace(tmp, path)
+            else:
+                place(tmp)
     except OSError as err:
         if err.errno in _FULL:
-            raise disk_full(err, kept or (f"{path} is as it was" if os.path.lexists(path)
-                                          else f"{path} was not written"), path, size) from None
+            said = kept() if kept else (f"{path} is as it was" if os.path.lexists(path)
+                                        else f"{path} was not written")
+            raise disk_full(err, said, path, size) from None
         if err.filename is None:  # a write: name the file
             raise OSError(err.errno, err.strerror, str(path)) from err
         raise
