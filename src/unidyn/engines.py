@@ -90,8 +90,9 @@ def plain_cost(scenarios, backend: str = "auto"):
     elif backend == "plain":
         fix = "backend='plain' was asked for (backend='auto' compiles it)"
     else:
+        from .model.trajectories import KINDS
         fix = ("a reference is a Python function (FunctionTrajectory); a built-in "
-               "trajectory (figure_eight, circle, line) runs compiled")
+               f"trajectory ({', '.join(KINDS)}) runs compiled")
     return seconds, fix
 
 

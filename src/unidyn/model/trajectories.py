@@ -5,11 +5,18 @@ Each trajectory is an immutable object with ``position(t)``, ``velocity(t)`` and
 ``acceleration(t)``; ``t`` may be a scalar or an array, and the result has shape
 ``t.shape + (2,)``. :func:`from_spec` builds one from a plain dict (as read
 from a TOML scenario file): data only, nothing is evaluated.
+
+:data:`KINDS` is the table of the kinds: one class each, which holds the kind's name
+(``type`` in a file), its code and numbers in the batch engine's parameter table
+(:meth:`Trajectory.table`) and the function of :mod:`unidyn.model.equations` both
+evaluate. The engines, scenario and ``.bd`` files and the blocks read the kinds from it.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, field
+from fractions import Fraction
 from typing import Callable
 
 import numpy as np
@@ -26,6 +33,12 @@ class Trajectory:
     """Base class: a planar reference h_d(t) for the point of interest."""
 
     kind = "trajectory"
+    #: its code in the batch engine's parameter table (entry ``trajectory``): a constant of
+    #: :mod:`unidyn.model.equations` naming the function the compiled engine evaluates;
+    #: :data:`~unidyn.model.equations.PYTHON`: none, the engine calls :meth:`evaluate`
+    code = eq.PYTHON
+    #: its period, s, or None (not periodic)
+    period = None
 
     def position(self, t):  # pragma: no cover - abstract
         raise NotImplementedError
@@ -48,6 +61,13 @@ class Trajectory:
         """A plain dict that :func:`from_spec` turns back into this trajectory."""
         return {"type": self.kind, **asdict(self)}
 
+    def table(self) -> dict:
+        """Its entries in the batch engine's parameter table, by name
+        (:data:`unidyn.model.equations.LOOP_PARAMETERS`): the code; for a compiled kind
+        its numbers (``path1``, ...: :meth:`arguments`) and the times it steps at
+        (``step_time1``, ...), where the engine ends a step."""
+        return {"trajectory": self.code}
+
 
 def _t(t):
     """t as a float (arithmetic on a float is faster than on a 0-d array, and the
@@ -68,10 +88,20 @@ def _xy(x, y):
 class _FromEquations(Trajectory):
     """A trajectory given by one function of :mod:`unidyn.model.equations`, which
     ``_eval(t)`` calls: its six values (x, y, x', y', x'', y'') are the position, velocity and
-    acceleration."""
+    acceleration. The compiled engine calls the same function, by the class's
+    :attr:`~Trajectory.code`, with the numbers :meth:`arguments` gives."""
 
     def _eval(self, t):  # pragma: no cover - abstract
         raise NotImplementedError
+
+    def arguments(self) -> tuple:  # pragma: no cover - abstract
+        """The numbers its function takes after t, in order (at most six)."""
+        raise NotImplementedError
+
+    def table(self) -> dict:
+        entries = {"trajectory": self.code}
+        entries.update((f"path{j + 1}", float(v)) for j, v in enumerate(self.arguments()))
+        return entries
 
     def position(self, t):
         return _xy(*self._eval(t)[0:2])
@@ -103,6 +133,7 @@ class FigureEight(_FromEquations):
     """
 
     kind = "figure_eight"
+    code = eq.FIGURE_EIGHT
     ax: float = 1.0
     ay: float = 1.0
     wx: float = 0.5
@@ -114,8 +145,19 @@ class FigureEight(_FromEquations):
             object.__setattr__(self, k, positive(k, getattr(self, k)))
         object.__setattr__(self, "center", tuple(vector("center", self.center, 2).tolist()))
 
+    def arguments(self) -> tuple:
+        return (self.ax, self.ay, self.wx, self.wy, *self.center)
+
     def _eval(self, t):
-        return eq.figure_eight(_t(t), self.ax, self.ay, self.wx, self.wy, *self.center)
+        return eq.figure_eight(_t(t), *self.arguments())
+
+    @property
+    def period(self):
+        """2 pi q / omega_y where omega_x / omega_y = p / q (q at most 24), else None."""
+        ratio = Fraction(self.wx / self.wy).limit_denominator(24)
+        if abs(float(ratio) - self.wx / self.wy) > 1e-9:
+            return None
+        return 2 * math.pi * ratio.denominator / self.wy
 
 
 @dataclass(frozen=True)
@@ -146,6 +188,7 @@ class Circle(_FromEquations):
     """
 
     kind = "circle"
+    code = eq.CIRCLE
     radius: float | tuple = 1.0
     omega: float = 0.2
     center: tuple = (0.0, 0.0)
@@ -176,9 +219,26 @@ class Circle(_FromEquations):
         """The steps as :func:`unidyn.model.equations.stepped_radius` takes them."""
         return tuple(v for row in self.radius_schedule[1:] for v in row)
 
+    def arguments(self) -> tuple:
+        """The radius at t = 0 (the engine steps it: :meth:`table`), then the others."""
+        return (self.radius_schedule[0][1], self.omega, *self.center, self.phase)
+
     def _eval(self, t):
         t = _t(t)
         return eq.circle(t, self.radius_at(t), self.omega, *self.center, self.phase)
+
+    def table(self) -> dict:
+        entries = super().table()
+        (_, radius), *steps = self.radius_schedule
+        steps += [(math.inf, radius)] * (eq.RADIUS_STEPS - len(steps))
+        for j, (t_step, r_step) in enumerate(steps):
+            entries[f"step_time{j + 1}"], entries[f"step_radius{j + 1}"] = t_step, r_step
+        return entries
+
+    @property
+    def period(self):
+        """2 pi / |omega| for a radius that does not step, else None."""
+        return 2 * math.pi / abs(self.omega) if len(self.radius_schedule) == 1 else None
 
 
 def _radius_schedule(value) -> tuple:
@@ -212,6 +272,7 @@ class Line(_FromEquations):
     """
 
     kind = "line"
+    code = eq.LINE
     start: tuple = (0.0, 0.0)
     velocity_: tuple = field(default=(0.2, 0.0), metadata={"name": "velocity"})
 
@@ -219,8 +280,11 @@ class Line(_FromEquations):
         object.__setattr__(self, "start", tuple(vector("start", start, 2).tolist()))
         object.__setattr__(self, "velocity_", tuple(vector("velocity", velocity, 2).tolist()))
 
+    def arguments(self) -> tuple:
+        return (*self.start, *self.velocity_)
+
     def _eval(self, t):
-        return eq.line(_t(t), *self.start, *self.velocity_)
+        return eq.line(_t(t), *self.arguments())
 
     def to_spec(self) -> dict:
         return {"type": self.kind, "start": list(self.start), "velocity": list(self.velocity_)}
@@ -235,6 +299,8 @@ class Point(Line):
     :param x: the point's x, m
     :param y: the point's y, m
     """
+
+    kind = "point"
 
     def __init__(self, x: float = 1.0, y: float = 1.0):
         super().__init__(start=(real("x", x), real("y", y)), velocity=(0.0, 0.0))
@@ -251,7 +317,7 @@ class Point(Line):
         return f"Point(x={self.x!r}, y={self.y!r})"
 
     def to_spec(self) -> dict:
-        return {"type": "point", "x": self.x, "y": self.y}
+        return {"type": self.kind, "x": self.x, "y": self.y}
 
 
 class FunctionTrajectory(Trajectory):
@@ -306,7 +372,23 @@ class FunctionTrajectory(Trajectory):
         return {"type": "function", "callable": f"{getattr(self.f, '__module__', '?')}.{name}"}
 
 
-KINDS = {"figure_eight": FigureEight, "circle": Circle, "line": Line, "point": Point}
+def _table_of_kinds(*classes) -> dict:
+    """{kind: class}; a name taken twice, or a code shared but by a kind and its base
+    (a point is evaluated as a line), is an error here, at import."""
+    kinds = {}
+    for cls in classes:
+        if cls.kind in kinds:
+            raise TypeError(f"two trajectory kinds are named {cls.kind!r}")
+        for other in kinds.values():
+            if cls.code == other.code and not issubclass(cls, other):
+                raise TypeError(f"trajectory kinds {other.kind!r} and {cls.kind!r} share "
+                                f"the code {cls.code}")
+        kinds[cls.kind] = cls
+    return kinds
+
+
+#: The kinds a scenario file names by ``type``, each evaluated compiled by the batch engine.
+KINDS = _table_of_kinds(FigureEight, Circle, Line, Point)
 
 
 def from_spec(spec) -> Trajectory:
@@ -329,7 +411,7 @@ def from_spec(spec) -> Trajectory:
                               f"{did_you_mean(kind, KINDS)}")
     if kind == "function":
         raise ValidationError("trajectory of type 'function' wraps Python code and cannot be "
-                              "rebuilt from a file; use figure_eight, circle or line, or pass a "
+                              f"rebuilt from a file; use one of {', '.join(KINDS)}, or pass a "
                               "FunctionTrajectory from Python")
     if kind not in KINDS:
         raise ValidationError(f"trajectory type must be one of {', '.join(KINDS)}; got {kind!r}"
