@@ -41,7 +41,7 @@ __all__ = ["select", "sin", "cos", "tanh", "point_velocity_components", "dynamic
            "kinematic_control_and_rate_components", "compensation_regressor_components", "compensation_components", "adaptation_rate_components",
            "figure_eight", "circle", "stepped_radius", "mass_scale", "payload_theta", "line", "loop_signals", "loop_rates",
            "loop_derivative", "loop_adaptation_rates", "STATE", "S", "NSTATE", "LOOP_PARAMETERS", "P",
-           "reference_components", "FIGURE_EIGHT", "CIRCLE", "LINE", "PYTHON",
+           "reference_components", "FIGURE_EIGHT", "CIRCLE", "LINE", "SEGMENT", "PYTHON", "segment",
            "RADIUS_STEPS", "PAYLOAD_STEPS", "SWITCH_TOL", "clip_held", "speed_held", "clip_margin", "clip_side",
            "speed_margin", "speed_side", "loop_rates_held", "next_switch_time", "SWITCHES", "NSWITCH", "MODE",
            "AUTO"]
@@ -277,6 +277,8 @@ FIGURE_EIGHT = 0
 CIRCLE = 1
 #: The line's code (:func:`line`; a goal point is a line at rest).
 LINE = 2
+#: The segment's code (:func:`segment`).
+SEGMENT = 3
 #: The code of a reference that is a Python function: not compiled, the engine calls it.
 PYTHON = -1
 
@@ -322,6 +324,21 @@ def line(t, x0, y0, vx, vy):
     return x0 + vx * t, y0 + vy * t, vx + 0.0 * t, vy + 0.0 * t, 0.0 * t, 0.0 * t
 
 
+def segment(t, ts, x0, y0, x1, y1, duration):
+    r"""A straight segment from :math:`p_0` = (x0, y0) to :math:`p_1` = (x1, y1) travelled
+    at constant speed in ``duration`` s (> 0), then :math:`p_1` held:
+    :math:`h_d = p_0 + (p_1 - p_0)\,t / t_a` for :math:`t < t_a`, :math:`p_1` from
+    :math:`t_a` on: (x_d, y_d, x_d', y_d', x_d'', y_d''). The velocity jumps to 0 at the
+    arrival, judged at time ts (:math:`t_s \ge t_a - ` :data:`SWITCH_TOL`, the side of the
+    switch every engine takes); the acceleration is 0 on both sides (no impulse)."""
+    moving = ts < duration - SWITCH_TOL
+    s = t / duration
+    vx = select(moving, (x1 - x0) / duration, 0.0)
+    vy = select(moving, (y1 - y0) / duration, 0.0)
+    return (select(moving, x0 + (x1 - x0) * s, x1), select(moving, y0 + (y1 - y0) * s, y1),
+            vx + 0.0 * t, vy + 0.0 * t, 0.0 * t, 0.0 * t)
+
+
 def reference_components(t, ts, p):
     r"""(x_d, y_d, x_d', y_d', x_d'', y_d'') at time t of the reference one run's parameters
     p name (:data:`P`: its code in ``trajectory``, its numbers in ``path1``, ``path2``, ...
@@ -339,6 +356,8 @@ def reference_components(t, ts, p):
                       p[P.path4], p[P.path5])
     if code == LINE:
         return line(t, p[P.path1], p[P.path2], p[P.path3], p[P.path4])
+    if code == SEGMENT:
+        return segment(t, ts, p[P.path1], p[P.path2], p[P.path3], p[P.path4], p[P.path5])
     nan = math.nan
     return nan, nan, nan, nan, nan, nan
 
@@ -368,7 +387,7 @@ NSTATE = len(STATE)
 #: (:data:`FIGURE_EIGHT`, ...), ``path1..6`` its numbers, in the order of its function's
 #: arguments (:func:`reference_components`); ``step_time1``, ``step_radius1``, ... the
 #: times the reference steps (the batch engine ends a step there), for a circle with
-#: the radius from then on (:func:`stepped_radius`; inf or 0: unused);
+#: the radius from then on (:func:`stepped_radius`), for a segment its arrival (inf or 0: unused);
 #: ``payload_time1``, ``payload_mass1``, ... the robot's payload schedule
 #: (:func:`payload_theta`; theta1..6 are the empty robot's; time inf: unused).
 LOOP_PARAMETERS = (

@@ -320,6 +320,56 @@ class Point(Line):
         return {"type": self.kind, "x": self.x, "y": self.y}
 
 
+@dataclass(frozen=True)
+class Segment(_FromEquations):
+    r"""A straight segment travelled at constant speed, then its end held: the robot is
+    sent from :math:`p_0` to :math:`p_1` at speed v and stops there.
+
+    .. math:: h_d = p_0 + (p_1 - p_0)\,\min(t / t_a, 1), \quad t_a = |p_1 - p_0| / v
+
+    At the arrival :math:`t_a` the desired velocity :math:`\dot h_d` jumps from
+    :math:`v (p_1 - p_0) / |p_1 - p_0|` to 0, and with it the feedforward of Eq. (10);
+    :math:`\ddot h_d` (the exact rate of Eq. 10, which Eq. 12 compensates with) is 0 on
+    both sides: the jump has no impulse. The reference is not smoothed: the batch engine
+    ends a step at :math:`t_a`, as at a circle's radius step, so that each of its steps
+    integrates a smooth right-hand side; bdsim's solver integrates across it under its
+    error control.
+
+    :param start: p_0, m
+    :param end: p_1, m, not p_0 (a goal at rest from the start is a :class:`Point`)
+    :param speed: v, m/s, > 0
+    """
+
+    kind = "segment"
+    code = eq.SEGMENT
+    start: tuple = (0.0, 0.0)
+    end: tuple = (1.0, 0.0)
+    speed: float = 0.2
+
+    def __post_init__(self):
+        object.__setattr__(self, "start", tuple(vector("start", self.start, 2).tolist()))
+        object.__setattr__(self, "end", tuple(vector("end", self.end, 2).tolist()))
+        object.__setattr__(self, "speed", positive("speed", self.speed))
+        if self.start == self.end:
+            raise ValidationError(f"end must differ from start, both {list(self.start)}; a "
+                                  f"goal at rest from the start is a trajectory of type 'point'")
+
+    @property
+    def duration(self) -> float:
+        """t_a, the time of the arrival at the end, s."""
+        return math.hypot(self.end[0] - self.start[0], self.end[1] - self.start[1]) / self.speed
+
+    def arguments(self) -> tuple:
+        return (*self.start, *self.end, self.duration)
+
+    def _eval(self, t):
+        t = _t(t)
+        return eq.segment(t, t, *self.arguments())
+
+    def table(self) -> dict:
+        return {**super().table(), "step_time1": self.duration}  # a step ends at the arrival
+
+
 class FunctionTrajectory(Trajectory):
     r"""Wraps a user callable ``f(t) -> (h_d, h_d_dot)`` (scalar t).
 
@@ -388,7 +438,7 @@ def _table_of_kinds(*classes) -> dict:
 
 
 #: The kinds a scenario file names by ``type``, each evaluated compiled by the batch engine.
-KINDS = _table_of_kinds(FigureEight, Circle, Line, Point)
+KINDS = _table_of_kinds(FigureEight, Circle, Line, Point, Segment)
 
 
 def from_spec(spec) -> Trajectory:
