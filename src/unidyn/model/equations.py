@@ -160,7 +160,7 @@ def limited_acceleration(u, w, du, dw, speed_u, speed_w, accel_u, accel_w):
 SWITCHES = ("command_u", "command_w", "accel_u", "accel_w", "speed_u", "speed_w")
 #: The number of switches.
 NSWITCH = len(SWITCHES)
-#: A mode: the time at which the time switches (adaptation, payload, radius steps) are
+#: A mode: the time at which the time switches (adaptation, payload, the reference's steps) are
 #: judged, then each switch's side.
 MODE = ("time",) + SWITCHES
 #: A switch's side decided by the values where the loop is evaluated.

@@ -10,6 +10,9 @@ from a TOML scenario file): data only, nothing is evaluated.
 (``type`` in a file), its code and numbers in the batch engine's parameter table
 (:meth:`Trajectory.table`) and the function of :mod:`unidyn.model.equations` both
 evaluate. The engines, scenario and ``.bd`` files and the blocks read the kinds from it.
+A new kind is its class here, in :data:`KINDS`; its function, its code and its line in
+:func:`~unidyn.model.equations.reference_components`; and its block in
+:mod:`unidyn.blocks.sources` (bdsim finds blocks by reading their classes' source).
 """
 
 from __future__ import annotations
