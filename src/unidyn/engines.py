@@ -36,6 +36,7 @@ import warnings
 
 from ._validate import ValidationError, choice
 from .model.scenario import Scenario
+from .model.trajectories import KINDS
 
 __all__ = ["ENGINES", "OPTIONS", "choose", "run", "warn_if_plain", "plain_cost",
            "PlainPythonWarning", "PLAIN_SECONDS_PER_SAMPLE", "LONG_JOB"]
@@ -90,7 +91,6 @@ def plain_cost(scenarios, backend: str = "auto"):
     elif backend == "plain":
         fix = "backend='plain' was asked for (backend='auto' compiles it)"
     else:
-        from .model.trajectories import KINDS
         fix = ("a reference is a Python function (FunctionTrajectory); a built-in "
                f"trajectory ({', '.join(KINDS)}) runs compiled")
     return seconds, fix
