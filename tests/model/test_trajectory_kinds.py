@@ -69,3 +69,12 @@ def test_a_refusal_names_every_kind():
     with pytest.raises(ValidationError) as err:
         from_spec({"type": "spiral"})
     assert all(k in str(err.value) for k in KINDS)
+
+
+def test_a_kind_named_twice_or_a_code_taken_is_refused_where_the_table_is_built():
+    from unidyn.model.trajectories import Trajectory, _table_of_kinds
+    with pytest.raises(TypeError, match="two trajectory kinds are named 'line'"):
+        _table_of_kinds(Line, Line)
+    spiral = type("Spiral", (Trajectory,), {"kind": "spiral", "code": eq.LINE})
+    with pytest.raises(TypeError, match="'line' and 'spiral' share the code 2"):
+        _table_of_kinds(Line, spiral)
