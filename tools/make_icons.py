@@ -132,6 +132,11 @@ def point(ax):
     ax.add_patch(Circle((0.5, 0.5), 0.2, fill=False, lw=LW * 0.55, ec=INK))
 
 
+def segment(ax):
+    ax.plot([0.1, 0.78], [0.2, 0.72], color=INK, lw=LW * 0.55)
+    ax.add_patch(Circle((0.78, 0.72), 0.1, color=INK))
+
+
 def trajectory(ax):
     t = np.linspace(0.0, 1.0, 200)
     ax.plot(0.1 + 0.8 * t, 0.5 + 0.25 * np.sin(2 * np.pi * t) * (1 - 0.3 * t), color=INK, lw=LW * 0.55)
@@ -162,6 +167,7 @@ ICONS = {
     "circle": circle,
     "line": line,
     "point": point,
+    "segment": segment,
     "trajectorysource": trajectory,
     "measurementnoise": noise,
     "sensornoise": noise_named_clock,

@@ -36,6 +36,7 @@ import warnings
 
 from ._validate import ValidationError, choice
 from .model.scenario import Scenario
+from .model.trajectories import KINDS
 
 __all__ = ["ENGINES", "OPTIONS", "choose", "run", "warn_if_plain", "plain_cost",
            "PlainPythonWarning", "PLAIN_SECONDS_PER_SAMPLE", "LONG_JOB"]
@@ -91,7 +92,7 @@ def plain_cost(scenarios, backend: str = "auto"):
         fix = "backend='plain' was asked for (backend='auto' compiles it)"
     else:
         fix = ("a reference is a Python function (FunctionTrajectory); a built-in "
-               "trajectory (figure_eight, circle, line) runs compiled")
+               f"trajectory ({', '.join(KINDS)}) runs compiled")
     return seconds, fix
 
 

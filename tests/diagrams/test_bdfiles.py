@@ -249,6 +249,7 @@ NON_DEFAULT = {
                     phase=0.2), []),
     "Line": (dict(start=[1.0, 2.0], velocity=[-0.1, 0.3]), []),
     "Point": (dict(x=-1.0, y=2.5), []),
+    "Segment": (dict(start=[1.0, 2.0], end=[-0.5, 3.0], speed=0.4), []),
     "SensorNoise": (dict(Ts=0.2, clock_name="meas", std=0.05, seed=9, stream=2,
                          indices=[1, 2]), [[1.0, 2.0, 3.0]]),
 }

@@ -236,7 +236,10 @@ def _trajectory():
                        phase=_f(-math.pi, math.pi))
     line = st.builds(trajectories.Line, start=center,
                      velocity=st.tuples(_f(-0.5, 0.5), _f(-0.5, 0.5)))
-    return st.one_of(eight, circle, line)
+    # a segment from a centre to a point 0.1-3 m to its right (never of length 0)
+    segment = st.builds(lambda c, d, v: trajectories.Segment(c, (c[0] + d[0], c[1] + d[1]), v),
+                        center, st.tuples(_f(0.1, 3), _f(-3, 3)), _f(0.05, 1.0))
+    return st.one_of(eight, circle, line, segment)
 
 
 def _scenario_limits():

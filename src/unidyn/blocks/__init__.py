@@ -17,6 +17,7 @@ from .sources import (
     Line,
     MeasurementNoise,
     Point,
+    Segment,
     SensorNoise,
     TrajectorySource,
     trajectory_block,
@@ -24,7 +25,8 @@ from .sources import (
 from .unicycles import DynamicUnicycle, DynamicUnicycleWithVelocity, KinematicUnicycle
 
 __all__ = ["DynamicUnicycle", "KinematicUnicycle", "KinematicController",
-           "DynamicCompensator", "FigureEight", "Circle", "Line", "Point", "TrajectorySource",
+           "DynamicCompensator", "FigureEight", "Circle", "Line", "Point", "Segment",
+           "TrajectorySource",
            "MeasurementNoise",
            # the same blocks with fixed ports (drawn by bdedit, loaded from .bd files)
            "DynamicUnicycleWithVelocity", "KinematicControllerWithRate",

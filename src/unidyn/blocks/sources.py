@@ -317,11 +317,72 @@ class Point(TrajectorySource):
         self.type = "point"
 
 
+class Segment(TrajectorySource):
+    r"""
+    :blockname:`SEGMENT`
+
+    A straight segment from ``start`` to ``end`` at constant ``speed``, then the end held:
+    the robot is sent to a point along a straight path and stops there.
+
+    :inputs: 0
+    :outputs: 3
+    :states: 0
+
+    .. list-table::
+        :header-rows: 1
+
+        *   - Port type
+            - Port number
+            - Types
+            - Description
+        *   - Output
+            - 0
+            - ndarray(2)
+            - :math:`h_d`, desired position, m (label ``h_d``)
+        *   - Output
+            - 1
+            - ndarray(2)
+            - :math:`\dot h_d`, desired velocity, m/s; 0 from the arrival on (label ``h_d_dot``)
+        *   - Output
+            - 2
+            - ndarray(2)
+            - :math:`\ddot h_d = 0` (label ``h_d_ddot``)
+
+    .. math:: h_d = p_0 + (p_1 - p_0)\,\min(t / t_a, 1), \quad t_a = |p_1 - p_0| / v
+
+    At the arrival :math:`t_a` the desired velocity jumps to 0 (no impulse in
+    :math:`\ddot h_d`); see :class:`unidyn.model.trajectories.Segment`.
+    """
+
+    #: the trajectory it produces, whose parameters are the block's
+    trajectory_class = traj.Segment
+    nin = 0
+    nout = 3
+    outlabels = ("h_d", "h_d_dot", "h_d_ddot")
+
+    @records_arguments
+    def __init__(self, start: Sequence[float] = (0.0, 0.0), end: Sequence[float] = (1.0, 0.0),
+                 speed: float = 0.2, **blockargs):
+        r"""
+        :param start: p_0, m
+        :type start: array_like(2)
+        :param end: p_1, m, not p_0
+        :type end: array_like(2)
+        :param speed: v, m/s, > 0
+        :type speed: float
+        :param blockargs: common block options
+        :type blockargs: dict
+        """
+        check_blockargs(self, blockargs)
+        super().__init__(traj.Segment(start, end, speed), **blockargs)
+        self.type = "segment"
+
+
 def trajectory_block(trajectory: traj.Trajectory | dict | Callable, **blockargs) -> TrajectorySource:
-    """The source block of a reference: a :class:`FigureEight`, :class:`Circle`,
-    :class:`Line` or :class:`Point` with the trajectory's own parameters for those
-    trajectories (a ``.bd`` file then holds them as numbers bdedit shows), else a
-    :class:`TrajectorySource` of it.
+    """The source block of a reference: the block of its kind (:class:`FigureEight`,
+    :class:`Circle`, :class:`Line`, :class:`Point`, :class:`Segment`: its
+    ``trajectory_class``) with the trajectory's own parameters (a ``.bd`` file then holds
+    them as numbers bdedit shows), else a :class:`TrajectorySource` of it.
 
     :param trajectory: a Trajectory, a trajectory spec dict, or a callable t -> (h_d, h_d_dot)
     :param blockargs: common block options (``bd``, ``name``, ...)

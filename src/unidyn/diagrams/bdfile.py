@@ -202,7 +202,7 @@ def _argument(value, where: str):
         value = value.to_spec()
         if value["type"] not in traj.KINDS:
             raise BdFileError(f"{where} is a {value['type']} trajectory, which a .bd file cannot "
-                              f"hold (a file holds no code); use a figure eight, circle, line or point")
+                              f"hold (a file holds no code); use one of {', '.join(traj.KINDS)}")
         return value
     if isinstance(value, np.random.SeedSequence):
         return _seed_expr(value, where)

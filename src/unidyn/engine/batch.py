@@ -18,7 +18,7 @@ import numpy as np
 
 from .._errors import SimulationInterrupted
 from .._validate import BATCH_ATOL, BATCH_RTOL, ValidationError, tolerances
-from ..model.equations import TRAJECTORY_KINDS
+from ..model import equations, trajectories
 from ..model.scenario import ALWAYS_LOGGED, Scenario
 from ..progress import Progress
 from ..results.result import INTEGRAL_NAMES, Result
@@ -66,12 +66,13 @@ def backend_for(scenarios, backend: str = "auto") -> str:
     from . import kernels  # numba loads with the kernels
     if backend not in BACKENDS:
         raise ValidationError(f"backend must be one of {', '.join(BACKENDS)}; got {backend!r}")
-    compilable = all(getattr(s.trajectory, "kind", None) in TRAJECTORY_KINDS for s in scenarios)
+    compilable = all(s.trajectory.code != equations.PYTHON for s in scenarios)
     if backend == "compiled" and not kernels.AVAILABLE:
         raise ValidationError("backend='compiled' needs numba (pip install unidyn[fast])")
     if backend == "compiled" and not compilable:
-        raise ValidationError("backend='compiled' runs the figure_eight, circle and line "
-                              "trajectories only; use backend='plain' for a FunctionTrajectory")
+        raise ValidationError(f"backend='compiled' runs the trajectories "
+                              f"{', '.join(trajectories.KINDS)} only; use backend='plain' "
+                              f"for a FunctionTrajectory")
     if backend == "compiled" or (backend == "auto" and kernels.AVAILABLE and compilable):
         return "compiled"
     return "plain"

@@ -247,20 +247,13 @@ if AVAILABLE:
 
 @jit(inline=True)
 def reference(t, ts, p, references):
-    """(x_d, y_d, x_d', y_d', x_d'', y_d'') of the run with parameters p at time t, a
-    circle's radius steps judged at time ts (the step's start: a step never spans one)
-    (``references``: the call's Python-function references, trajectory code -1)."""
-    kind = p[P.trajectory]
-    if kind < 0.0:
+    """(x_d, y_d, x_d', y_d', x_d'', y_d'') of the run with parameters p at time t, the
+    reference's steps judged at time ts (the step's start: a step never spans one)
+    (:func:`unidyn.model.equations.reference_components`; ``references``: the call's
+    Python-function references, code :data:`~unidyn.model.equations.PYTHON`)."""
+    if p[P.trajectory] == eq.PYTHON:
         return python_reference(t, p[P.path1], references)
-    if kind == 0.0:
-        return eq.figure_eight(t, p[P.path1], p[P.path2], p[P.path3], p[P.path4],
-                               p[P.path5], p[P.path6])
-    if kind == 1.0:
-        steps = p[P.step_time1:P.step_time1 + 2 * eq.RADIUS_STEPS]  # unused: at t = inf
-        radius = eq.stepped_radius(ts, p[P.path1], steps)
-        return eq.circle(t, radius, p[P.path2], p[P.path3], p[P.path4], p[P.path5])
-    return eq.line(t, p[P.path1], p[P.path2], p[P.path3], p[P.path4])
+    return eq.reference_components(t, ts, p)
 
 
 @jit

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..model import equations, laws
-from ..model.equations import LOOP_PARAMETERS, NSTATE, TRAJECTORY_KINDS, P
+from ..model.equations import LOOP_PARAMETERS, NSTATE, PYTHON, P
 from ..model.noise import HeldNoise, noise_seeds
 from ..model.parameters import THETA_NAMES
 from ..model.scenario import Scenario
@@ -63,7 +63,7 @@ class ClosedLoop:
         self.traj_index = np.array([first.setdefault(k, len(first)) for k in keys], dtype=int)
         self.trajectories = [scs[keys.index(k)].trajectory for k in first]
         # a reference that is a Python function: its index among them, for the engine
-        python = self.P[:, P.trajectory] < 0
+        python = self.P[:, P.trajectory] == PYTHON
         self.P[python, P.path1] = self.traj_index[python]
         # noise, held per interval, drawn a window of rows at a time (noise_window); a
         # kinematic robot has no velocities to measure
@@ -119,8 +119,6 @@ class ClosedLoop:
         table = np.zeros((self.B, len(LOOP_PARAMETERS)))
         for i, s in enumerate(self.scenarios):
             spec = s.case_spec
-            tr = s.trajectory
-            kind = getattr(tr, "kind", None)
             values = dict(
                 zip(THETA_NAMES, s.robot.theta),
                 a=s.a, kx=s.kx, ky=s.ky, lx=s.lx, ly=s.ly, ku=s.ku, kw=s.kw, lu=s.lu, lw=s.lw,
@@ -129,25 +127,12 @@ class ClosedLoop:
                 compensated=float(spec.compensated),
                 speed_u=s.limits.speed[0], speed_w=s.limits.speed[1],
                 accel_u=s.limits.accel[0], accel_w=s.limits.accel[1],
-                trajectory=TRAJECTORY_KINDS.index(kind) if kind in TRAJECTORY_KINDS else -1)
+                # the reference's code and numbers (a Python function: path1, its index)
+                **s.trajectory.table())
             leak = laws.leakage_rate(s.gamma, s.sigma, s.leakage)
             for j in range(6):
                 values[f"gamma{j + 1}"] = s.gamma[j]
                 values[f"leak{j + 1}"] = leak[j]
-            if kind == "figure_eight":
-                path = (tr.ax, tr.ay, tr.wx, tr.wy, tr.center[0], tr.center[1])
-            elif kind == "circle":
-                (_, radius), *steps = tr.radius_schedule
-                path = (radius, tr.omega, tr.center[0], tr.center[1], tr.phase)
-                steps += [(np.inf, radius)] * (equations.RADIUS_STEPS - len(steps))
-                for j, (t_step, r_step) in enumerate(steps):
-                    values[f"step_time{j + 1}"], values[f"step_radius{j + 1}"] = t_step, r_step
-            elif kind == "line":
-                path = (*tr.start, *tr.velocity_)
-            else:  # a Python function: the kernels' plain copy calls it (path1: its index)
-                path = ()
-            for j, v in enumerate(path):
-                values[f"path{j + 1}"] = v
             load = list(s.payload) + [(np.inf, 1.0)] * (equations.PAYLOAD_STEPS - len(s.payload))
             for j, (t_load, m_load) in enumerate(load):
                 values[f"payload_time{j + 1}"], values[f"payload_mass{j + 1}"] = t_load, m_load

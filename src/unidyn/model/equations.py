@@ -40,7 +40,8 @@ __all__ = ["select", "sin", "cos", "tanh", "point_velocity_components", "dynamic
            "regressor_components", "saturate", "limited_acceleration", "kinematic_control_components",
            "kinematic_control_and_rate_components", "compensation_regressor_components", "compensation_components", "adaptation_rate_components",
            "figure_eight", "circle", "stepped_radius", "mass_scale", "payload_theta", "line", "loop_signals", "loop_rates",
-           "loop_derivative", "loop_adaptation_rates", "STATE", "S", "NSTATE", "LOOP_PARAMETERS", "P", "TRAJECTORY_KINDS",
+           "loop_derivative", "loop_adaptation_rates", "STATE", "S", "NSTATE", "LOOP_PARAMETERS", "P",
+           "reference_components", "FIGURE_EIGHT", "CIRCLE", "LINE", "SEGMENT", "PYTHON", "segment",
            "RADIUS_STEPS", "PAYLOAD_STEPS", "SWITCH_TOL", "clip_held", "speed_held", "clip_margin", "clip_side",
            "speed_margin", "speed_side", "loop_rates_held", "next_switch_time", "SWITCHES", "NSWITCH", "MODE",
            "AUTO"]
@@ -159,7 +160,7 @@ def limited_acceleration(u, w, du, dw, speed_u, speed_w, accel_u, accel_w):
 SWITCHES = ("command_u", "command_w", "accel_u", "accel_w", "speed_u", "speed_w")
 #: The number of switches.
 NSWITCH = len(SWITCHES)
-#: A mode: the time at which the time switches (adaptation, payload, radius steps) are
+#: A mode: the time at which the time switches (adaptation, payload, the reference's steps) are
 #: judged, then each switch's side.
 MODE = ("time",) + SWITCHES
 #: A switch's side decided by the values where the loop is evaluated.
@@ -264,6 +265,24 @@ def adaptation_rate_components(g0, g1, u_tilde, w_tilde, gamma, leak, theta_hat)
 
 
 # -------------------------------------------------------------------- trajectories
+# A kind of reference is a function below, of t and the kind's numbers, returning
+# (x_d, y_d, x_d', y_d', x_d'', y_d''); its class in :mod:`unidyn.model.trajectories`
+# holds its numbers, and its code names it in the parameter table (:data:`P`, entry
+# ``trajectory``), where :func:`reference_components` reads it. A new kind: its function,
+# its code and its line in :func:`reference_components` here, its class there.
+
+#: The figure eight's code (:func:`figure_eight`) in the table entry ``trajectory``.
+FIGURE_EIGHT = 0
+#: The circle's code (:func:`circle`, the radius by :func:`stepped_radius`).
+CIRCLE = 1
+#: The line's code (:func:`line`; a goal point is a line at rest).
+LINE = 2
+#: The segment's code (:func:`segment`).
+SEGMENT = 3
+#: The code of a reference that is a Python function: not compiled, the engine calls it.
+PYTHON = -1
+
+
 def figure_eight(t, ax, ay, wx, wy, cx, cy):
     r"""The paper's figure eight (Section 5), :math:`x_d = c_x + A_x\sin\omega_x t,\
     y_d = c_y + A_y(\cos\omega_y t - 1)`: (x_d, y_d, x_d', y_d', x_d'', y_d'')."""
@@ -305,9 +324,44 @@ def line(t, x0, y0, vx, vy):
     return x0 + vx * t, y0 + vy * t, vx + 0.0 * t, vy + 0.0 * t, 0.0 * t, 0.0 * t
 
 
-#: The kinds of reference the compiled engine evaluates itself (the value of the
-#: table entry ``trajectory`` is the index in this tuple).
-TRAJECTORY_KINDS = ("figure_eight", "circle", "line")
+def segment(t, ts, x0, y0, x1, y1, duration):
+    r"""A straight segment from :math:`p_0` = (x0, y0) to :math:`p_1` = (x1, y1) travelled
+    at constant speed in ``duration`` s (> 0), then :math:`p_1` held:
+    :math:`h_d = p_0 + (p_1 - p_0)\,t / t_a` for :math:`t < t_a`, :math:`p_1` from
+    :math:`t_a` on: (x_d, y_d, x_d', y_d', x_d'', y_d''). The velocity jumps to 0 at the
+    arrival, judged at time ts (:math:`t_s \ge t_a - ` :data:`SWITCH_TOL`, the side of the
+    switch every engine takes); the acceleration is 0 on both sides (no impulse)."""
+    moving = ts < duration - SWITCH_TOL
+    s = t / duration
+    vx = select(moving, (x1 - x0) / duration, 0.0)
+    vy = select(moving, (y1 - y0) / duration, 0.0)
+    return (select(moving, x0 + (x1 - x0) * s, x1), select(moving, y0 + (y1 - y0) * s, y1),
+            vx + 0.0 * t, vy + 0.0 * t, 0.0 * t, 0.0 * t)
+
+
+def reference_components(t, ts, p):
+    r"""(x_d, y_d, x_d', y_d', x_d'', y_d'') at time t of the reference one run's parameters
+    p name (:data:`P`: its code in ``trajectory``, its numbers in ``path1``, ``path2``, ...
+    in the order of its function's arguments after t), its steps judged at time ts (a
+    circle's radius; the batch engine's step start, since a step never spans a step of
+    the reference). p is one run's: this function branches on its code. An unknown code
+    gives NaN."""
+    code = p[P.trajectory]
+    if code == FIGURE_EIGHT:
+        return figure_eight(t, p[P.path1], p[P.path2], p[P.path3], p[P.path4], p[P.path5],
+                            p[P.path6])
+    if code == CIRCLE:
+        steps = p[P.step_time1:P.step_time1 + 2 * RADIUS_STEPS]  # unused: at t = inf
+        return circle(t, stepped_radius(ts, p[P.path1], steps), p[P.path2], p[P.path3],
+                      p[P.path4], p[P.path5])
+    if code == LINE:
+        return line(t, p[P.path1], p[P.path2], p[P.path3], p[P.path4])
+    if code == SEGMENT:
+        return segment(t, ts, p[P.path1], p[P.path2], p[P.path3], p[P.path4], p[P.path5])
+    nan = math.nan
+    return nan, nan, nan, nan, nan, nan
+
+
 #: The most radius steps of a circle the compiled engine holds (the table entries
 #: ``step_time1``, ``step_radius1``, ...): eight, twice the schedule of the authors'
 #: MATLAB package.
@@ -329,9 +383,11 @@ NSTATE = len(STATE)
 #: Eq. 2, 0: kinematic), ``compensated`` (1: v_ref = G theta_hat, Eq. 14; 0: v_ref = v_d)
 #: and ``filtered`` (1: v_d' from the filter (v_d - z)/tau; 0: the exact rate) are
 #: 0/1; ``leak1..6`` are the leakage rates of :func:`adaptation_rate_components`; ``adapt_from`` is
-#: inf where the estimate is not adapted; ``path1..6`` are the reference's
-#: parameters, in the order of the function of its kind; ``step_time1``,
-#: ``step_radius1``, ... a circle's radius steps (:func:`stepped_radius`; inf: unused);
+#: inf where the estimate is not adapted; ``trajectory`` is the reference's code
+#: (:data:`FIGURE_EIGHT`, ...), ``path1..6`` its numbers, in the order of its function's
+#: arguments (:func:`reference_components`); ``step_time1``, ``step_radius1``, ... the
+#: times the reference steps (the batch engine ends a step there), for a circle with
+#: the radius from then on (:func:`stepped_radius`), for a segment its arrival (inf or 0: unused);
 #: ``payload_time1``, ``payload_mass1``, ... the robot's payload schedule
 #: (:func:`payload_theta`; theta1..6 are the empty robot's; time inf: unused).
 LOOP_PARAMETERS = (
@@ -453,9 +509,9 @@ def loop_rates_held(t, X, ref, p, noise, mode):
 def next_switch_time(t, p):
     """The first time after t (by more than :data:`SWITCH_TOL`) at which a time switch
     of the loop with parameters p flips: adaptation on (``adapt_from``), a payload
-    step, a radius step of a circle; inf if none. The batch engine ends a step there.
-    Scalar arguments only (one run's t and parameter row): unlike the rest of this
-    module, it branches on values."""
+    step, a step of the reference (``step_time1``, ...: a circle's radius, a segment's
+    arrival); inf if none. The batch engine ends a step there. Scalar arguments only (one
+    run's t and parameter row): unlike the rest of this module, it branches on values."""
     first = math.inf
     if p[P.adapt_from] > t + SWITCH_TOL:
         first = min(first, p[P.adapt_from])

@@ -5,11 +5,21 @@ Each trajectory is an immutable object with ``position(t)``, ``velocity(t)`` and
 ``acceleration(t)``; ``t`` may be a scalar or an array, and the result has shape
 ``t.shape + (2,)``. :func:`from_spec` builds one from a plain dict (as read
 from a TOML scenario file): data only, nothing is evaluated.
+
+:data:`KINDS` is the table of the kinds: one class each, which holds the kind's name
+(``type`` in a file), its code and numbers in the batch engine's parameter table
+(:meth:`Trajectory.table`) and the function of :mod:`unidyn.model.equations` both
+evaluate. The engines, scenario and ``.bd`` files and the blocks read the kinds from it.
+A new kind is its class here, in :data:`KINDS`; its function, its code and its line in
+:func:`~unidyn.model.equations.reference_components`; and its block in
+:mod:`unidyn.blocks.sources` (bdsim finds blocks by reading their classes' source).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, field
+from fractions import Fraction
 from typing import Callable
 
 import numpy as np
@@ -26,6 +36,12 @@ class Trajectory:
     """Base class: a planar reference h_d(t) for the point of interest."""
 
     kind = "trajectory"
+    #: its code in the batch engine's parameter table (entry ``trajectory``): a constant of
+    #: :mod:`unidyn.model.equations` naming the function the compiled engine evaluates;
+    #: :data:`~unidyn.model.equations.PYTHON`: none, the engine calls :meth:`evaluate`
+    code = eq.PYTHON
+    #: its period, s, or None (not periodic)
+    period = None
 
     def position(self, t):  # pragma: no cover - abstract
         raise NotImplementedError
@@ -48,6 +64,13 @@ class Trajectory:
         """A plain dict that :func:`from_spec` turns back into this trajectory."""
         return {"type": self.kind, **asdict(self)}
 
+    def table(self) -> dict:
+        """Its entries in the batch engine's parameter table, by name
+        (:data:`unidyn.model.equations.LOOP_PARAMETERS`): the code; for a compiled kind
+        its numbers (``path1``, ...: :meth:`arguments`) and the times it steps at
+        (``step_time1``, ...), where the engine ends a step."""
+        return {"trajectory": self.code}
+
 
 def _t(t):
     """t as a float (arithmetic on a float is faster than on a 0-d array, and the
@@ -68,10 +91,20 @@ def _xy(x, y):
 class _FromEquations(Trajectory):
     """A trajectory given by one function of :mod:`unidyn.model.equations`, which
     ``_eval(t)`` calls: its six values (x, y, x', y', x'', y'') are the position, velocity and
-    acceleration."""
+    acceleration. The compiled engine calls the same function, by the class's
+    :attr:`~Trajectory.code`, with the numbers :meth:`arguments` gives."""
 
     def _eval(self, t):  # pragma: no cover - abstract
         raise NotImplementedError
+
+    def arguments(self) -> tuple:  # pragma: no cover - abstract
+        """The numbers its function takes after t, in order (at most six)."""
+        raise NotImplementedError
+
+    def table(self) -> dict:
+        entries = {"trajectory": self.code}
+        entries.update((f"path{j + 1}", float(v)) for j, v in enumerate(self.arguments()))
+        return entries
 
     def position(self, t):
         return _xy(*self._eval(t)[0:2])
@@ -103,6 +136,7 @@ class FigureEight(_FromEquations):
     """
 
     kind = "figure_eight"
+    code = eq.FIGURE_EIGHT
     ax: float = 1.0
     ay: float = 1.0
     wx: float = 0.5
@@ -114,8 +148,19 @@ class FigureEight(_FromEquations):
             object.__setattr__(self, k, positive(k, getattr(self, k)))
         object.__setattr__(self, "center", tuple(vector("center", self.center, 2).tolist()))
 
+    def arguments(self) -> tuple:
+        return (self.ax, self.ay, self.wx, self.wy, *self.center)
+
     def _eval(self, t):
-        return eq.figure_eight(_t(t), self.ax, self.ay, self.wx, self.wy, *self.center)
+        return eq.figure_eight(_t(t), *self.arguments())
+
+    @property
+    def period(self):
+        """2 pi q / omega_y where omega_x / omega_y = p / q (q at most 24), else None."""
+        ratio = Fraction(self.wx / self.wy).limit_denominator(24)
+        if abs(float(ratio) - self.wx / self.wy) > 1e-9:
+            return None
+        return 2 * math.pi * ratio.denominator / self.wy
 
 
 @dataclass(frozen=True)
@@ -146,6 +191,7 @@ class Circle(_FromEquations):
     """
 
     kind = "circle"
+    code = eq.CIRCLE
     radius: float | tuple = 1.0
     omega: float = 0.2
     center: tuple = (0.0, 0.0)
@@ -176,9 +222,26 @@ class Circle(_FromEquations):
         """The steps as :func:`unidyn.model.equations.stepped_radius` takes them."""
         return tuple(v for row in self.radius_schedule[1:] for v in row)
 
+    def arguments(self) -> tuple:
+        """The radius at t = 0 (the engine steps it: :meth:`table`), then the others."""
+        return (self.radius_schedule[0][1], self.omega, *self.center, self.phase)
+
     def _eval(self, t):
         t = _t(t)
         return eq.circle(t, self.radius_at(t), self.omega, *self.center, self.phase)
+
+    def table(self) -> dict:
+        entries = super().table()
+        (_, radius), *steps = self.radius_schedule
+        steps += [(math.inf, radius)] * (eq.RADIUS_STEPS - len(steps))
+        for j, (t_step, r_step) in enumerate(steps):
+            entries[f"step_time{j + 1}"], entries[f"step_radius{j + 1}"] = t_step, r_step
+        return entries
+
+    @property
+    def period(self):
+        """2 pi / |omega| for a radius that does not step, else None."""
+        return 2 * math.pi / abs(self.omega) if len(self.radius_schedule) == 1 else None
 
 
 def _radius_schedule(value) -> tuple:
@@ -212,6 +275,7 @@ class Line(_FromEquations):
     """
 
     kind = "line"
+    code = eq.LINE
     start: tuple = (0.0, 0.0)
     velocity_: tuple = field(default=(0.2, 0.0), metadata={"name": "velocity"})
 
@@ -219,8 +283,11 @@ class Line(_FromEquations):
         object.__setattr__(self, "start", tuple(vector("start", start, 2).tolist()))
         object.__setattr__(self, "velocity_", tuple(vector("velocity", velocity, 2).tolist()))
 
+    def arguments(self) -> tuple:
+        return (*self.start, *self.velocity_)
+
     def _eval(self, t):
-        return eq.line(_t(t), *self.start, *self.velocity_)
+        return eq.line(_t(t), *self.arguments())
 
     def to_spec(self) -> dict:
         return {"type": self.kind, "start": list(self.start), "velocity": list(self.velocity_)}
@@ -235,6 +302,8 @@ class Point(Line):
     :param x: the point's x, m
     :param y: the point's y, m
     """
+
+    kind = "point"
 
     def __init__(self, x: float = 1.0, y: float = 1.0):
         super().__init__(start=(real("x", x), real("y", y)), velocity=(0.0, 0.0))
@@ -251,7 +320,57 @@ class Point(Line):
         return f"Point(x={self.x!r}, y={self.y!r})"
 
     def to_spec(self) -> dict:
-        return {"type": "point", "x": self.x, "y": self.y}
+        return {"type": self.kind, "x": self.x, "y": self.y}
+
+
+@dataclass(frozen=True)
+class Segment(_FromEquations):
+    r"""A straight segment travelled at constant speed, then its end held: the robot is
+    sent from :math:`p_0` to :math:`p_1` at speed v and stops there.
+
+    .. math:: h_d = p_0 + (p_1 - p_0)\,\min(t / t_a, 1), \quad t_a = |p_1 - p_0| / v
+
+    At the arrival :math:`t_a` the desired velocity :math:`\dot h_d` jumps from
+    :math:`v (p_1 - p_0) / |p_1 - p_0|` to 0, and with it the feedforward of Eq. (10);
+    :math:`\ddot h_d` (the exact rate of Eq. 10, which Eq. 12 compensates with) is 0 on
+    both sides: the jump has no impulse. The reference is not smoothed: the batch engine
+    ends a step at :math:`t_a`, as at a circle's radius step, so that each of its steps
+    integrates a smooth right-hand side; bdsim's solver integrates across it under its
+    error control.
+
+    :param start: p_0, m
+    :param end: p_1, m, not p_0 (a goal at rest from the start is a :class:`Point`)
+    :param speed: v, m/s, > 0
+    """
+
+    kind = "segment"
+    code = eq.SEGMENT
+    start: tuple = (0.0, 0.0)
+    end: tuple = (1.0, 0.0)
+    speed: float = 0.2
+
+    def __post_init__(self):
+        object.__setattr__(self, "start", tuple(vector("start", self.start, 2).tolist()))
+        object.__setattr__(self, "end", tuple(vector("end", self.end, 2).tolist()))
+        object.__setattr__(self, "speed", positive("speed", self.speed))
+        if self.start == self.end:
+            raise ValidationError(f"end must differ from start, both {list(self.start)}; a "
+                                  f"goal at rest from the start is a trajectory of type 'point'")
+
+    @property
+    def duration(self) -> float:
+        """t_a, the time of the arrival at the end, s."""
+        return math.hypot(self.end[0] - self.start[0], self.end[1] - self.start[1]) / self.speed
+
+    def arguments(self) -> tuple:
+        return (*self.start, *self.end, self.duration)
+
+    def _eval(self, t):
+        t = _t(t)
+        return eq.segment(t, t, *self.arguments())
+
+    def table(self) -> dict:
+        return {**super().table(), "step_time1": self.duration}  # a step ends at the arrival
 
 
 class FunctionTrajectory(Trajectory):
@@ -306,7 +425,23 @@ class FunctionTrajectory(Trajectory):
         return {"type": "function", "callable": f"{getattr(self.f, '__module__', '?')}.{name}"}
 
 
-KINDS = {"figure_eight": FigureEight, "circle": Circle, "line": Line, "point": Point}
+def _table_of_kinds(*classes) -> dict:
+    """{kind: class}; a name taken twice, or a code shared but by a kind and its base
+    (a point is evaluated as a line), is an error here, at import."""
+    kinds = {}
+    for cls in classes:
+        if cls.kind in kinds:
+            raise TypeError(f"two trajectory kinds are named {cls.kind!r}")
+        for other in kinds.values():
+            if cls.code == other.code and not issubclass(cls, other):
+                raise TypeError(f"trajectory kinds {other.kind!r} and {cls.kind!r} share "
+                                f"the code {cls.code}")
+        kinds[cls.kind] = cls
+    return kinds
+
+
+#: The kinds a scenario file names by ``type``, each evaluated compiled by the batch engine.
+KINDS = _table_of_kinds(FigureEight, Circle, Line, Point, Segment)
 
 
 def from_spec(spec) -> Trajectory:
@@ -329,7 +464,7 @@ def from_spec(spec) -> Trajectory:
                               f"{did_you_mean(kind, KINDS)}")
     if kind == "function":
         raise ValidationError("trajectory of type 'function' wraps Python code and cannot be "
-                              "rebuilt from a file; use figure_eight, circle or line, or pass a "
+                              f"rebuilt from a file; use one of {', '.join(KINDS)}, or pass a "
                               "FunctionTrajectory from Python")
     if kind not in KINDS:
         raise ValidationError(f"trajectory type must be one of {', '.join(KINDS)}; got {kind!r}"

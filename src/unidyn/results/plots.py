@@ -19,9 +19,6 @@ Fig. 11 by :func:`unidyn.paper.plot_fig11`.
 
 from __future__ import annotations
 
-import math
-from fractions import Fraction
-
 import numpy as np
 
 from ..model.cases import CASE_SPECS
@@ -69,17 +66,9 @@ def run_title(scenario) -> str:
 
 def reference_period(trajectory):
     """The period of a trajectory, s, or ``None`` (not periodic, or a period so long
-    that drawing the whole run is as good): 2 pi / omega for a circle (whose radius does
-    not step), the common period of the two sines of a figure eight."""
-    kind = getattr(trajectory, "kind", None)
-    if kind == "circle" and len(trajectory.radius_schedule) == 1:
-        return 2 * math.pi / abs(trajectory.omega)
-    if kind == "figure_eight":
-        ratio = Fraction(trajectory.wx / trajectory.wy).limit_denominator(24)
-        if abs(float(ratio) - trajectory.wx / trajectory.wy) > 1e-9:
-            return None
-        return 2 * math.pi * ratio.denominator / trajectory.wy
-    return None
+    that drawing the whole run is as good): its kind's ``period``
+    (:class:`unidyn.model.trajectories.Trajectory`)."""
+    return getattr(trajectory, "period", None)
 
 
 def reference_once(result):
