@@ -396,3 +396,33 @@ def test_section5_error_panels_share_one_scale(tmp_path, monkeypatch):
     top = max(float(r.error.max()) for r in runs)
     assert len(limits) == 4 and len(set(limits)) == 1, limits
     assert limits[0][0] == 0 and top < limits[0][1] < 1.1 * top
+
+
+def test_section5_inset_caption_stays_inside_the_inset(tmp_path, monkeypatch):
+    """Case 3's zoom into the first seconds carries its caption inside its own axes,
+    above its curve: nothing of it runs over the main panel."""
+    sys.path.insert(0, str(EXAMPLES))
+    try:
+        import paper_section5
+    finally:
+        sys.path.remove(str(EXAMPLES))
+    runs = unidyn.simulate_batch([unidyn.Scenario.paper(n, T=4) for n in (1, 2, 3, 4)])
+    found = []
+
+    def check(fig, path):
+        fig.canvas.draw()
+        (ins,) = fig.axes[5].child_axes
+        box = ins.get_window_extent()
+        for text in ins.texts:
+            tb = text.get_window_extent()
+            found.append((box.x0 <= tb.x0 and tb.x1 <= box.x1 and box.y0 <= tb.y0
+                          and tb.y1 <= box.y1, tb))
+            # above the curve: no point of it under the caption
+            xy = ins.transData.transform(ins.get_lines()[0].get_xydata())
+            under = (xy[:, 0] >= tb.x0) & (xy[:, 0] <= tb.x1) & (xy[:, 1] >= tb.y0)
+            assert not under.any()
+        plt.close(fig)
+
+    monkeypatch.setattr(figstyle, "save", check)
+    paper_section5.section5_figure(dict(zip((1, 2, 3, 4), runs)), tmp_path / "section5.png")
+    assert found and all(inside for inside, _ in found), found
