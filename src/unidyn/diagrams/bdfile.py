@@ -59,14 +59,19 @@ _INPUT, _OUTPUT = 1, 2
 _STEP_WIRE = 3
 
 #: Positions (x, y) of the Fig. 2 blocks by name, left to right trajectory -> K -> D ->
-#: R, the measurements fed back below (drawn flipped: signals flow right to left).
-#: y grows downwards in bdedit.
+#: R, the measurements fed back below (drawn flipped: signals flow right to left), on
+#: bdedit's 20 px grid; y grows downwards in bdedit. The gaps leave the editor's wires
+#: lanes apart: bdedit turns a feedback wire 20 px x (input index + 1) left of the
+#: input it enters and a forward wire halfway between its blocks, so K starts 310 px
+#: right of the trajectory's end (the measured q and v turn 60 and 100 px left of K, the
+#: trajectory's h_d_ddot 155 px) and D 190 px right of K's (v turns 40 px left of D,
+#: K's v_d_dot 95 px).
 FIG2_LAYOUT: dict[str, tuple[float, float]] = {
-    "trajectory": (-1060.0, 0.0),
-    "controller": (-730.0, 0.0),
+    "trajectory": (-1400.0, 0.0),
+    "controller": (-840.0, 0.0),
     "compensator": (-400.0, 0.0),
-    "demux": (-50.0, 0.0),
-    "robot": (150.0, 0.0),
+    "demux": (-40.0, 0.0),
+    "robot": (160.0, 0.0),
     "position_noise": (0.0, 260.0),
     "velocity_noise": (0.0, 420.0),
 }
@@ -300,15 +305,20 @@ def _width(b) -> int:
     return max(100, int(math.ceil((2 * side + _ICON_PX + 2 * _PAD_PX) / 10.0)) * 10)
 
 
+def _on_grid(x: float) -> float:
+    """``x`` on bdedit's 20 px grid."""
+    return 20.0 * round(x / 20.0)
+
+
 def _sink_position(b, wires, pos, flipped) -> tuple[float, float] | None:
     """A NULL sink not in the layout goes above and right of what feeds it (left of
-    it when that block is drawn flipped)."""
+    it when that block is drawn flipped), on bdedit's grid."""
     for w in wires:
         if w.end.block is b and w.start.block.name in pos:
             x, y = pos[w.start.block.name]
             if w.start.block.name in flipped:
-                return (x - 170.0, y)
-            return (x + _width(w.start.block) + 40.0, y - 170.0)
+                return (_on_grid(x - 170.0), _on_grid(y))
+            return (_on_grid(x + _width(w.start.block) + 80.0), _on_grid(y - 160.0))
     return None
 
 

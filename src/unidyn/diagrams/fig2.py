@@ -267,9 +267,17 @@ def _limit(value: float) -> float | None:
 
 def _terminate_unused_outputs(bd):
     """End every output nothing reads (e.g. theta_hat, which is only logged) in a NULL
-    sink, so compiling the diagram prints no "output ... is not connected" notice."""
+    sink, so compiling the diagram prints no "output ... is not connected" notice. Each
+    sink is named for the signal it ends, ``theta_hat_unused``, as the editor shows it."""
     used = {(id(w.start.block), w.start.port) for w in bd.wirelist}
     unused = [(b, port) for b in list(bd.blocklist) for port in range(b.nout or 0)
               if (id(b), port) not in used]
-    for i, (b, port) in enumerate(unused):
-        bd.connect(b[port], bd.NULL(1, name=f"unused_{i}"))
+    taken = {b.name for b in bd.blocklist}
+    for b, port in unused:
+        names = getattr(b, "_outport_names", None) or []
+        signal = str(names[port]) if port < len(names) else f"{b.name}_out{port}"
+        name = f"{signal}_unused"
+        if name in taken:  # two blocks' outputs of one name: the block's name too
+            name = f"{b.name}_{signal}_unused"
+        taken.add(name)
+        bd.connect(b[port], bd.NULL(1, name=name))
