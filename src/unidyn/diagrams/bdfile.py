@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import ast
 import builtins
+import itertools
 import json
 import math
 from dataclasses import asdict, dataclass
@@ -348,7 +349,31 @@ def to_bd_dict(diagram, *, layout: dict | str | None = "fig2",
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
         raise BdFileError(f"block name {dup[0]!r} is used twice; a .bd file names blocks uniquely")
+    pos, flipped = _positions(blocks, wires, layout)
+    ids = itertools.count(1)
+    jblocks, out_socket, in_socket = [], {}, {}
+    for b in blocks:
+        jblocks.append(_json_block(b, pos[b.name], b.name in flipped, ids, out_socket,
+                                   in_socket))
+    jwires = [{"id": next(ids), "start_socket": out_socket[(id(w.start.block), w.start.port)],
+               "end_socket": in_socket[(id(w.end.block), w.end.port)],
+               "wire_type": _STEP_WIRE, "custom_routing": False, "wire_coordinates": []}
+              for w in wires]
+    connected = {(id(w.end.block), w.end.port) for w in wires}
+    for b in blocks:
+        for i in range(int(b.nin or 0)):
+            if (id(b), i) not in connected:
+                raise BdFileError(f"block {b.name!r}: input {i} is not connected; bdload "
+                                  f"refuses a diagram with an open input")
+    return {"id": 0, "created_by": "unidyn.diagrams.bdfile", "creation_time": 0,
+            "simulation_time": simulation_time, "scene_width": 6400, "scene_height": 6400,
+            "blocks": jblocks, "wires": jwires, "labels": [], "grouping_boxes": []}
 
+
+def _positions(blocks, wires, layout) -> tuple[dict, set]:
+    """Every block's position by name, and the names of the blocks drawn flipped, for
+    ``layout`` (see :func:`to_bd_dict`); NULL sinks go beside what feeds them."""
+    names = [b.name for b in blocks]
     if layout == "fig2":
         pos = {k: v for k, v in FIG2_LAYOUT.items() if k in names}
         auto = _auto_layout(blocks, wires)
@@ -367,49 +392,33 @@ def to_bd_dict(diagram, *, layout: dict | str | None = "fig2",
         if b.name not in pos:
             p = _sink_position(b, wires, pos, flipped)
             pos[b.name] = p if p is not None else _auto_layout(blocks, wires)[b.name]
+    return pos, flipped
 
-    next_id = iter(range(1, 1_000_000))
-    out_socket: dict[tuple[int, int], int] = {}
-    in_socket: dict[tuple[int, int], int] = {}
-    jblocks = []
-    for b in blocks:
-        btype, params = block_parameters(b)
-        nin, nout = int(b.nin or 0), int(b.nout or 0)
-        flip = b.name in flipped
-        bid = next(next_id)
-        ins, outs = [], []
-        for i in range(nin):
-            sid = next(next_id)
-            in_socket[(id(b), i)] = sid
-            ins.append({"id": sid, "index": i, "multi_wire": True,
-                        "position": _RIGHT if flip else _LEFT, "socket_type": _INPUT})
-        for i in range(nout):
-            sid = next(next_id)
-            out_socket[(id(b), i)] = sid
-            outs.append({"id": sid, "index": i, "multi_wire": True,
-                         "position": _LEFT if flip else _RIGHT, "socket_type": _OUTPUT})
-        jparams = [[k, _write_value(v, f"block {b.name!r} ({type(b).__name__}): parameter {k!r}")]
-                   for k, v in params.items()]
-        x, y = pos[b.name]
-        jblocks.append({"id": bid, "block_type": btype, "title": b.name,
-                        "pos_x": float(x), "pos_y": float(y), "width": _width(b), "height": 100,
-                        "flipped": flip, "inputsNum": nin, "outputsNum": nout,
-                        "inputs": ins, "outputs": outs, "parameters": jparams})
-    jwires = []
-    for w in wires:
-        start = out_socket[(id(w.start.block), w.start.port)]
-        end = in_socket[(id(w.end.block), w.end.port)]
-        jwires.append({"id": next(next_id), "start_socket": start, "end_socket": end,
-                       "wire_type": _STEP_WIRE, "custom_routing": False, "wire_coordinates": []})
-    connected = {(id(w.end.block), w.end.port) for w in wires}
-    for b in blocks:
-        for i in range(int(b.nin or 0)):
-            if (id(b), i) not in connected:
-                raise BdFileError(f"block {b.name!r}: input {i} is not connected; bdload "
-                                  f"refuses a diagram with an open input")
-    return {"id": 0, "created_by": "unidyn.diagrams.bdfile", "creation_time": 0,
-            "simulation_time": simulation_time, "scene_width": 6400, "scene_height": 6400,
-            "blocks": jblocks, "wires": jwires, "labels": [], "grouping_boxes": []}
+
+def _json_block(b, position, flip, ids, out_socket, in_socket) -> dict:
+    """Block ``b`` as the file holds it, its sockets numbered from ``ids`` and recorded
+    in ``out_socket`` and ``in_socket`` ((block, port) -> socket id) for the wires."""
+    btype, params = block_parameters(b)
+    nin, nout = int(b.nin or 0), int(b.nout or 0)
+    bid = next(ids)
+    ins, outs = [], []
+    for i in range(nin):
+        sid = next(ids)
+        in_socket[(id(b), i)] = sid
+        ins.append({"id": sid, "index": i, "multi_wire": True,
+                    "position": _RIGHT if flip else _LEFT, "socket_type": _INPUT})
+    for i in range(nout):
+        sid = next(ids)
+        out_socket[(id(b), i)] = sid
+        outs.append({"id": sid, "index": i, "multi_wire": True,
+                     "position": _LEFT if flip else _RIGHT, "socket_type": _OUTPUT})
+    jparams = [[k, _write_value(v, f"block {b.name!r} ({type(b).__name__}): parameter {k!r}")]
+               for k, v in params.items()]
+    x, y = position
+    return {"id": bid, "block_type": btype, "title": b.name,
+            "pos_x": float(x), "pos_y": float(y), "width": _width(b), "height": 100,
+            "flipped": flip, "inputsNum": nin, "outputsNum": nout,
+            "inputs": ins, "outputs": outs, "parameters": jparams}
 
 
 def save_bd(diagram, path, *, layout: dict | str | None = "fig2",
