@@ -134,8 +134,8 @@ def test_an_overwrite_says_what_it_replaced(tmp_path, capsys):
     code, text, _ = run_cli(capsys, "run", "--set", "T=2", "--case", "compensated",
                             "--overwrite", "--out", out)
     assert code == 0
-    assert "replaced   the previous timeseries.csv, summary.json" in text
-    assert "theta_hat.png" in text  # the adaptive run's figure, gone now
+    # the adaptive run's seven files (theta_hat.png, gone now, among them) in one line
+    assert "replaced   the previous 7 files, e.g. timeseries.csv, summary.json, path.png\n" in text
     assert sorted(p.name for p in out.iterdir()) == sorted(
         ["notes.txt", "timeseries.csv", "summary.json", "path.png", "error.png",
          "positions.png", "velocities.png", ".unidyn-run.json"])  # the manifest
@@ -482,7 +482,8 @@ def test_a_sweep_is_not_written_into_a_runs_folder_nor_a_run_into_a_sweeps(tmp_p
               if p.is_file()}
     code, out, err = run_cli(capsys, "sweep", sweep, "--out", run_dir, "--overwrite")
     assert code == 2 and out == ""
-    assert_one_line_error(err, f"{run_dir} holds a run (timeseries.csv, summary.json and",
+    assert_one_line_error(err, f"{run_dir} holds a run (6 files, e.g. timeseries.csv, "
+                               "summary.json, path.png)",
                           "; choose another --out for a sweep")
     code, _, err = run_cli(capsys, "run", "--paper", "3", "--T", "1", "--out", sweep_dir)
     assert code == 2

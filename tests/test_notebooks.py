@@ -89,9 +89,8 @@ SUBPACKAGES = ("model", "results", "blocks", "diagrams", "engine", "identificati
                "sweeps", "teaching", "datasets")
 
 
-def _public_uses(path):
-    """Every way the notebook at ``path`` reaches into unidyn that is not a public
-    name: ``[(cell index, description)]``."""
+def _public_names():
+    """unidyn's public names, and each subpackage's (its ``__all__`` and modules)."""
     import importlib
     import pkgutil
 
@@ -102,6 +101,59 @@ def _public_uses(path):
         mod = importlib.import_module(f"unidyn.{s}")
         exported[s] = set(getattr(mod, "__all__", ())) | {
             m.name for m in pkgutil.iter_modules(mod.__path__) if not m.name.startswith("_")}
+    return top, exported
+
+
+def _import_uses(node, top, exported, aliases):
+    """What an import statement takes from unidyn that is not public; the subpackages
+    it names are added to ``aliases`` (local name -> subpackage)."""
+    bad = []
+    if isinstance(node, ast.Import):
+        for a in node.names:
+            if a.name.startswith("unidyn."):
+                sub = a.name.removeprefix("unidyn.")
+                if sub not in SUBPACKAGES:
+                    bad.append(f"import {a.name}")
+                elif a.asname:
+                    aliases[a.asname] = sub
+        return bad
+    if not (isinstance(node, ast.ImportFrom) and (node.module or "").startswith("unidyn")):
+        return bad
+    sub = node.module.removeprefix("unidyn").removeprefix(".")
+    for a in node.names:
+        if sub == "":
+            if a.name not in top:
+                bad.append(f"from unidyn import {a.name}")
+            elif a.name in SUBPACKAGES:
+                aliases[a.asname or a.name] = a.name
+        elif sub not in SUBPACKAGES:
+            bad.append(f"from {node.module} import {a.name}")
+        elif a.name not in exported[sub]:
+            bad.append(f"from {node.module} import {a.name} (not in its __all__)")
+    return bad
+
+
+def _attribute_uses(node, top, exported, aliases):
+    """What an attribute (``unidyn.x``, ``sub.x``, ``..._private``) reaches that is not
+    public."""
+    bad = []
+    if not isinstance(node, ast.Attribute):
+        return bad
+    if isinstance(node.value, ast.Name) and node.value.id in aliases:
+        sub = aliases[node.value.id]
+        if (sub is None and node.attr not in top) or \
+                (sub is not None and node.attr not in exported[sub]):
+            bad.append(f"{node.value.id}.{node.attr}")
+    if node.attr.startswith("_") and not node.attr.startswith("__") \
+            and "unidyn" in ast.unparse(node.value):
+        bad.append(ast.unparse(node))
+    return bad
+
+
+def _public_uses(path):
+    """Every way the notebook at ``path`` reaches into unidyn that is not a public
+    name: ``[(cell index, description)]``."""
+    top, exported = _public_names()
     bad = []
     aliases = {"unidyn": None}          # local name -> subpackage (None: unidyn itself)
     for i, cell in enumerate(nbformat.read(path, as_version=4).cells):
@@ -112,36 +164,9 @@ def _public_uses(path):
                         for ln in cell.source.splitlines())
         tree = ast.parse(src)
         for node in ast.walk(tree):
-            if isinstance(node, ast.Import):
-                for a in node.names:
-                    if a.name.startswith("unidyn."):
-                        sub = a.name.removeprefix("unidyn.")
-                        if sub not in SUBPACKAGES:
-                            bad.append((i, f"import {a.name}"))
-                        elif a.asname:
-                            aliases[a.asname] = sub
-            elif isinstance(node, ast.ImportFrom) and (node.module or "").startswith("unidyn"):
-                sub = node.module.removeprefix("unidyn").removeprefix(".")
-                for a in node.names:
-                    if sub == "":
-                        if a.name not in top:
-                            bad.append((i, f"from unidyn import {a.name}"))
-                        elif a.name in SUBPACKAGES:
-                            aliases[a.asname or a.name] = a.name
-                    elif sub not in SUBPACKAGES:
-                        bad.append((i, f"from {node.module} import {a.name}"))
-                    elif a.name not in exported[sub]:
-                        bad.append((i, f"from {node.module} import {a.name} (not in its __all__)"))
+            bad += [(i, what) for what in _import_uses(node, top, exported, aliases)]
         for node in ast.walk(tree):
-            if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) \
-                    and node.value.id in aliases:
-                sub = aliases[node.value.id]
-                if (sub is None and node.attr not in top) or \
-                        (sub is not None and node.attr not in exported[sub]):
-                    bad.append((i, f"{node.value.id}.{node.attr}"))
-            if isinstance(node, ast.Attribute) and node.attr.startswith("_") \
-                    and not node.attr.startswith("__") and "unidyn" in ast.unparse(node.value):
-                bad.append((i, ast.unparse(node)))
+            bad += [(i, what) for what in _attribute_uses(node, top, exported, aliases)]
     return bad
 
 

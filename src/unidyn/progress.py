@@ -100,7 +100,8 @@ class Progress:
         if self.bar is not None:
             self.bar.close()
         if self.lines and self.printed and finished:
-            self._say(f"{self.desc}: {self.done:,.0f} {self.unit}s in "
+            plural = "" if round(self.done) == 1 else "s"
+            self._say(f"{self.desc}: {self.done:,.0f} {self.unit}{plural} in "
                       f"{duration(self.clock() - self.start)}")
 
     def __enter__(self):

@@ -364,6 +364,42 @@ def test_fig2_layout_reads_left_to_right():
     assert flipped == {"position_noise", "velocity_noise"}
 
 
+
+@pytest.mark.parametrize("n", sorted(PAPER_FILES))
+def test_unused_outputs_end_in_sinks_named_for_their_signal(n):
+    """An output nothing reads ends in a NULL named for the signal (theta_hat_unused),
+    not a number the editor's user has to trace back."""
+    data = json.loads((BD_DIR / PAPER_FILES[n]).read_text())
+    port = {o["id"]: (b, o["index"]) for b in data["blocks"] for o in b["outputs"]}
+    feeds = {i["id"]: b for b in data["blocks"] for i in b["inputs"]}
+    sinks = 0
+    for w in data["wires"]:
+        sink = feeds[w["end_socket"]]
+        if sink["block_type"] != "NULL":
+            continue
+        src, index = port[w["start_socket"]]
+        names = {"FIGUREEIGHT": ["h_d", "h_d_dot", "h_d_ddot"],
+                 "DYNAMICCOMPENSATORWITHRATEINPUT": ["v_r", "theta_hat"]}[src["block_type"]]
+        assert sink["title"] == f"{names[index]}_unused"
+        sinks += 1
+    assert sinks == 1
+
+
+def test_fig2_layout_keeps_the_editors_wire_lanes_apart():
+    """bdedit turns a wire fed back into input i of a block 20 px x (i + 1) left of it,
+    and a wire between two side-by-side blocks halfway between them: the gaps before K
+    and D keep every such turn twice that from the others, blocks sit on the
+    editor's 20 px grid."""
+    data = json.loads((BD_DIR / PAPER_FILES[4]).read_text())
+    blocks = {b["title"]: b for b in data["blocks"]}
+    for b in blocks.values():
+        assert b["pos_x"] % 20 == 0 and b["pos_y"] % 20 == 0, b["title"]
+    for left, right, fed_back in (("trajectory", "controller", (2, 4)),
+                                  ("controller", "compensator", (1,))):
+        gap = blocks[right]["pos_x"] - blocks[left]["pos_x"] - blocks[left]["width"]
+        turns = sorted([gap / 2] + [20 * (i + 1) for i in fed_back])
+        assert min(np.diff(turns)) >= 40, (left, right, turns)
+
 # --------------------------------------------------------------------------- #
 # blocks: fixed ports, icons, typed parameters
 

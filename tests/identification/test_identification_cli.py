@@ -178,3 +178,28 @@ def test_overwrite_says_first_what_it_replaces_and_leaves_no_stale_file(tmp_path
     assert "replaced   the previous theta.json, validation.json, validation.png" in out
     assert sorted(f.name for f in (tmp_path / "I").iterdir()) == [".unidyn-identify.json",
                                                                    "theta.json"]
+
+
+def test_identify_tells_its_steps_and_ends_with_what_it_wrote_and_the_time(tmp_path, capsys,
+                                                                          monkeypatch):
+    """Off a terminal, a line as each step (the fit, the validation, its figure) ends
+    (here without the first second's quiet), then a line with the steps' time; the
+    summary ends with the wall time and the files written."""
+    from unidyn import progress
+    monkeypatch.setattr(progress, "QUIET", 0.0)
+    log = write(tmp_path / "run.csv", held_log(T=30.0))
+    code, out, err = run(capsys, "identify", log, "--out", tmp_path / "id")
+    assert code == 0, err
+    steps = [line for line in err.splitlines() if line.startswith("unidyn identify:")]
+    assert [s.split(" (")[0] for s in steps[:3]] == [
+        f"unidyn identify: {k} of 3 steps" for k in (1, 2, 3)]
+    assert steps[-1].startswith("unidyn identify: 3 steps in ")
+    tail = out.strip().splitlines()[-3:]
+    assert tail[0].startswith("wall time  ") and float(tail[0].split()[2]) > 0
+    assert tail[1:] == [f"written    {tmp_path / 'id' / 'theta.json'}",
+                        f"written    {tmp_path / 'id' / 'validation.json'}, "
+                        f"{tmp_path / 'id' / 'validation.png'}"]
+    # without the validation: one step
+    code, out, err = run(capsys, "identify", log, "--out", tmp_path / "id2", "--no-validate")
+    assert code == 0 and "unidyn identify: 1 step in " in err
+    assert out.strip().splitlines()[-2].startswith("wall time  ")

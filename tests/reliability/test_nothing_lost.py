@@ -137,7 +137,8 @@ def test_an_interrupted_overwrite_keeps_the_old_run_or_writes_the_new(tmp_path):
     for sig in (signal.SIGINT, signal.SIGKILL):
         p = start(tmp_path, "run", "--set", "T=3", "--overwrite", "--out", "X")
         code, _, err = kill_at_random(p, rng, 0.0, 0.8 * took, sig, after_line=True)
-        assert err.startswith("unidyn: replacing X/ (timeseries.csv, summary.json, path.png")
+        assert err.startswith("unidyn: replacing X/ (7 files, e.g. timeseries.csv, summary.json, "
+                              "path.png)")
         now = files(tmp_path / "X")
         if now == old:
             outcomes.append("old")

@@ -396,3 +396,78 @@ def test_section5_error_panels_share_one_scale(tmp_path, monkeypatch):
     top = max(float(r.error.max()) for r in runs)
     assert len(limits) == 4 and len(set(limits)) == 1, limits
     assert limits[0][0] == 0 and top < limits[0][1] < 1.1 * top
+
+
+def test_section5_inset_caption_stays_inside_the_inset(tmp_path, monkeypatch):
+    """Case 3's zoom into the first seconds carries its caption inside its own axes,
+    above its curve: nothing of it runs over the main panel."""
+    sys.path.insert(0, str(EXAMPLES))
+    try:
+        import paper_section5
+    finally:
+        sys.path.remove(str(EXAMPLES))
+    runs = unidyn.simulate_batch([unidyn.Scenario.paper(n, T=4) for n in (1, 2, 3, 4)])
+    found = []
+
+    def check(fig, path):
+        fig.canvas.draw()
+        (ins,) = fig.axes[5].child_axes
+        box = ins.get_window_extent()
+        for text in ins.texts:
+            tb = text.get_window_extent()
+            found.append((box.x0 <= tb.x0 and tb.x1 <= box.x1 and box.y0 <= tb.y0
+                          and tb.y1 <= box.y1, tb))
+            # above the curve: no point of it under the caption
+            xy = ins.transData.transform(ins.get_lines()[0].get_xydata())
+            under = (xy[:, 0] >= tb.x0) & (xy[:, 0] <= tb.x1) & (xy[:, 1] >= tb.y0)
+            assert not under.any()
+        plt.close(fig)
+
+    monkeypatch.setattr(figstyle, "save", check)
+    paper_section5.section5_figure(dict(zip((1, 2, 3, 4), runs)), tmp_path / "section5.png")
+    assert found and all(inside for inside, _ in found), found
+
+
+def _luminance_contrast(c1, c2):
+    """WCAG contrast ratio of two colours (1: the same lightness)."""
+    from matplotlib.colors import to_rgb
+
+    def lum(c):
+        rgb = np.array(to_rgb(c))
+        lin = np.where(rgb <= 0.03928, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+        return float(lin @ [0.2126, 0.7152, 0.0722])
+    a, b = sorted((lum(c1), lum(c2)))
+    return (b + 0.05) / (a + 0.05)
+
+
+def test_estimates_on_one_axis_have_colours_apart(adaptive_run):
+    """Each estimate has a colour of its own, far in hue or lightness from every other
+    (theta4 and theta6 were two near reds): no two closer than 0.25 in RGB or of the
+    same lightness and hue."""
+    from matplotlib.colors import rgb_to_hsv, to_rgb
+    ax = plot_theta_hat(adaptive_run)
+    colours = [l.get_color() for l in ax.get_lines() if l.get_label().startswith("$")]
+    plt.close(ax.figure)
+    assert len(colours) >= 4 and len(set(colours)) == len(colours)
+    for i, a in enumerate(colours):
+        for b in colours[i + 1:]:
+            dist = np.linalg.norm(np.subtract(to_rgb(a), to_rgb(b)))
+            hue = abs(rgb_to_hsv(to_rgb(a))[0] - rgb_to_hsv(to_rgb(b))[0])
+            hue = min(hue, 1 - hue)
+            assert dist > 0.25 and (hue > 0.08 or _luminance_contrast(a, b) > 1.5), (a, b)
+
+
+def test_a_time_axis_is_labelled_where_its_numbers_are(adaptive_run):
+    """Panels stacked on a shared time axis: the label goes with the tick numbers, on
+    the bottom panel only."""
+    fig, (top, bottom) = plt.subplots(2, 1, sharex=True)
+    plot_error(adaptive_run, ax=top)
+    plot_theta_hat(adaptive_run, ax=bottom)
+    fig.canvas.draw()
+    assert top.get_xlabel() == "" and not any(t.get_text() for t in top.get_xticklabels())
+    assert bottom.get_xlabel() == "t (s)"
+    assert any(t.get_text() for t in bottom.get_xticklabels())
+    plt.close(fig)
+    ax = plot_error(adaptive_run)  # on its own: labelled
+    assert ax.get_xlabel() == "t (s)"
+    plt.close(ax.figure)

@@ -724,3 +724,28 @@ def test_every_kind_of_write_names_its_file_on_a_full_disk(tmp_path):
         ledger.write_with("b.csv", full)
     assert not (tmp_path / "b.csv").exists()
     assert sorted(os.listdir(tmp_path)) == [".unidyn-results.json", "a.csv", "figure.png"]
+
+
+def test_a_list_of_files_in_a_message_stays_one_short_line():
+    """A few names are all shown; a long list is its count and three examples of
+    different kinds, in the list's order."""
+    assert outdir.list_files([]) == ""
+    assert outdir.list_files(["a.csv", "b.json", "c.png", "d.png"]) == "a.csv, b.json, c.png, d.png"
+    names = [f"point{i:02d}.csv" for i in range(29)] + ["summary.json", "metrics.png"]
+    assert outdir.list_files(names) == "31 files, e.g. point00.csv, summary.json, metrics.png"
+    same = [f"r{i}.csv" for i in range(10)]
+    assert outdir.list_files(same) == "10 files, e.g. r0.csv, r1.csv, r2.csv"
+
+
+def test_a_refusal_for_many_held_files_names_their_number_and_examples(tmp_path):
+    out = tmp_path / "out"
+    names = tuple(f"point{i:02d}.csv" for i in range(30)) + ("summary.json",)
+    with staged_output(out, kind="results", names=names, overwrite=False) as st:
+        for n in names:
+            (st.path / n).write_text(n)
+    with pytest.raises(ValidationError) as err:
+        with staged_output(out, kind="results", names=names, overwrite=False):
+            pass
+    text = str(err.value)
+    assert "(31 files, e.g. point00.csv, point01.csv, summary.json)" in text
+    assert "point29.csv" not in text and "\n" not in text

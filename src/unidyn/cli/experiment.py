@@ -8,7 +8,7 @@ import time
 
 from .._errors import Interrupted
 from ..paper import EXPERIMENT_FILES, EXPERIMENT_PAPER, experiment, write_experiment
-from ..results.folders import staged_output
+from ..results.folders import list_files, staged_output
 from .arguments import tolerance_options
 from .errors import UsageError
 from .output import out_folder, refuse_other_results, shown
@@ -65,5 +65,5 @@ def run_experiment(args) -> int:
     for c in exp.claims:
         print(f"  {verdict[c.holds]:<14} {c.case}")
     print(f"wall time  {time.perf_counter() - t0:.1f} s")
-    print(f"written    {shown(out, stage.final)}/ ({', '.join(EXPERIMENT_FILES)})")
+    print(f"written    {shown(out, stage.final)}/ ({list_files(EXPERIMENT_FILES)})")
     return 0

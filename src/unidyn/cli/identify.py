@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import re
 import sys
+import time
 import warnings
 from pathlib import Path
 
@@ -18,15 +19,54 @@ from ..identification.checks import fit_refused
 from ..identification.estimator import read_delay
 from ..identification.logs import COLUMNS, POSE, SCALED
 from ..identification.results import IDENTIFY_FILES
+from ..progress import Progress
 from ..results.figstyle import save
-from ..results.folders import staged_output, write_atomic
+from ..results.folders import list_files, staged_output, write_atomic
 from .errors import UsageError
 from .output import out_folder
+
+#: The steps of ``unidyn identify`` as its progress counts them.
+STEPS = ("the fit", "the validation", "its figure")
 
 
 def unidyn_identify(args) -> int:
     """``unidyn identify``: theta1..theta6 from the logs, written into --out with its
-    validation."""
+    validation. Its steps, the fit and the validation's simulation, can take minutes on
+    long logs: they are shown as they pass (:class:`unidyn.progress.Progress`), and the
+    summary ends with what was written and how long it took."""
+    t0 = time.perf_counter()
+    logs, vlog, kwargs = _inputs(args)
+    out = out_folder(args.out)
+    staging = staged_output(out, kind="identify", names=IDENTIFY_FILES,
+                            overwrite=args.overwrite, what="identification results")
+    steps = len(STEPS) - (2 if args.no_validate else 0)
+    with staging as stage, Progress(None, steps, desc="unidyn identify", unit="step") as bar:
+        replaced = list_files(stage.held)
+        if replaced:
+            print(f"unidyn: replacing {out}/ ({replaced}) once the new identification is "
+                  f"written; kept as they are if it fails or is interrupted", file=sys.stderr,
+                  flush=True)
+        res = _fit(logs, kwargs)
+        bar.advance(1)
+        path = res.save(stage)
+        _record_topics(path, logs)
+        _print_bags(logs)
+        print(_cli_words(res.summary()))
+        if not args.no_validate:
+            _validation(res, logs, vlog, kwargs, stage.path, bar)
+    final = out  # an identification is never partial: it is where it was asked for
+    print(f"wall time  {time.perf_counter() - t0:.1f} s")
+    print(f"written    {final / path.name}")
+    if not args.no_validate:
+        print(f"written    {final / 'validation.json'}, {final / 'validation.png'}")
+    if replaced:  # an identification is swapped in whole or not at all
+        print(f"replaced   the previous {replaced}")
+    return 0
+
+
+def _inputs(args):
+    """The command's logs (bags read), validation log and identify() options, each
+    checked before anything is fitted: (logs, validation log or None, kwargs)."""
     logs = [Path(p) for p in args.log]
     for p in logs:
         if not p.exists():
@@ -47,82 +87,82 @@ def unidyn_identify(args) -> int:
                          "read in seconds)")
     if vlog is not None and is_bag(vlog):
         vlog = _read_bags(ident, [vlog], args)[0]
-    delay = 0.0
-    if args.delay is not None:   # checked before the logs are read
-        try:
-            kind, value = read_delay(args.delay)
-        except ValidationError as err:
-            raise ValidationError(_cli_words(str(err))) from None
-        delay = value if kind == "s" else args.delay
-    kwargs = {"columns": columns, "commands": args.commands, "delay": delay,
+    kwargs = {"columns": columns, "commands": args.commands, "delay": _delay(args),
               "method": args.method, "validate": False, "scale": scale}
     for k in ("smoothing", "window", "name", "gap", "time_unit"):
         if getattr(args, k) is not None:
             kwargs[k] = getattr(args, k)
     logs = [bags.pop(0) if is_bag(p) else p for p in logs]
-    out = out_folder(args.out)
-    staging = staged_output(out, kind="identify", names=IDENTIFY_FILES,
-                            overwrite=args.overwrite, what="identification results")
-    with staging as stage:
-        replaced = ", ".join(stage.held)
-        if replaced:
-            print(f"unidyn: replacing {out}/ ({replaced}) once the new identification is "
-                  f"written; kept as they are if it fails or is interrupted", file=sys.stderr,
-                  flush=True)
-        try:
-            with warnings.catch_warnings():   # the summary prints them
-                warnings.simplefilter("ignore", ident.IdentificationWarning)
-                res = ident.identify(*(p if isinstance(p, dict) else str(p) for p in logs),
-                                     **kwargs)
-        except ident.MissingColumnsError as err:
-            have = ", ".join(repr(a[:40]) for a in err.available[:12]) or "no columns"
-            want = ",".join(f"{k}=..." for k in err.missing)
-            raise ValidationError(f"log {err.source} is missing column(s) "
-                                  f"{', '.join(repr(err.mapped[k][:40]) for k in err.missing)}"
-                                  f"; it has {have}. Pass --columns {want} to map the "
-                                  f"log's names") from None
-        except ValidationError as err:
-            raise ValidationError(_cli_words(str(err))) from None
-        path = res.save(stage)
-        _record_topics(path, logs)
-        for b in logs:
-            if isinstance(b, dict):
-                print(f"bag        {b['source']}: commands {b['cmd_topic']} ({b['cmd_type']}: "
-                      f"{b['cmd_why']}), measured velocities {b['odom_topic']} "
-                      f"({b['odom_why']})")
-        print(_cli_words(res.summary()))
-        if not args.no_validate:
-            with warnings.catch_warnings(record=True) as seen, fit_refused(  # rows the
-                    "the validation's simulation"):  # held-out log skipped: warnings
-                warnings.simplefilter("always", ident.IdentificationWarning)
-                report = ident.validate(res, vlog if isinstance(vlog, dict) else str(vlog),
-                                        columns=columns, time_unit=args.time_unit,
-                                        scale=scale) if vlog else \
-                    ident.validation_report(res.theta, *_joined(ident, logs, columns,
-                                                                kwargs.get("gap"), args.time_unit,
-                                                                scale),
-                                            res.commands, res.delay)
-            for w in seen:
-                if issubclass(w.category, ident.IdentificationWarning):
-                    print(f"warning: {_cli_words(str(w.message))}")
-                else:
-                    warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-            what = "held-out log" if vlog else "the same log(s) (in-sample)"
-            print(f"validation on {what}: NRMSE fit "
-                  + ", ".join(f"{k} {v:.1f} %" for k, v in report.fit.items()))
-            write_atomic(stage.path / "validation.json", json.dumps(
-                {**report.as_dict(), "log": [_source(vlog)] if vlog else
-                 [_source(p) for p in logs], "in_sample": vlog is None},
-                indent=2, allow_nan=False) + "\n")
-            axes = ident.plot_validation(report)
-            save(axes[0].figure, stage.path / "validation.png")
-    final = out  # an identification is never partial: it is where it was asked for
-    print(f"written    {final / path.name}")
-    if not args.no_validate:
-        print(f"written    {final / 'validation.json'}, {final / 'validation.png'}")
-    if replaced:  # an identification is swapped in whole or not at all
-        print(f"replaced   the previous {replaced}")
-    return 0
+    return logs, vlog, kwargs
+
+
+def _delay(args):
+    """--delay as identify() takes it, checked before the logs are read."""
+    if args.delay is None:
+        return 0.0
+    try:
+        kind, value = read_delay(args.delay)
+    except ValidationError as err:
+        raise ValidationError(_cli_words(str(err))) from None
+    return value if kind == "s" else args.delay
+
+
+def _fit(logs, kwargs):
+    """identify() on the logs, its messages in the command's words."""
+    try:
+        with warnings.catch_warnings():   # the summary prints them
+            warnings.simplefilter("ignore", ident.IdentificationWarning)
+            return ident.identify(*(p if isinstance(p, dict) else str(p) for p in logs),
+                                  **kwargs)
+    except ident.MissingColumnsError as err:
+        have = ", ".join(repr(a[:40]) for a in err.available[:12]) or "no columns"
+        want = ",".join(f"{k}=..." for k in err.missing)
+        raise ValidationError(f"log {err.source} is missing column(s) "
+                              f"{', '.join(repr(err.mapped[k][:40]) for k in err.missing)}"
+                              f"; it has {have}. Pass --columns {want} to map the "
+                              f"log's names") from None
+    except ValidationError as err:
+        raise ValidationError(_cli_words(str(err))) from None
+
+
+def _print_bags(logs) -> None:
+    """Which topics of each bag were read, and why."""
+    for b in logs:
+        if isinstance(b, dict):
+            print(f"bag        {b['source']}: commands {b['cmd_topic']} ({b['cmd_type']}: "
+                  f"{b['cmd_why']}), measured velocities {b['odom_topic']} "
+                  f"({b['odom_why']})")
+
+
+def _validation(res, logs, vlog, kwargs, folder, bar) -> None:
+    """Validate ``res`` on the held-out log (or in-sample), print its fit and write
+    validation.json and validation.png into ``folder``."""
+    columns, scale, time_unit = kwargs["columns"], kwargs["scale"], kwargs.get("time_unit")
+    with warnings.catch_warnings(record=True) as seen, fit_refused(  # rows the
+            "the validation's simulation"):  # held-out log skipped: warnings
+        warnings.simplefilter("always", ident.IdentificationWarning)
+        if vlog:
+            report = ident.validate(res, vlog if isinstance(vlog, dict) else str(vlog),
+                                    columns=columns, time_unit=time_unit, scale=scale)
+        else:
+            D, segs = _joined(ident, logs, columns, kwargs.get("gap"), time_unit, scale)
+            report = ident.validation_report(res.theta, D, segs, res.commands, res.delay)
+    bar.advance(1)
+    for w in seen:
+        if issubclass(w.category, ident.IdentificationWarning):
+            print(f"warning: {_cli_words(str(w.message))}")
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    what = "held-out log" if vlog else "the same log(s) (in-sample)"
+    print(f"validation on {what}: NRMSE fit "
+          + ", ".join(f"{k} {v:.1f} %" for k, v in report.fit.items()))
+    write_atomic(folder / "validation.json", json.dumps(
+        {**report.as_dict(), "log": [_source(vlog)] if vlog else
+         [_source(p) for p in logs], "in_sample": vlog is None},
+        indent=2, allow_nan=False) + "\n")
+    axes = ident.plot_validation(report)
+    save(axes[0].figure, folder / "validation.png")
+    bar.advance(1)
 
 
 def _parse_columns(text: str) -> dict:

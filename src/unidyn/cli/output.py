@@ -7,7 +7,7 @@ from __future__ import annotations
 import importlib
 from pathlib import Path
 
-from ..results.folders import Ledger, output_folder
+from ..results.folders import Ledger, list_files, output_folder
 from .errors import UsageError
 
 #: The kinds of results the command writes into an --out folder, by the name of their
@@ -52,6 +52,5 @@ def refuse_other_results(out: Path, kind: str) -> None:
         held, _ = Ledger(folder, other, getattr(importlib.import_module(module),
                                                 attribute)).sort()
         if held:
-            more = f" and {len(held) - 2} more" if len(held) > 2 else ""
-            raise UsageError(f"{out} holds {what} ({', '.join(held[:2])}{more}); choose "
+            raise UsageError(f"{out} holds {what} ({list_files(held)}); choose "
                              f"another --out for {RESULT_KINDS[kind][0]}")

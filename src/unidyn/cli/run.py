@@ -23,7 +23,7 @@ from .._errors import (
 from .._validate import MAX_NAME
 from ..engines import choose, run
 from ..model.scenario import Scenario
-from ..results.folders import check_manifest, staged_output
+from ..results.folders import check_manifest, list_files, staged_output
 from ..results.plots import save_figures
 from ..results.result import METRIC_UNITS, RUN_FILES, has_noise
 from ..results.rosbag import check_bag_target, write_run_bag
@@ -170,7 +170,7 @@ def _write_bag(result, bag) -> None:
 def _run_staged(staging, sc, engine, out, animation, args, **options):
     with staging as stage:
         _say_defaults(args, sc, engine)
-        replaced = ", ".join(stage.held)
+        replaced = list_files(stage.held)
         if replaced:
             print(f"unidyn: replacing {out}/ ({replaced}) once the new run is written; "
                   f"kept as they are if it fails or is interrupted", file=sys.stderr, flush=True)
@@ -277,7 +277,7 @@ def _run_seeds(args, sc, engine, out) -> int:
         with staging as stage:
             _say_defaults(args, sc, engine)
             if stage.held:
-                print(f"unidyn: replacing {out}/ ({', '.join(stage.held)}) once the new runs "
+                print(f"unidyn: replacing {out}/ ({list_files(stage.held)}) once the new runs "
                       f"are written; kept as they are if it fails or is interrupted",
                       file=sys.stderr, flush=True)
             t0 = time.perf_counter()
@@ -317,7 +317,7 @@ def _run_seeds(args, sc, engine, out) -> int:
     print(f"written    {final}/ (runs.csv, statistics.csv, timeseries.csv, summary.json, "
           f"error.png)")
     if stage.held and final == out:
-        print(f"replaced   the previous {', '.join(stage.held)}")
+        print(f"replaced   the previous {list_files(stage.held)}")
     elif stage.held:
         print(f"kept       {out}/ as it was: incomplete runs do not replace complete results")
     return 0 if runs.complete else 1

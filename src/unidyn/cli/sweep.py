@@ -22,54 +22,10 @@ from .output import out_folder, refuse_other_results, short_name
 
 def unidyn_sweep(args) -> int:
     """``unidyn sweep``: run a sweep file or the paper's Fig. 11 into --out."""
-    if bool(args.sweep) == bool(args.paper_fig11):
-        raise UsageError("give either a sweep file or --paper-fig11")
-    for option, value in (("--gains", args.gains), ("--seeds", args.seeds)):
-        if value is not None and not args.paper_fig11:
-            raise UsageError(f"{option} applies to --paper-fig11 only (a sweep file has its grid)")
-    if args.seeds is not None and args.seeds < 1:
-        raise UsageError(f"--seeds must be at least 1, got {args.seeds}")
-    if args.seeds is not None and args.no_noise:
-        raise UsageError("--seeds with --no-noise: without noise every seed gives the same run")
-    if args.paper_fig11:
-        gains = _parse_gains(args.gains) if args.gains is not None else None
-        spec = paper_fig11(T=250.0 if args.T is None else args.T, gains=gains,
-                           noise=None if args.no_noise else PAPER_NOISE, seeds=args.seeds,
-                           **tolerance_options(args))
-    else:
-        spec = Sweep.from_toml(args.sweep)
-        changes = {}
-        if args.T is not None:
-            changes["T"] = args.T
-        if args.no_noise:
-            changes["noise"] = "off"
-        try:
-            if changes:
-                spec = spec.with_base(**changes)
-            if tolerance_options(args):
-                spec = dataclasses.replace(spec, **tolerance_options(args))
-        except ValidationError as err:
-            raise ValidationError(f"{args.sweep}: {err}") from None
+    spec = _sweep(args)
     out = out_folder(args.out)
     refuse_other_results(out, "sweep")
-    n = len(spec)
-    if args.dask is None:
-        client, close = None, None
-    else:
-        client, close = connect_dask(args.dask, "--dask")
-    try:
-        print(f"sweep: {short_name(spec.name or str(args.sweep))}: {n} points, engine "
-              f"{args.engine}" + (f", Dask at {args.dask}" if args.dask else ""), flush=True)
-        if args.engine == "batch" and args.dask is None:  # its time as plain Python, if so
-            done = set(finished_rows(out / "metrics.csv")) if not args.no_resume else set()
-            warn_if_plain([p.scenario for p in spec.points()
-                           if p.index not in done and p.scenario.control == "continuous"])
-        run = run_sweep(spec, out, engine=args.engine, chunk_size=args.chunk_size,
-                        resume=not args.no_resume, progress=not args.no_progress,
-                        dask_address=client, overwrite=args.overwrite)
-    finally:
-        if close is not None:
-            close()
+    run = _run(spec, out, args)
     print(f"ran {run.ran} points" + (f", {run.skipped} already done (resumed)"
                                      if run.skipped else "")
           + f" in {run.seconds:.1f} s; written {out}/ (metrics.csv, sweep.json, metrics.png"
@@ -85,28 +41,89 @@ def unidyn_sweep(args) -> int:
         print(f"unidyn: warning: {len(run.failed)} point(s) did not complete: "
               f"{', '.join(map(str, run.failed[:10]))}", file=sys.stderr)
     if args.paper_fig11:
-        base = spec.points()[0].scenario
-        noise = ("off" if base.noise is None else
-                 f"position std {base.noise.position_std:g} m, velocity std "
-                 f"{base.noise.velocity_std:g}, "
-                 + (f"{len(spec.grid['seed'])} seeds" if "seed" in spec.grid
-                    else f"seed {base.noise.seed}"))
-        title = (f"Fig. 11 claims: T = {base.T:g} s, {len(spec.grid['kxy'])} gains "
-                 f"{min(spec.grid['kxy']):g}..{max(spec.grid['kxy']):g}, noise {noise}, "
-                 f"engine {args.engine}")
-        claims = fig11_claims(run.rows)
-        table = format_fig11_claims(claims, title=f"**{title}**")
-        with FolderLock(out) as lock:  # recorded as the sweep's files, by their content
-            ledger = Ledger(output_folder(out), "sweep", SWEEP_FILES, lock)
-            ledger.write("claims.md", table + "\n")
-            ledger.write_with("fig11.png", lambda path: plot_fig11(
-                run.rows, path, title=f"IAE, T = {base.T:g} s, noise "
-                + ("off" if base.noise is None else "on")))
-        print()
-        print(table)
-        print(f"\nwritten {out}/claims.md and {out}/fig11.png"
-              + (f" and {out}/statistics.csv" if "seed" in spec.grid else ""))
+        _fig11_claims(spec, run, out, args.engine)
     return 1 if run.failed else 0
+
+
+def _sweep(args) -> Sweep:
+    """The sweep the options ask for: the paper's Fig. 11, or the sweep file with
+    --T, --no-noise and the tolerances applied; options that do not go together
+    refused."""
+    if bool(args.sweep) == bool(args.paper_fig11):
+        raise UsageError("give either a sweep file or --paper-fig11")
+    for option, value in (("--gains", args.gains), ("--seeds", args.seeds)):
+        if value is not None and not args.paper_fig11:
+            raise UsageError(f"{option} applies to --paper-fig11 only (a sweep file has its grid)")
+    if args.seeds is not None and args.seeds < 1:
+        raise UsageError(f"--seeds must be at least 1, got {args.seeds}")
+    if args.seeds is not None and args.no_noise:
+        raise UsageError("--seeds with --no-noise: without noise every seed gives the same run")
+    if args.paper_fig11:
+        gains = _parse_gains(args.gains) if args.gains is not None else None
+        return paper_fig11(T=250.0 if args.T is None else args.T, gains=gains,
+                           noise=None if args.no_noise else PAPER_NOISE, seeds=args.seeds,
+                           **tolerance_options(args))
+    spec = Sweep.from_toml(args.sweep)
+    changes = {}
+    if args.T is not None:
+        changes["T"] = args.T
+    if args.no_noise:
+        changes["noise"] = "off"
+    try:
+        if changes:
+            spec = spec.with_base(**changes)
+        if tolerance_options(args):
+            spec = dataclasses.replace(spec, **tolerance_options(args))
+    except ValidationError as err:
+        raise ValidationError(f"{args.sweep}: {err}") from None
+    return spec
+
+
+def _run(spec, out, args):
+    """Run the sweep's points into ``out`` (on Dask with --dask)."""
+    if args.dask is None:
+        client, close = None, None
+    else:
+        client, close = connect_dask(args.dask, "--dask")
+    try:
+        print(f"sweep: {short_name(spec.name or str(args.sweep))}: {len(spec)} points, engine "
+              f"{args.engine}" + (f", Dask at {args.dask}" if args.dask else ""), flush=True)
+        if args.engine == "batch" and args.dask is None:  # its time as plain Python, if so
+            done = set(finished_rows(out / "metrics.csv")) if not args.no_resume else set()
+            warn_if_plain([p.scenario for p in spec.points()
+                           if p.index not in done and p.scenario.control == "continuous"])
+        return run_sweep(spec, out, engine=args.engine, chunk_size=args.chunk_size,
+                         resume=not args.no_resume, progress=not args.no_progress,
+                         dask_address=client, overwrite=args.overwrite)
+    finally:
+        if close is not None:
+            close()
+
+
+def _fig11_claims(spec, run, out, engine) -> None:
+    """The paper's Fig. 11 claims judged on the sweep's rows: printed, and written with
+    the figure into ``out`` as files of the sweep."""
+    base = spec.points()[0].scenario
+    noise = ("off" if base.noise is None else
+             f"position std {base.noise.position_std:g} m, velocity std "
+             f"{base.noise.velocity_std:g}, "
+             + (f"{len(spec.grid['seed'])} seeds" if "seed" in spec.grid
+                else f"seed {base.noise.seed}"))
+    title = (f"Fig. 11 claims: T = {base.T:g} s, {len(spec.grid['kxy'])} gains "
+             f"{min(spec.grid['kxy']):g}..{max(spec.grid['kxy']):g}, noise {noise}, "
+             f"engine {engine}")
+    claims = fig11_claims(run.rows)
+    table = format_fig11_claims(claims, title=f"**{title}**")
+    with FolderLock(out) as lock:  # recorded as the sweep's files, by their content
+        ledger = Ledger(output_folder(out), "sweep", SWEEP_FILES, lock)
+        ledger.write("claims.md", table + "\n")
+        ledger.write_with("fig11.png", lambda path: plot_fig11(
+            run.rows, path, title=f"IAE, T = {base.T:g} s, noise "
+            + ("off" if base.noise is None else "on")))
+    print()
+    print(table)
+    print(f"\nwritten {out}/claims.md and {out}/fig11.png"
+          + (f" and {out}/statistics.csv" if "seed" in spec.grid else ""))
 
 
 def _parse_gains(text: str):

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import ast
 import builtins
+import itertools
 import json
 import math
 from dataclasses import asdict, dataclass
@@ -59,14 +60,19 @@ _INPUT, _OUTPUT = 1, 2
 _STEP_WIRE = 3
 
 #: Positions (x, y) of the Fig. 2 blocks by name, left to right trajectory -> K -> D ->
-#: R, the measurements fed back below (drawn flipped: signals flow right to left).
-#: y grows downwards in bdedit.
+#: R, the measurements fed back below (drawn flipped: signals flow right to left), on
+#: bdedit's 20 px grid; y grows downwards in bdedit. The gaps leave the editor's wires
+#: lanes apart: bdedit turns a feedback wire 20 px x (input index + 1) left of the
+#: input it enters and a forward wire halfway between its blocks, so K starts 310 px
+#: right of the trajectory's end (the measured q and v turn 60 and 100 px left of K, the
+#: trajectory's h_d_ddot 155 px) and D 190 px right of K's (v turns 40 px left of D,
+#: K's v_d_dot 95 px).
 FIG2_LAYOUT: dict[str, tuple[float, float]] = {
-    "trajectory": (-1060.0, 0.0),
-    "controller": (-730.0, 0.0),
+    "trajectory": (-1400.0, 0.0),
+    "controller": (-840.0, 0.0),
     "compensator": (-400.0, 0.0),
-    "demux": (-50.0, 0.0),
-    "robot": (150.0, 0.0),
+    "demux": (-40.0, 0.0),
+    "robot": (160.0, 0.0),
     "position_noise": (0.0, 260.0),
     "velocity_noise": (0.0, 420.0),
 }
@@ -300,15 +306,20 @@ def _width(b) -> int:
     return max(100, int(math.ceil((2 * side + _ICON_PX + 2 * _PAD_PX) / 10.0)) * 10)
 
 
+def _on_grid(x: float) -> float:
+    """``x`` on bdedit's 20 px grid."""
+    return 20.0 * round(x / 20.0)
+
+
 def _sink_position(b, wires, pos, flipped) -> tuple[float, float] | None:
     """A NULL sink not in the layout goes above and right of what feeds it (left of
-    it when that block is drawn flipped)."""
+    it when that block is drawn flipped), on bdedit's grid."""
     for w in wires:
         if w.end.block is b and w.start.block.name in pos:
             x, y = pos[w.start.block.name]
             if w.start.block.name in flipped:
-                return (x - 170.0, y)
-            return (x + _width(w.start.block) + 40.0, y - 170.0)
+                return (_on_grid(x - 170.0), _on_grid(y))
+            return (_on_grid(x + _width(w.start.block) + 80.0), _on_grid(y - 160.0))
     return None
 
 
@@ -338,7 +349,31 @@ def to_bd_dict(diagram, *, layout: dict | str | None = "fig2",
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
         raise BdFileError(f"block name {dup[0]!r} is used twice; a .bd file names blocks uniquely")
+    pos, flipped = _positions(blocks, wires, layout)
+    ids = itertools.count(1)
+    jblocks, out_socket, in_socket = [], {}, {}
+    for b in blocks:
+        jblocks.append(_json_block(b, pos[b.name], b.name in flipped, ids, out_socket,
+                                   in_socket))
+    jwires = [{"id": next(ids), "start_socket": out_socket[(id(w.start.block), w.start.port)],
+               "end_socket": in_socket[(id(w.end.block), w.end.port)],
+               "wire_type": _STEP_WIRE, "custom_routing": False, "wire_coordinates": []}
+              for w in wires]
+    connected = {(id(w.end.block), w.end.port) for w in wires}
+    for b in blocks:
+        for i in range(int(b.nin or 0)):
+            if (id(b), i) not in connected:
+                raise BdFileError(f"block {b.name!r}: input {i} is not connected; bdload "
+                                  f"refuses a diagram with an open input")
+    return {"id": 0, "created_by": "unidyn.diagrams.bdfile", "creation_time": 0,
+            "simulation_time": simulation_time, "scene_width": 6400, "scene_height": 6400,
+            "blocks": jblocks, "wires": jwires, "labels": [], "grouping_boxes": []}
 
+
+def _positions(blocks, wires, layout) -> tuple[dict, set]:
+    """Every block's position by name, and the names of the blocks drawn flipped, for
+    ``layout`` (see :func:`to_bd_dict`); NULL sinks go beside what feeds them."""
+    names = [b.name for b in blocks]
     if layout == "fig2":
         pos = {k: v for k, v in FIG2_LAYOUT.items() if k in names}
         auto = _auto_layout(blocks, wires)
@@ -357,49 +392,33 @@ def to_bd_dict(diagram, *, layout: dict | str | None = "fig2",
         if b.name not in pos:
             p = _sink_position(b, wires, pos, flipped)
             pos[b.name] = p if p is not None else _auto_layout(blocks, wires)[b.name]
+    return pos, flipped
 
-    next_id = iter(range(1, 1_000_000))
-    out_socket: dict[tuple[int, int], int] = {}
-    in_socket: dict[tuple[int, int], int] = {}
-    jblocks = []
-    for b in blocks:
-        btype, params = block_parameters(b)
-        nin, nout = int(b.nin or 0), int(b.nout or 0)
-        flip = b.name in flipped
-        bid = next(next_id)
-        ins, outs = [], []
-        for i in range(nin):
-            sid = next(next_id)
-            in_socket[(id(b), i)] = sid
-            ins.append({"id": sid, "index": i, "multi_wire": True,
-                        "position": _RIGHT if flip else _LEFT, "socket_type": _INPUT})
-        for i in range(nout):
-            sid = next(next_id)
-            out_socket[(id(b), i)] = sid
-            outs.append({"id": sid, "index": i, "multi_wire": True,
-                         "position": _LEFT if flip else _RIGHT, "socket_type": _OUTPUT})
-        jparams = [[k, _write_value(v, f"block {b.name!r} ({type(b).__name__}): parameter {k!r}")]
-                   for k, v in params.items()]
-        x, y = pos[b.name]
-        jblocks.append({"id": bid, "block_type": btype, "title": b.name,
-                        "pos_x": float(x), "pos_y": float(y), "width": _width(b), "height": 100,
-                        "flipped": flip, "inputsNum": nin, "outputsNum": nout,
-                        "inputs": ins, "outputs": outs, "parameters": jparams})
-    jwires = []
-    for w in wires:
-        start = out_socket[(id(w.start.block), w.start.port)]
-        end = in_socket[(id(w.end.block), w.end.port)]
-        jwires.append({"id": next(next_id), "start_socket": start, "end_socket": end,
-                       "wire_type": _STEP_WIRE, "custom_routing": False, "wire_coordinates": []})
-    connected = {(id(w.end.block), w.end.port) for w in wires}
-    for b in blocks:
-        for i in range(int(b.nin or 0)):
-            if (id(b), i) not in connected:
-                raise BdFileError(f"block {b.name!r}: input {i} is not connected; bdload "
-                                  f"refuses a diagram with an open input")
-    return {"id": 0, "created_by": "unidyn.diagrams.bdfile", "creation_time": 0,
-            "simulation_time": simulation_time, "scene_width": 6400, "scene_height": 6400,
-            "blocks": jblocks, "wires": jwires, "labels": [], "grouping_boxes": []}
+
+def _json_block(b, position, flip, ids, out_socket, in_socket) -> dict:
+    """Block ``b`` as the file holds it, its sockets numbered from ``ids`` and recorded
+    in ``out_socket`` and ``in_socket`` ((block, port) -> socket id) for the wires."""
+    btype, params = block_parameters(b)
+    nin, nout = int(b.nin or 0), int(b.nout or 0)
+    bid = next(ids)
+    ins, outs = [], []
+    for i in range(nin):
+        sid = next(ids)
+        in_socket[(id(b), i)] = sid
+        ins.append({"id": sid, "index": i, "multi_wire": True,
+                    "position": _RIGHT if flip else _LEFT, "socket_type": _INPUT})
+    for i in range(nout):
+        sid = next(ids)
+        out_socket[(id(b), i)] = sid
+        outs.append({"id": sid, "index": i, "multi_wire": True,
+                     "position": _LEFT if flip else _RIGHT, "socket_type": _OUTPUT})
+    jparams = [[k, _write_value(v, f"block {b.name!r} ({type(b).__name__}): parameter {k!r}")]
+               for k, v in params.items()]
+    x, y = position
+    return {"id": bid, "block_type": btype, "title": b.name,
+            "pos_x": float(x), "pos_y": float(y), "width": _width(b), "height": 100,
+            "flipped": flip, "inputsNum": nin, "outputsNum": nout,
+            "inputs": ins, "outputs": outs, "parameters": jparams}
 
 
 def save_bd(diagram, path, *, layout: dict | str | None = "fig2",

@@ -136,109 +136,42 @@ def build_fig2(sim, scenario: Scenario, *, robot: Callable | None = None,
     :return: the wired :class:`Fig2`
     """
     # bdsim loads with the blocks: when a diagram is built, not on import
-    from unidyn.blocks import (
-        DynamicCompensator,
-        DynamicCompensatorWithRateInput,
-        DynamicUnicycleWithVelocity,
-        KinematicController,
-        KinematicControllerWithRate,
-        KinematicUnicycle,
-        SensorNoise,
-        trajectory_block,
-    )
-    from unidyn.blocks.controllers import SampledDynamicCompensator, SampledKinematicController
+    from unidyn.blocks import trajectory_block
 
     sc = scenario
     bd = sim.blockdiagram(name=sc.name or f"fig2_{sc.case}")
     fig = Fig2(bd=bd, scenario=sc)
-    sampled = sc.control == "sampled"
-    dynamic, compensated = sc.case_spec.dynamic, sc.case_spec.compensated
+    if sc.noise is not None:
+        fig.clocks["sensor"] = bd.clock(sc.Ts, name="sensor")
+    if sc.control == "sampled":
+        fig.clocks["controller"] = bd.clock(sc.Ts, name="controller")
     # the exact v_d' needs the rate output of our continuous K; with a user's own
     # controller the compensator falls back to its derivative filter
-    analytic = compensated and sc.derivative == "analytic" and controller is None
+    analytic = (sc.case_spec.compensated and sc.derivative == "analytic"
+                and controller is None)
 
-    if sc.noise is not None:
-        sensor = bd.clock(sc.Ts, name="sensor")
-        fig.clocks["sensor"] = sensor
-    if sampled:
-        ctrl_clock = bd.clock(sc.Ts, name="controller")
-        fig.clocks["controller"] = ctrl_clock
-
-    # --- reference
     # Where a port-changing option is on, the blocks are the classes with those ports
     # fixed (DynamicUnicycleWithVelocity for velocity_output=True, ...): the same
     # equations, and the blocks a .bd file holds and bdedit draws.
-    src = trajectory(bd, sc) if trajectory else trajectory_block(sc.trajectory, bd=bd, name="trajectory")
+    src = (trajectory(bd, sc) if trajectory
+           else trajectory_block(sc.trajectory, bd=bd, name="trajectory"))
     fig.blocks["trajectory"] = src
-
-    # --- robot
-    if robot is not None:
-        R = robot(bd, sc)
-    elif dynamic:
-        lim = sc.limits
-        R = DynamicUnicycleWithVelocity(
-            robot=sc.robot, a=sc.a, x0=sc.x0, speed_max=_limit(lim.speed_max),
-            accel_max=_limit(lim.accel_max), steer_max=_limit(lim.steer_max),
-            angular_accel_max=_limit(lim.angular_accel_max),
-            payload=[list(row) for row in sc.payload] or None, bd=bd, name="robot")
-    else:
-        R = KinematicUnicycle(a=sc.a, x0=sc.x0, speed_max=sc.limits.speed_max,
-                              steer_max=sc.limits.steer_max, bd=bd, name="robot")
+    R = robot(bd, sc) if robot is not None else _robot(bd, sc)
     fig.blocks["robot"] = R
+    q_meas, v_meas = _measurements(fig, R)
 
-    # --- measurements (noise held over Ts; psi is fed back clean)
-    q_meas, v_meas = R[0], (R[1] if dynamic else None)
-    if sc.noise is not None:
-        # the streams 0 and 1 of the run's seed (unidyn.model.noise.noise_seeds)
-        pn = SensorNoise(Ts=sc.Ts, clock_name=sensor.name, std=sc.noise.position_std,
-                         seed=sc.noise.seed, stream=0, indices=(0, 1), bd=bd,
-                         name="position_noise")
-        bd.connect(R[0], pn)
-        q_meas = pn[0]
-        fig.blocks["position_noise"] = pn
-        if dynamic:
-            vn = SensorNoise(Ts=sc.Ts, clock_name=sensor.name, std=sc.noise.velocity_std,
-                             seed=sc.noise.seed, stream=1, indices=(0, 1), bd=bd,
-                             name="velocity_noise")
-            bd.connect(R[1], vn)
-            v_meas = vn[0]
-            fig.blocks["velocity_noise"] = vn
-
-    # --- kinematic controller
-    gains = dict(a=sc.a, kx=sc.kx, ky=sc.ky, lx=sc.lx, ly=sc.ly)
-    if controller is not None:
-        K = controller(bd, sc)
-    elif sampled:
-        K = SampledKinematicController(ctrl_clock, **gains, bd=bd, name="controller")
-    elif analytic:
-        K = KinematicControllerWithRate(**gains, bd=bd, name="controller")
-    else:
-        K = KinematicController(**gains, bd=bd, name="controller")
+    K = controller(bd, sc) if controller is not None else _controller(fig, analytic)
     fig.blocks["controller"] = K
     bd.connect(src[0], K[0])
     bd.connect(src[1], K[1])
     bd.connect(q_meas, K[2])
-    if analytic and not sampled:
+    if analytic and sc.control != "sampled":
         bd.connect(src[2], K[3])
         bd.connect(v_meas, K[4])
 
-    # --- dynamic compensator
     command = K[0]
-    if compensated:
-        dargs = dict(theta_hat0=sc.theta_hat_initial, ku=sc.ku, kw=sc.kw, lu=sc.lu, lw=sc.lw,
-                     adaptive=sc.case_spec.adaptive, gamma=sc.gamma, sigma=sc.sigma,
-                     adapt_from=sc.adapt_from if sc.case_spec.adaptive else 0.0,
-                     leakage=sc.leakage)
-        if compensator is not None:
-            D = compensator(bd, sc)
-        elif sampled:
-            D = SampledDynamicCompensator(ctrl_clock, **dargs, vd_dot="difference", bd=bd,
-                                          name="compensator")
-        elif analytic:
-            D = DynamicCompensatorWithRateInput(**dargs, bd=bd, name="compensator")
-        else:
-            D = DynamicCompensator(**dargs, vd_dot="filter", tau=sc.tau, bd=bd,
-                                   name="compensator")
+    if sc.case_spec.compensated:
+        D = compensator(bd, sc) if compensator is not None else _compensator(fig, analytic)
         fig.blocks["compensator"] = D
         bd.connect(K[0], D[0])
         bd.connect(v_meas, D[1])
@@ -254,10 +187,89 @@ def build_fig2(sim, scenario: Scenario, *, robot: Callable | None = None,
     bd.connect(demux[1], R[1])
 
     fig.watch.update({"pose": R[0], "reference": src[0], "v_d": K[0], "v_ref": command})
-    if dynamic:
+    if sc.case_spec.dynamic:
         fig.watch["velocity"] = R[1]
     _terminate_unused_outputs(bd)
     return fig
+
+
+def _robot(bd, sc):
+    """The robot R: the dynamic one with its velocity output, or the kinematic one."""
+    from unidyn.blocks import DynamicUnicycleWithVelocity, KinematicUnicycle
+
+    lim = sc.limits
+    if sc.case_spec.dynamic:
+        return DynamicUnicycleWithVelocity(
+            robot=sc.robot, a=sc.a, x0=sc.x0, speed_max=_limit(lim.speed_max),
+            accel_max=_limit(lim.accel_max), steer_max=_limit(lim.steer_max),
+            angular_accel_max=_limit(lim.angular_accel_max),
+            payload=[list(row) for row in sc.payload] or None, bd=bd, name="robot")
+    return KinematicUnicycle(a=sc.a, x0=sc.x0, speed_max=lim.speed_max,
+                             steer_max=lim.steer_max, bd=bd, name="robot")
+
+
+def _measurements(fig, R):
+    """The pose and (dynamic robot) velocities as fed back: through noise blocks held
+    over Ts when the scenario has noise (psi is fed back clean). Returns the two plugs
+    (the velocities' None for a kinematic robot)."""
+    from unidyn.blocks import SensorNoise
+
+    sc, bd = fig.scenario, fig.bd
+    dynamic = sc.case_spec.dynamic
+    q_meas, v_meas = R[0], (R[1] if dynamic else None)
+    if sc.noise is None:
+        return q_meas, v_meas
+    clock = fig.clocks["sensor"].name
+    # the streams 0 and 1 of the run's seed (unidyn.model.noise.noise_seeds)
+    pn = SensorNoise(Ts=sc.Ts, clock_name=clock, std=sc.noise.position_std,
+                     seed=sc.noise.seed, stream=0, indices=(0, 1), bd=bd,
+                     name="position_noise")
+    bd.connect(R[0], pn)
+    fig.blocks["position_noise"] = pn
+    q_meas = pn[0]
+    if dynamic:
+        vn = SensorNoise(Ts=sc.Ts, clock_name=clock, std=sc.noise.velocity_std,
+                         seed=sc.noise.seed, stream=1, indices=(0, 1), bd=bd,
+                         name="velocity_noise")
+        bd.connect(R[1], vn)
+        fig.blocks["velocity_noise"] = vn
+        v_meas = vn[0]
+    return q_meas, v_meas
+
+
+def _controller(fig, analytic):
+    """The kinematic controller K: sampled, with its rate output (for the analytic
+    v_d'), or continuous."""
+    from unidyn.blocks import KinematicController, KinematicControllerWithRate
+    from unidyn.blocks.controllers import SampledKinematicController
+
+    sc, bd = fig.scenario, fig.bd
+    gains = dict(a=sc.a, kx=sc.kx, ky=sc.ky, lx=sc.lx, ly=sc.ly)
+    if sc.control == "sampled":
+        return SampledKinematicController(fig.clocks["controller"], **gains, bd=bd,
+                                          name="controller")
+    if analytic:
+        return KinematicControllerWithRate(**gains, bd=bd, name="controller")
+    return KinematicController(**gains, bd=bd, name="controller")
+
+
+def _compensator(fig, analytic):
+    """The dynamic compensator D, fixed or adaptive: sampled (v_d' by differences),
+    taking K's rate (analytic v_d'), or continuous with a derivative filter."""
+    from unidyn.blocks import DynamicCompensator, DynamicCompensatorWithRateInput
+    from unidyn.blocks.controllers import SampledDynamicCompensator
+
+    sc, bd = fig.scenario, fig.bd
+    adaptive = sc.case_spec.adaptive
+    dargs = dict(theta_hat0=sc.theta_hat_initial, ku=sc.ku, kw=sc.kw, lu=sc.lu, lw=sc.lw,
+                 adaptive=adaptive, gamma=sc.gamma, sigma=sc.sigma,
+                 adapt_from=sc.adapt_from if adaptive else 0.0, leakage=sc.leakage)
+    if sc.control == "sampled":
+        return SampledDynamicCompensator(fig.clocks["controller"], **dargs,
+                                         vd_dot="difference", bd=bd, name="compensator")
+    if analytic:
+        return DynamicCompensatorWithRateInput(**dargs, bd=bd, name="compensator")
+    return DynamicCompensator(**dargs, vd_dot="filter", tau=sc.tau, bd=bd, name="compensator")
 
 
 def _limit(value: float) -> float | None:
@@ -267,9 +279,17 @@ def _limit(value: float) -> float | None:
 
 def _terminate_unused_outputs(bd):
     """End every output nothing reads (e.g. theta_hat, which is only logged) in a NULL
-    sink, so compiling the diagram prints no "output ... is not connected" notice."""
+    sink, so compiling the diagram prints no "output ... is not connected" notice. Each
+    sink is named for the signal it ends, ``theta_hat_unused``, as the editor shows it."""
     used = {(id(w.start.block), w.start.port) for w in bd.wirelist}
     unused = [(b, port) for b in list(bd.blocklist) for port in range(b.nout or 0)
               if (id(b), port) not in used]
-    for i, (b, port) in enumerate(unused):
-        bd.connect(b[port], bd.NULL(1, name=f"unused_{i}"))
+    taken = {b.name for b in bd.blocklist}
+    for b, port in unused:
+        names = getattr(b, "_outport_names", None) or []
+        signal = str(names[port]) if port < len(names) else f"{b.name}_out{port}"
+        name = f"{signal}_unused"
+        if name in taken:  # two blocks' outputs of one name: the block's name too
+            name = f"{b.name}_{signal}_unused"
+        taken.add(name)
+        bd.connect(b[port], bd.NULL(1, name=name))

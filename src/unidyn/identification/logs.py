@@ -423,66 +423,23 @@ def _load(log, columns, time_unit=None, scale=None) -> tuple[dict, list]:
     time_unit = _time_unit(time_unit)
     data, obj, what, available, rowlines, notes = _get_columns(
         log, [cmap[k] for k in COLUMNS + POSE])
-    posed = all((cmap[k] in data) if data is not None else hasattr(obj, cmap[k])
-                for k in POSE)
 
-    def where(k):
-        """Sample k of the log, with its file line when it came from a file."""
-        return f"sample {k}" + (f" (line {rowlines[k]})" if rowlines is not None else "")
-    missing = [k for k in COLUMNS if (cmap[k] not in data if data is not None
-                                      else not hasattr(obj, cmap[k]))]
-    if missing:
-        desc = [f"{k!r}" + (f" (as {cmap[k]!r})" if cmap[k] != k else "") for k in missing]
-        shown = ", ".join(short_repr(a, 40) for a in available[:20])
-        if len(available) > 20:
-            shown += f" and {len(available) - 20} more"
-        raise MissingColumnsError(
-            f"log {what} is missing column(s) {', '.join(desc)}; it has {shown or 'no columns'}"
-            f". Map the log's own names to t, u_ref, w_ref, u, w (the columns mapping)",
-            missing, {k: cmap[k] for k in missing}, available, what)
+    def has(name):
+        return name in data if data is not None else hasattr(obj, name)
+
+    _require_columns(cmap, has, what, available)
+    posed = all(has(cmap[k]) for k in POSE)
     out = {}
-    n = None
     for k in COLUMNS + (POSE if posed else ()):
         raw = data[cmap[k]] if data is not None else getattr(obj, cmap[k])
-        try:
-            arr = np.asarray(raw, dtype=float)
-        except (TypeError, ValueError):
-            raise ValidationError(f"log {what}: column {k!r} must hold numbers") from None
-        if arr.ndim != 1:
-            arr = arr.reshape(-1) if arr.size == max(arr.shape, default=0) else arr
-        if arr.ndim != 1:
-            raise ValidationError(f"log column {k!r} must be one-dimensional, got shape "
-                                  f"{arr.shape}")
-        bad = np.flatnonzero(~np.isfinite(arr))
-        if bad.size:
-            raise ValidationError(f"log {what}: column {k!r} has {bad.size} NaN/inf value(s), "
-                                  f"first at {where(int(bad[0]))} ({float(arr[bad[0]])!r}); "
-                                  f"all values must be finite")
-        if n is None:
-            n = arr.size
-        elif arr.size != n:
+        arr = _column(raw, k, what, rowlines)
+        if out and arr.size != out["t"].size:
             raise ValidationError(f"log columns must have equal lengths: {k!r} has {arr.size} "
-                                  f"samples, 't' has {n}")
+                                  f"samples, 't' has {out['t'].size}")
         # arrays read from a file are the log's own; a caller's are never changed
         out[k] = arr if rowlines is not None else arr.copy()
-    dt = np.diff(out["t"])
-    same = np.flatnonzero(dt == 0)
-    if same.size:
-        exact = np.all([out[k][same] == out[k][same + 1] for k in out], axis=0)
-        if not np.all(exact):
-            k = int(same[~exact][0])
-            raise ValidationError(
-                f"log {what}: time 't' is repeated with different values at {where(k)} and "
-                f"{where(k + 1)} (t = {float(out['t'][k])!r}); two different rows cannot "
-                f"share a time stamp: fix or remove one")
-        keep = np.ones(n, bool)
-        keep[same + 1] = False
-        out = {k: v[keep] for k, v in out.items()}
-        notes.append(f"log {what}: {same.size} exact duplicate row(s) dropped (first at "
-                     f"{where(int(same[0]) + 1)}, t = {float(out['t'][same[0]])!r})")
-        rowlines = np.asarray(rowlines)[keep] if rowlines is not None else None
-        n = out["t"].size
-        dt = np.diff(out["t"])
+    out, rowlines = _without_repeated_rows(out, what, rowlines, notes)
+    n, dt = out["t"].size, np.diff(out["t"])
     if n < 20:
         raise ValidationError(
             f"log {what} has {n} rows; fitting six parameters and the initial velocities "
@@ -491,8 +448,8 @@ def _load(log, columns, time_unit=None, scale=None) -> tuple[dict, list]:
     if np.any(dt <= 0):
         k = int(np.flatnonzero(dt <= 0)[0])
         raise ValidationError(f"log {what}: time 't' must be strictly increasing; it is going "
-                              f"back at {where(k + 1)}: t = {float(out['t'][k])!r} then "
-                              f"{float(out['t'][k + 1])!r}")
+                              f"back at {_where(k + 1, rowlines)}: t = {float(out['t'][k])!r} "
+                              f"then {float(out['t'][k + 1])!r}")
     out["t"] = out["t"] * TIME_UNITS[time_unit or "s"]
     for k, f in factors.items():
         out[k] = out[k] * f
@@ -502,6 +459,68 @@ def _load(log, columns, time_unit=None, scale=None) -> tuple[dict, list]:
                               f"a wheeled robot's log (at most {MAX_STEP:g} s); "
                               f"{_unit_hint(step)}")
     return out, notes
+
+
+def _where(k: int, rowlines) -> str:
+    """Sample k of the log, with its file line when it came from a file."""
+    return f"sample {k}" + (f" (line {rowlines[k]})" if rowlines is not None else "")
+
+
+def _require_columns(cmap, has, what, available) -> None:
+    """A :class:`MissingColumnsError` naming the columns of t, u_ref, w_ref, u, w that
+    the log lacks (as mapped) and those it has."""
+    missing = [k for k in COLUMNS if not has(cmap[k])]
+    if not missing:
+        return
+    desc = [f"{k!r}" + (f" (as {cmap[k]!r})" if cmap[k] != k else "") for k in missing]
+    shown = ", ".join(short_repr(a, 40) for a in available[:20])
+    if len(available) > 20:
+        shown += f" and {len(available) - 20} more"
+    raise MissingColumnsError(
+        f"log {what} is missing column(s) {', '.join(desc)}; it has {shown or 'no columns'}"
+        f". Map the log's own names to t, u_ref, w_ref, u, w (the columns mapping)",
+        missing, {k: cmap[k] for k in missing}, available, what)
+
+
+def _column(raw, k, what, rowlines) -> np.ndarray:
+    """Column ``k`` as a one-dimensional array of finite floats."""
+    try:
+        arr = np.asarray(raw, dtype=float)
+    except (TypeError, ValueError):
+        raise ValidationError(f"log {what}: column {k!r} must hold numbers") from None
+    if arr.ndim != 1:
+        arr = arr.reshape(-1) if arr.size == max(arr.shape, default=0) else arr
+    if arr.ndim != 1:
+        raise ValidationError(f"log column {k!r} must be one-dimensional, got shape "
+                              f"{arr.shape}")
+    bad = np.flatnonzero(~np.isfinite(arr))
+    if bad.size:
+        raise ValidationError(f"log {what}: column {k!r} has {bad.size} NaN/inf value(s), "
+                              f"first at {_where(int(bad[0]), rowlines)} "
+                              f"({float(arr[bad[0]])!r}); all values must be finite")
+    return arr
+
+
+def _without_repeated_rows(out, what, rowlines, notes):
+    """The log without rows that repeat the one before exactly (a note says how many);
+    a time stamp repeated with other values refused. Returns (arrays, file lines)."""
+    same = np.flatnonzero(np.diff(out["t"]) == 0)
+    if not same.size:
+        return out, rowlines
+    exact = np.all([out[k][same] == out[k][same + 1] for k in out], axis=0)
+    if not np.all(exact):
+        k = int(same[~exact][0])
+        raise ValidationError(
+            f"log {what}: time 't' is repeated with different values at "
+            f"{_where(k, rowlines)} and {_where(k + 1, rowlines)} "
+            f"(t = {float(out['t'][k])!r}); two different rows cannot "
+            f"share a time stamp: fix or remove one")
+    keep = np.ones(out["t"].size, bool)
+    keep[same + 1] = False
+    out = {k: v[keep] for k, v in out.items()}
+    notes.append(f"log {what}: {same.size} exact duplicate row(s) dropped (first at "
+                 f"{_where(int(same[0]) + 1, rowlines)}, t = {float(out['t'][same[0]])!r})")
+    return out, (np.asarray(rowlines)[keep] if rowlines is not None else None)
 
 
 def _unit_hint(step: float) -> str:

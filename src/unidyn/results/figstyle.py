@@ -46,7 +46,7 @@ import numpy as np
 
 __all__ = ["STYLE", "COLUMN", "PAGE", "DPI", "PRESETS", "SLIDES_SCALE", "style", "styled", "size", "label", "as_text", "legend",
            "emptiest_corner", "ylim_from_data", "plain_log_axis", "save", "REFERENCE",
-           "START"]
+           "START", "QUALITATIVE", "label_time_axis"]
 
 #: Width of one column of a journal page, in.
 COLUMN = 3.5
@@ -93,6 +93,12 @@ STYLE = {
 REFERENCE = {"color": "k", "ls": (0, (4, 2)), "lw": 0.8, "zorder": 3}
 #: How the start of a path is marked (and named in the legend).
 START = {"marker": "o", "ls": "none", "ms": 5, "mfc": "white", "mec": "C3", "mew": 1.2}
+
+#: Six colours told apart by readers with any common colour-vision deficiency and in grey
+#: print (Okabe and Ito's palette without its black, the reference's colour, and its
+#: yellow, too faint on white), for lines that are one of a fixed set: the i-th of the six
+#: parameter estimates is always drawn in the i-th.
+QUALITATIVE = ("#0072B2", "#E69F00", "#009E73", "#CC79A7", "#56B4E9", "#D55E00")
 
 
 #: How much larger the "slides" preset draws than the "paper" one (text 8 -> 14.4 pt,
@@ -155,6 +161,16 @@ def size(width=1.0, aspect=0.75):
 def label(name: str, unit: str | None = None) -> str:
     """An axis label in the one notation used everywhere: ``"u (m/s)"``; no unit: ``"u"``."""
     return f"{name} ({unit})" if unit else name
+
+
+def label_time_axis(ax, name: str = "t", unit: str = "s") -> None:
+    """Label the x axis of ``ax`` (``"t (s)"``) where its tick numbers are shown: under
+    axes stacked on a shared x axis, only the bottom one shows them, and a label over an
+    axis without numbers reads as a time axis that lost them."""
+    if ax.xaxis.get_tick_params().get("labelbottom", True):
+        ax.set_xlabel(label(name, unit))
+    else:
+        ax.set_xlabel("")
 
 
 def _data_points(ax):

@@ -86,13 +86,15 @@ from .ownership import (
     _kind_of,
     _remove_made,
     disk_full,
+    list_files,
     write_atomic,
     write_file,
 )
 
 __all__ = ["Stage", "staged_output", "OwnedFile", "Ledger", "FolderLock", "FolderInUse",
            "DiskFull", "LOCK_NAME", "MAX_MANIFEST_BYTES", "check_manifest", "foreign_files",
-           "output_folder", "make_output_folder", "write_file", "write_atomic", "disk_full", "json_ready"]
+           "output_folder", "make_output_folder", "write_file", "write_atomic", "disk_full", "json_ready",
+           "list_files"]
 
 
 def output_folder(out, option: str = "--out") -> Path:
@@ -232,7 +234,7 @@ def staged_output(out, *, kind: str, names, overwrite: bool, what: str = "result
             if foreign:
                 raise ValidationError(foreign_files(out, foreign, what, option))
             if held and not overwrite:
-                raise ValidationError(f"{out} already holds {what} ({', '.join(held)}); pass "
+                raise ValidationError(f"{out} already holds {what} ({list_files(held)}); pass "
                                       f"{flag} to replace them (they are kept until the new "
                                       f"{what} are complete) or choose another {option}")
             if held:  # where a partial result would go: checked before the work

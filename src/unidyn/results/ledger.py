@@ -21,6 +21,7 @@ from .ownership import (
     _SHA256,
     FolderLock,
     disk_full,
+    list_files,
     write_atomic,
     write_file,
 )
@@ -107,7 +108,7 @@ class Ledger:
             raise self._refuse("is not a manifest unidyn wrote (it has no table of files)")
         for name, hashes in data["files"].items():
             if not self._allowed(name):
-                allowed = (", ".join(self.names) if isinstance(self.names, tuple)
+                allowed = (list_files(self.names) if isinstance(self.names, tuple)
                            else f"names matching {self.names.pattern}")
                 raise self._refuse(f"lists {name!r}, which is not a file unidyn {self.kind} "
                                    f"writes (those are {allowed})")
@@ -285,7 +286,7 @@ class Ledger:
 
 def foreign_files(folder, names, what: str, option: str = "--out") -> str:
     """The refusal for files with a result's name that unidyn cannot prove it wrote."""
-    return (f"{folder} holds {', '.join(names)}, named like unidyn's {what} but not "
+    return (f"{folder} holds {list_files(names)}, named like unidyn's {what} but not "
             f"written by unidyn as they are now (a file of yours, a link, a folder, or a "
             f"result edited since); unidyn never replaces or removes such files, with or "
             f"without overwriting: move them elsewhere or choose another {option}")

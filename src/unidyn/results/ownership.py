@@ -19,7 +19,28 @@ from pathlib import Path
 from .._validate import ValidationError
 
 __all__ = ["FolderLock", "FolderInUse", "DiskFull", "LOCK_NAME", "disk_full", "write_file",
-           "write_atomic"]
+           "write_atomic", "list_files", "FILES_SHOWN"]
+
+#: How many file names a message shows of a longer list (:func:`list_files`).
+FILES_SHOWN = 3
+
+
+def list_files(names, shown: int = FILES_SHOWN) -> str:
+    """File names for a one-line message: all of them when there are at most ``shown``
+    + 1 (``"theta.json, validation.json"``), else their number and ``shown`` examples,
+    of different kinds where there are (``"31 files, e.g. runs.csv, summary.json,
+    metrics.png"``); "" for none."""
+    names = [str(n) for n in names]
+    if len(names) <= shown + 1:
+        return ", ".join(names)
+    examples, kinds = [], set()
+    for n in names:  # one of each suffix first, then the rest in order
+        if Path(n).suffix not in kinds and len(examples) < shown:
+            kinds.add(Path(n).suffix)
+            examples.append(n)
+    examples += [n for n in names if n not in examples][:shown - len(examples)]
+    return f"{len(names)} files, e.g. {', '.join(sorted(examples, key=names.index))}"
+
 
 #: The lock file that marks a folder as being written by a unidyn process.
 LOCK_NAME = ".unidyn.lock"

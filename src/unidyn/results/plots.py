@@ -145,7 +145,7 @@ def plot_error(result, ax=None, label=None, legend=False):
     this run's data (from 0)."""
     ax = _ax(ax, figstyle.size(1, 0.6))
     ax.plot(result.t, result.error, color="C0", label=label or _label(result))
-    ax.set_xlabel(_unit("t", "s"))
+    figstyle.label_time_axis(ax)
     ax.set_ylabel(_unit("distance error", "m"))
     _time_axis(ax, result.t)
     figstyle.ylim_from_data(ax, floor=0)
@@ -237,10 +237,10 @@ def plot_theta_hat(result, ax=None, relative=True, panels=False):
             if relative and small[i]:
                 continue
             y = th[:, i] / true[:, i] if relative else th[:, i]
-            ax.plot(t, y, lw=1, color=f"C{i}", label=rf"$\hat\theta_{i + 1}$")
+            ax.plot(t, y, lw=1, color=figstyle.QUALITATIVE[i], label=rf"$\hat\theta_{i + 1}$")
         if relative:
             ax.axhline(1.0, **REFERENCE, label="true value")
-        ax.set_xlabel(_unit("t", "s"))
+        figstyle.label_time_axis(ax)
         ax.set_ylabel(r"$\hat\theta_i\,/\,\theta_i$" if relative else r"$\hat\theta_i$")
         ax.set_xlim(t[0], t[-1])
         figstyle.ylim_from_data(ax)

@@ -218,124 +218,25 @@ def animate(result, path, fps=20, speedup=None, trail=True, frames=None, *, robo
     from matplotlib import animation as mpl_animation
 
     motions = _motions(result)
-    if not isinstance(path, (str, os.PathLike)):
-        raise ValidationError(f"path must be a file name (str or PathLike), got {path!r}")
-    path = Path(path)
+    path, fps, trail_len, robot_size, reference, dpi, figsize = _checked_options(
+        path, fps, trail, robot_size, reference, dpi, figsize, title)
     suffix = path.suffix.lower()
-    if suffix not in SUFFIXES:
-        raise ValidationError(f"path must end in .gif or .mp4, got {str(path)!r}")
-    if not path.parent.is_dir():
-        raise ValidationError(f"the folder of {str(path)!r} does not exist")
-    fps = positive("fps", fps)
-    if trail is True or trail is False:
-        trail_len = math.inf if trail else 0.0
-    else:
-        trail_len = positive("trail", trail)
-    robot_size = None if robot_size is None else positive("robot_size", robot_size)
-    reference = flag("reference", reference)
-    dpi = positive("dpi", dpi)
-    figsize = tuple(vector("figsize", figsize, 2).tolist())
-    if min(figsize) <= 0:
-        raise ValidationError(f"figsize must be two sizes > 0, got {figsize}")
-    if title is not None and not isinstance(title, str):
-        raise ValidationError(f"title must be a string, got {title!r}")
     if suffix == ".mp4" and not mpl_animation.writers.is_available("ffmpeg"):
         raise ValidationError("writing .mp4 needs ffmpeg, which was not found; "
                               "install ffmpeg or write a .gif")
-
-    t0 = min(m.t[0] for m in motions)
-    t1 = max(m.t[-1] for m in motions)
-    n = _frame_count(t1 - t0, fps, speedup, frames)
-    times = np.linspace(t0, t1, n) if n > 1 else np.array([t1])
-    # every frame's time stamp distinct: enough decimals for the frame spacing
-    step = (t1 - t0) / (n - 1) if n > 1 else 1.0
-    decimals = 1 if step <= 0 else min(12, max(1, math.ceil(-math.log10(step))))
-
+    times, decimals = _frame_times(motions, fps, speedup, frames)
+    t0, t1 = times[0], times[-1]
     # poses at the frame times, and a dense copy for the trails
     frames_at = [m.at(times) for m in motions]
     dense_t = np.union1d(times, np.concatenate([m.t for m in motions]))
     dense_t = dense_t[(dense_t >= t0) & (dense_t <= t1)]
     dense = [m.at(dense_t)[0] for m in motions]
 
-    # extent of the drawing
-    pts = [m.pose[:, :2] for m in motions]
-    if reference:
-        pts += [m.reference for m in motions if m.reference is not None]
-    pts = np.vstack(pts)
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    span = float(max(hi - lo))
-    L = robot_size if robot_size is not None else (0.09 * span if span > 0 else 0.3)
-    a_max = max(m.a for m in motions)
-    margin = 0.6 * L + a_max + 0.05 * span
+    fig, ax, L = _figure(motions, reference, robot_size, figsize, dpi)
     body = _body(L)
-
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-    from matplotlib.patches import Polygon
-
-    fig = Figure(figsize=figsize, dpi=dpi)
-    FigureCanvasAgg(fig)
-    left, right, bottom, top = 0.14, 0.96, 0.27, 0.93
-    fig.subplots_adjust(left=left, right=right, top=top, bottom=bottom)
-    ax = fig.add_subplot(1, 1, 1)
-    # the view: the drawing plus margins, widened in x or y to the shape of the axes so
-    # that equal scales fill them
-    lo, hi = lo - margin, hi + margin
-    box = (figsize[1] * (top - bottom)) / (figsize[0] * (right - left))  # height / width
-    width, height = hi - lo
-    centre = (lo + hi) / 2
-    if height < box * width:
-        height = box * width
-    else:
-        width = height / box
-    ax.set_xlim(centre[0] - width / 2, centre[0] + width / 2)
-    ax.set_ylim(centre[1] - height / 2, centre[1] + height / 2)
-    ax.set_aspect("equal", adjustable="box")
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
-    ax.grid(alpha=0.3)
-
-    drawn_refs = []
-    ref_marks = []
-    for m in motions:
-        if not reference or m.reference is None:
-            ref_marks.append(None)
-            continue
-        if any(r.shape == m.reference.shape and np.array_equal(r, m.reference)
-               for r in drawn_refs):
-            ref_marks.append(None)
-            continue
-        drawn_refs.append(m.reference)
-        ax.plot(m.reference[:, 0], m.reference[:, 1], "k--", lw=0.8,
-                label="reference" if len(drawn_refs) == 1 else None)
-        (mark,) = ax.plot([], [], "x", color="k", ms=9, mew=1.8, zorder=6)
-        ref_marks.append(mark)
-    artists = []
-    for k, m in enumerate(motions):
-        color = f"C{k}"
-        (line,) = ax.plot([], [], "-", color=color, lw=1.2, label=m.label or None)
-        poly = Polygon(body, closed=True, fc=color, ec="k", lw=0.6, alpha=0.85, zorder=3)
-        ax.add_patch(poly)
-        (stick,) = ax.plot([], [], "-", color="k", lw=0.8, zorder=4)
-        (dot,) = ax.plot([], [], "o", color="k", mfc="white", mew=1.2, ms=6, zorder=5)
-        artists.append((line, poly, stick, dot))
-    # every marker explained: the reference and its moving point, each robot's trail,
-    # and (once) what the triangle and the dot are
-    from matplotlib.lines import Line2D
-    handles = []
-    if drawn_refs:
-        handles.append(Line2D([], [], color="k", ls="--", lw=0.8, label="reference"))
-        handles.append(Line2D([], [], ls="none", marker="x", color="k", ms=8, mew=1.8,
-                              label="desired position $h_d(t)$"))
-    for k, m in enumerate(motions):
-        if m.label:
-            handles.append(Line2D([], [], color=f"C{k}", lw=1.2, label=f"path of h: {m.label}"))
-    handles.append(Line2D([], [], ls="none", marker=(3, 0, -90), ms=9, mfc="C0", mec="k",
-                          mew=0.6, label="robot (axle centre, heading)"))
-    handles.append(Line2D([], [], ls="none", marker="o", color="k", mfc="white", mew=1.2, ms=6,
-                          label="point h"))
-    ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2,
-              fontsize=8, frameon=False, handletextpad=0.4, columnspacing=1.0)
+    drawn_refs, ref_marks = _draw_references(ax, motions, reference)
+    artists = _draw_robots(ax, motions, body)
+    _legend(ax, motions, bool(drawn_refs))
     stamp = ax.set_title("")
     dynamic = [stamp] + [a for group in artists for a in group] + [m for m in ref_marks if m]
 
@@ -367,6 +268,141 @@ def animate(result, path, fps=20, speedup=None, trail=True, frames=None, *, robo
                     writer.grab_frame()
     write_file(path, write)  # a temporary file beside it, then a rename
     return path
+
+
+def _checked_options(path, fps, trail, robot_size, reference, dpi, figsize, title):
+    """:func:`animate`'s options checked: (path, fps, trail length in s, robot_size,
+    reference, dpi, figsize); a bad one raises ValidationError naming it."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise ValidationError(f"path must be a file name (str or PathLike), got {path!r}")
+    path = Path(path)
+    if path.suffix.lower() not in SUFFIXES:
+        raise ValidationError(f"path must end in .gif or .mp4, got {str(path)!r}")
+    if not path.parent.is_dir():
+        raise ValidationError(f"the folder of {str(path)!r} does not exist")
+    fps = positive("fps", fps)
+    if trail is True or trail is False:
+        trail_len = math.inf if trail else 0.0
+    else:
+        trail_len = positive("trail", trail)
+    robot_size = None if robot_size is None else positive("robot_size", robot_size)
+    reference = flag("reference", reference)
+    dpi = positive("dpi", dpi)
+    figsize = tuple(vector("figsize", figsize, 2).tolist())
+    if min(figsize) <= 0:
+        raise ValidationError(f"figsize must be two sizes > 0, got {figsize}")
+    if title is not None and not isinstance(title, str):
+        raise ValidationError(f"title must be a string, got {title!r}")
+    return path, fps, trail_len, robot_size, reference, dpi, figsize
+
+
+def _frame_times(motions, fps, speedup, frames):
+    """The frames' times, evenly spaced over the runs, and the decimals that keep every
+    frame's time stamp distinct."""
+    t0 = min(m.t[0] for m in motions)
+    t1 = max(m.t[-1] for m in motions)
+    n = _frame_count(t1 - t0, fps, speedup, frames)
+    times = np.linspace(t0, t1, n) if n > 1 else np.array([t1])
+    step = (t1 - t0) / (n - 1) if n > 1 else 1.0
+    decimals = 1 if step <= 0 else min(12, max(1, math.ceil(-math.log10(step))))
+    return times, decimals
+
+
+def _figure(motions, reference, robot_size, figsize, dpi):
+    """The figure and its axes, showing every path (and reference) with room for the
+    robot drawn ``L`` m long at their ends: (fig, ax, L)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    pts = [m.pose[:, :2] for m in motions]
+    if reference:
+        pts += [m.reference for m in motions if m.reference is not None]
+    pts = np.vstack(pts)
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    span = float(max(hi - lo))
+    L = robot_size if robot_size is not None else (0.09 * span if span > 0 else 0.3)
+    margin = 0.6 * L + max(m.a for m in motions) + 0.05 * span
+
+    fig = Figure(figsize=figsize, dpi=dpi)
+    FigureCanvasAgg(fig)
+    left, right, bottom, top = 0.14, 0.96, 0.27, 0.93
+    fig.subplots_adjust(left=left, right=right, top=top, bottom=bottom)
+    ax = fig.add_subplot(1, 1, 1)
+    # the view: the drawing plus margins, widened in x or y to the shape of the axes so
+    # that equal scales fill them
+    lo, hi = lo - margin, hi + margin
+    box = (figsize[1] * (top - bottom)) / (figsize[0] * (right - left))  # height / width
+    width, height = hi - lo
+    centre = (lo + hi) / 2
+    if height < box * width:
+        height = box * width
+    else:
+        width = height / box
+    ax.set_xlim(centre[0] - width / 2, centre[0] + width / 2)
+    ax.set_ylim(centre[1] - height / 2, centre[1] + height / 2)
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.grid(alpha=0.3)
+    return fig, ax, L
+
+
+def _draw_references(ax, motions, reference):
+    """Each distinct reference path, once, and a mark per run for its moving desired
+    position (None where the run draws none): (references drawn, marks)."""
+    drawn_refs = []
+    ref_marks = []
+    for m in motions:
+        if not reference or m.reference is None:
+            ref_marks.append(None)
+            continue
+        if any(r.shape == m.reference.shape and np.array_equal(r, m.reference)
+               for r in drawn_refs):
+            ref_marks.append(None)
+            continue
+        drawn_refs.append(m.reference)
+        ax.plot(m.reference[:, 0], m.reference[:, 1], "k--", lw=0.8,
+                label="reference" if len(drawn_refs) == 1 else None)
+        (mark,) = ax.plot([], [], "x", color="k", ms=9, mew=1.8, zorder=6)
+        ref_marks.append(mark)
+    return drawn_refs, ref_marks
+
+
+def _draw_robots(ax, motions, body):
+    """Each run's moving artists, empty until a frame places them: (trail, body,
+    stick from the axle to h, point h)."""
+    from matplotlib.patches import Polygon
+
+    artists = []
+    for k, m in enumerate(motions):
+        color = f"C{k}"
+        (line,) = ax.plot([], [], "-", color=color, lw=1.2, label=m.label or None)
+        poly = Polygon(body, closed=True, fc=color, ec="k", lw=0.6, alpha=0.85, zorder=3)
+        ax.add_patch(poly)
+        (stick,) = ax.plot([], [], "-", color="k", lw=0.8, zorder=4)
+        (dot,) = ax.plot([], [], "o", color="k", mfc="white", mew=1.2, ms=6, zorder=5)
+        artists.append((line, poly, stick, dot))
+    return artists
+
+
+def _legend(ax, motions, with_reference):
+    """Every marker explained, under the axes: the reference and its moving point, each
+    robot's trail, and (once) what the triangle and the dot are."""
+    from matplotlib.lines import Line2D
+    handles = []
+    if with_reference:
+        handles.append(Line2D([], [], color="k", ls="--", lw=0.8, label="reference"))
+        handles.append(Line2D([], [], ls="none", marker="x", color="k", ms=8, mew=1.8,
+                              label="desired position $h_d(t)$"))
+    for k, m in enumerate(motions):
+        if m.label:
+            handles.append(Line2D([], [], color=f"C{k}", lw=1.2, label=f"path of h: {m.label}"))
+    handles.append(Line2D([], [], ls="none", marker=(3, 0, -90), ms=9, mfc="C0", mec="k",
+                          mew=0.6, label="robot (axle centre, heading)"))
+    handles.append(Line2D([], [], ls="none", marker="o", color="k", mfc="white", mew=1.2, ms=6,
+                          label="point h"))
+    ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2,
+              fontsize=8, frameon=False, handletextpad=0.4, columnspacing=1.0)
 
 
 def _write_gif(fig, dynamic, update, times, fps, filename):
