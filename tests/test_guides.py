@@ -1,0 +1,220 @@
+"""The guides (docs/guides/*.md) work for a reader who installed unidyn and starts in a
+folder of their own: every ``python`` and ``sh`` block of a guide runs as written, in
+the order of the page, in one empty temporary folder (no checkout, no copy of
+``examples/``: a block that needs a file gets it from :mod:`unidyn.datasets` or writes
+it), with ``MPLBACKEND=Agg``. ``python`` blocks run in a fresh interpreter each; ``sh``
+blocks run in bash, where ``unidyn`` and ``python`` are this interpreter's.
+
+A block too long for the test suite is preceded by ``<!-- shortened: OLD => NEW -->``:
+the test runs it with the text OLD replaced by NEW (e.g. a shorter duration), and OLD
+must be in the block. A block that cannot run here (it needs a robot, opens a window)
+is preceded by ``<!-- not-run: reason -->``.
+
+The numbers a guide states about a run (counts of runs and rows, agreement of the
+engines) are checked against what the block prints or writes (:data:`NUMBERS`).
+"""
+
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import test_readme as readme
+
+ROOT = Path(__file__).resolve().parents[1]
+GUIDES = sorted((ROOT / "docs" / "guides").glob("*.md"))
+TIMEOUT = 300
+
+
+def _marker(block, kind):
+    m = re.match(rf"<!--\s*{kind}:\s*(.*?)\s*-->", block.marker)
+    return m.group(1) if m else None
+
+
+def _code(block):
+    """The block's code as the test runs it: with its ``shortened`` replacements."""
+    code = block.code
+    spec = _marker(block, "shortened")
+    if spec is not None:
+        for pair in spec.split(";;"):
+            old, new = (s.strip() for s in pair.split("=>"))
+            assert old in code, f"{block.where}: the shortened text {old!r} is not in the block"
+            code = code.replace(old, new)
+    return code
+
+
+def _runnable(guide):
+    return [b for b in readme.markdown_blocks(guide)
+            if b.lang in ("python", "sh") and _marker(b, "not-run") is None]
+
+
+def _bin(tmp):
+    """A folder for PATH in which ``unidyn``, ``python`` and ``python3`` are this
+    interpreter's, as in a virtual environment that is active."""
+    bin_ = tmp / "bin"
+    bin_.mkdir()
+    for name in ("python", "python3"):
+        (bin_ / name).symlink_to(sys.executable)
+    script = bin_ / "unidyn"
+    script.write_text(f'#!/bin/sh\nexec "{sys.executable}" -m unidyn "$@"\n')
+    script.chmod(0o755)
+    return bin_
+
+
+def _env(bin_):
+    env = dict(os.environ)
+    env["MPLBACKEND"] = "Agg"
+    env["PATH"] = f"{bin_}{os.pathsep}{env.get('PATH', '')}"
+    return env
+
+
+def run_guide(guide, tmp):
+    """Run the guide's blocks in order in an empty folder; returns the folder and
+    {block line: its stdout}."""
+    ws = tmp / "ws"
+    ws.mkdir()
+    env = _env(_bin(tmp))
+    outputs = {}
+    for b in _runnable(guide):
+        code = _code(b)
+        if b.lang == "python":
+            script = tmp / f"{guide.stem}-L{b.line}.py"
+            script.write_text(code, encoding="utf-8")
+            argv = [sys.executable, str(script)]
+        else:
+            argv = ["bash", "-e", "-o", "pipefail", "-c", code]
+        r = subprocess.run(argv, cwd=ws, env=env, capture_output=True, text=True, timeout=TIMEOUT)
+        assert r.returncode == 0 and "Traceback" not in r.stderr, (
+            f"{b.where} ({b.section}) failed:\n{code}\n--- stdout\n{r.stdout[-3000:]}"
+            f"\n--- stderr\n{r.stderr[-3000:]}")
+        outputs[b.line] = r.stdout
+    return ws, outputs
+
+
+def _stated(guide, pattern):
+    """The number a guide states, found by ``pattern`` (one group) in its text."""
+    m = re.search(pattern, guide.read_text(encoding="utf-8"))
+    assert m, f"{guide.name} no longer says {pattern!r}: update the check"
+    return m.group(1)
+
+
+def _rows(path):
+    lines = path.read_text(encoding="utf-8").splitlines()
+    return len([ln for ln in lines[1:] if ln.strip()])
+
+
+def _check_command_line(guide, ws, outputs):
+    # "8 runs of 40 s": the sample sweep writes one row per run
+    n = int(_stated(guide, r"sweep\.toml`[^.]*?(\d+) runs of 40 s"))
+    assert _rows(ws / "out" / "sweep" / "metrics.csv") == n
+    # "over 4 seeds": runs.csv holds one row per seed
+    seeds = int(_stated(guide, r"--seeds (\d+) --out out/case3-seeds"))
+    assert _rows(ws / "out" / "case3-seeds" / "runs.csv") == seeds
+
+
+def _output_of(guide, outputs, text):
+    """The stdout of the block of ``guide`` that holds ``text``."""
+    [b] = [b for b in _runnable(guide) if text in b.code]
+    return outputs[b.line]
+
+
+def _text_after(guide, words):
+    """The ``text`` block or the table that follows the paragraph ending in ``words``."""
+    text = guide.read_text(encoding="utf-8")
+    i = text.index(words) + len(words)
+    m = re.match(r"\s*(?:```text\n(.*?)```|((?:\|[^\n]*\n)+))", text[i:], re.S)
+    assert m, f"{guide.name}: nothing shown after {words!r}"
+    return (m.group(1) or m.group(2)).strip()
+
+
+def _check_paper(guide, ws, outputs):
+    # the Section 5 table is what the block prints
+    table = _text_after(guide, "It prints (noise seed 0):")
+    assert table in _output_of(guide, outputs, "section5_claims"), table
+    # the experiment's printed table and verdicts
+    shown = _text_after(guide, "It prints:")
+    printed = _output_of(guide, outputs, "--paper experiment")
+    assert shown in printed, printed
+    # the full Fig. 11 sweep: 70 gains, four cases, five seeds
+    from unidyn.paper import paper_fig11
+    sweep = paper_fig11(seeds=5)
+    gains = int(_stated(guide, r"runs the (\d+) gains from 0\.5 to 35"))
+    runs = int(_stated(guide, r"noise\s+seeds 1 to 5 \(([\d,]+) runs\)").replace(",", ""))
+    assert len(sweep.points()) == runs == gains * 4 * 5
+    assert f"{runs:,} runs" in guide.read_text(encoding="utf-8")
+
+
+def _check_payload(guide, ws, outputs):
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # Python 3.10
+        import tomli as tomllib
+    [toml] = [b for b in readme.markdown_blocks(guide) if b.lang == "toml"]
+    runs = len(tomllib.loads(toml.code)["grid"]["payload"])
+    assert int(_stated(guide, r"a sweep of (\d+) runs")) == runs
+    # the table of the three controllers holds the numbers the block prints, row by row
+    after = 'plot_pickup(results, "out/pickup.png", at=100.0)\n```'
+    shown = re.findall(r"(\d+\.\d{3}) m·s", _text_after(guide, after))
+    printed = re.findall(r"(\d+\.\d{3}) m·s", _output_of(guide, outputs, "pickup_iae"))
+    assert len(shown) == 6 and shown == printed, (shown, printed)
+
+
+def _check_toolbox_dropin(guide, ws, outputs):
+    lag = _stated(guide, r"angular velocity takes ([\d.]+) s to reach 90 %")
+    assert f"command {lag} s after it" in _output_of(guide, outputs, "PIECEWISE")
+
+
+#: per guide, a check of the numbers it states against what its blocks printed and wrote
+NUMBERS = {
+    "command-line": _check_command_line,
+    "payload": _check_payload,
+    "paper": _check_paper,
+    "toolbox-dropin": _check_toolbox_dropin,
+}
+
+
+def test_guides_exist_and_their_blocks_have_known_languages():
+    assert len(GUIDES) >= 8, GUIDES
+    for g in GUIDES:
+        blocks = readme.markdown_blocks(g)
+        assert [b for b in blocks if b.lang in ("python", "sh", "toml")], \
+            f"{g.name}: a guide shows code that runs"
+        readme.check_languages(blocks)
+        readme.check_includes(blocks)
+        for b in blocks:
+            _code(b)   # every shortened text is in its block
+
+
+def test_guides_use_the_public_api_only():
+    """Blocks import ``unidyn`` and its documented subpackages, never a module the
+    reference does not list, and name no file of the checkout (``examples/``,
+    ``src/``): a reader who installed the package has neither."""
+    documented = set(re.findall(r"automodule:: (unidyn[\w.]*)", "".join(
+        p.read_text(encoding="utf-8") for p in (ROOT / "docs" / "reference").rglob("*.rst"))))
+    for g in GUIDES:
+        for b in _runnable(g):
+            for mod in re.findall(r"(?:from|import) (unidyn[\w.]*)", b.code):
+                assert mod in documented, f"{b.where}: {mod} is not a documented module"
+            assert not re.search(r"(?<![\w/])(examples|src)/", b.code), \
+                f"{b.where}: names a file of the checkout"
+
+
+def test_shipped_example_files_are_the_examples():
+    """The scenario and sweep files of unidyn.datasets are the ones examples/ holds and
+    the reference shows."""
+    import unidyn.datasets
+    for name in ("scenario.toml", "sweep.toml"):
+        assert unidyn.datasets.path(name).read_bytes() == (ROOT / "examples" / name).read_bytes()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("guide", GUIDES, ids=lambda g: g.stem)
+def test_guide_blocks_run_from_an_empty_folder(guide, tmp_path):
+    ws, outputs = run_guide(guide, tmp_path)
+    check = NUMBERS.get(guide.stem)
+    if check is not None:
+        check(guide, ws, outputs)
