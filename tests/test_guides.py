@@ -168,12 +168,33 @@ def _check_toolbox_dropin(guide, ws, outputs):
     assert f"command {lag} s after it" in _output_of(guide, outputs, "PIECEWISE")
 
 
+def _check_ros(guide, ws, outputs):
+    # the lines shown of the sample recording's identification are the ones it prints
+    shown = _text_after(guide, "It prints, among its lines,")
+    printed = _output_of(guide, outputs, "unidyn identify courier.mcap").splitlines()
+    for line in shown.splitlines():
+        assert line == "..." or line.rstrip() in [p.rstrip() for p in printed], line
+
+
+def _check_model_limits(guide, ws, outputs):
+    # the presets named, five of Table 1 and four more: nine sets, unidyn.robots' names
+    import unidyn
+    text = guide.read_text(encoding="utf-8")
+    table1 = re.search(r"The five robots of the paper's Table 1 \(([^)]*)\)", text).group(1)
+    others = re.search(r"The\s+other four \(([^)]*)\)", text).group(1)
+    named = [re.findall(r"`(\w+)`", part) for part in (table1, others)]
+    assert [len(n) for n in named] == [5, 4] and "all nine sets" in text
+    assert sorted(named[0] + named[1]) == sorted(unidyn.robots.names())
+
+
 #: per guide, a check of the numbers it states against what its blocks printed and wrote
 NUMBERS = {
     "command-line": _check_command_line,
     "payload": _check_payload,
     "paper": _check_paper,
     "toolbox-dropin": _check_toolbox_dropin,
+    "ros": _check_ros,
+    "model-limits": _check_model_limits,
 }
 
 
