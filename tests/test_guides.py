@@ -16,7 +16,6 @@ engines) are checked against what the block prints or writes (:data:`NUMBERS`).
 
 import os
 import re
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -210,6 +209,16 @@ def test_guides_exist_and_their_blocks_have_known_languages():
             _code(b)   # every shortened text is in its block
 
 
+def test_guides_read_as_plain_markdown():
+    """The guides read the same on the repository's web page as in the built site: links
+    are Markdown links, names are code, notes are quotations; no MyST role (``{doc}``,
+    ``{func}``, ...) or directive, which the web page would show as raw markup."""
+    for g in GUIDES:
+        for n, line in enumerate(g.read_text(encoding="utf-8").splitlines(), 1):
+            assert not re.search(r"\{[a-z:]+\}`|^\s*(```|:::)\{", line), \
+                f"{g.name}:{n}: MyST markup: {line.strip()}"
+
+
 def test_guides_use_the_public_api_only():
     """Blocks import ``unidyn`` and its documented subpackages, never a module the
     reference does not list, and name no file of the checkout (``examples/``,
@@ -220,6 +229,9 @@ def test_guides_use_the_public_api_only():
         for b in _runnable(g):
             for mod in re.findall(r"(?:from|import) (unidyn[\w.]*)", b.code):
                 assert mod in documented, f"{b.where}: {mod} is not a documented module"
+            # the batch engine, the model and the sweeps are used through unidyn's names
+            assert not re.search(r"unidyn\.(engine|model|sweeps)\b", b.code), \
+                f"{b.where}: use the names of the unidyn namespace"
             assert not re.search(r"(?<![\w/])(examples|src)/", b.code), \
                 f"{b.where}: names a file of the checkout"
 
