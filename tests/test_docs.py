@@ -98,9 +98,8 @@ def test_cli_reference_is_generated_from_the_parser():
 # ------------------------------------------------------------------------ the build
 
 #: what the site is built from besides the installed package: its sources, the examples
-#: it shows and the notebooks it runs, the changelog it includes and the sample log a
-#: guide shows
-SITE_SOURCES = ("docs", "examples", "CHANGELOG.md", "src/unidyn/datasets/log.csv")
+#: it shows and the notebooks it runs, and the changelog it includes
+SITE_SOURCES = ("docs", "examples", "CHANGELOG.md")
 
 
 def _copy_site_sources(dest: Path) -> None:

@@ -3,7 +3,8 @@ folder of their own: every ``python`` and ``sh`` block of a guide runs as writte
 the order of the page, in one empty temporary folder (no checkout, no copy of
 ``examples/``: a block that needs a file gets it from :mod:`unidyn.datasets` or writes
 it), with ``MPLBACKEND=Agg``. ``python`` blocks run in a fresh interpreter each; ``sh``
-blocks run in bash, where ``unidyn`` and ``python`` are this interpreter's.
+blocks run in bash, where ``unidyn`` and ``python`` are this interpreter's and the
+programs of its environment (``bdrun``) are found.
 
 A block too long for the test suite is preceded by ``<!-- shortened: OLD => NEW -->``:
 the test runs it with the text OLD replaced by NEW (e.g. a shorter duration), and OLD
@@ -67,7 +68,8 @@ def _bin(tmp):
 def _env(bin_):
     env = dict(os.environ)
     env["MPLBACKEND"] = "Agg"
-    env["PATH"] = f"{bin_}{os.pathsep}{env.get('PATH', '')}"
+    # the environment's own programs (bdrun, bdedit) after these
+    env["PATH"] = os.pathsep.join([str(bin_), str(Path(sys.executable).parent), env.get("PATH", "")])
     return env
 
 
@@ -186,6 +188,25 @@ def _check_model_limits(guide, ws, outputs):
     assert sorted(named[0] + named[1]) == sorted(unidyn.robots.names())
 
 
+def _check_identification(guide, ws, outputs):
+    # the presets' gains and lengths the unit checks are explained with
+    import numpy as np
+
+    import unidyn
+    theta = {n: np.asarray(unidyn.robots.get(n).theta) for n in unidyn.robots.names()}
+    table1 = ("p3dx", "p3dx_laser", "wheelchair_55kg", "wheelchair_125kg", "khepera3")
+    gains = np.concatenate([theta[n][[3, 5]] for n in table1])
+    text = guide.read_text(encoding="utf-8")
+    lo, hi = re.search(r"θ4 and θ6 are near 1 \(([\d.]+) to ([\d.]+) for", text).groups()
+    assert (float(lo), float(hi)) == (round(gains.min(), 2), round(gains.max(), 2))
+    robulab = float(_stated(guide, r"([\d.]+) for\s+the RobuLAB-10"))
+    assert robulab == round(theta["robulab10"][3], 1)
+    lengths = [np.sqrt(abs(t[2] * t[1] / (t[0] * t[4]))) for t in theta.values()]
+    lo, hi = re.search(r"radius of\s+gyration \(([\d.]+) to ([\d.]+) m for the presets",
+                       text).groups()
+    assert (float(lo), float(hi)) == (round(min(lengths), 2), round(max(lengths), 2))
+
+
 #: per guide, a check of the numbers it states against what its blocks printed and wrote
 NUMBERS = {
     "command-line": _check_command_line,
@@ -194,6 +215,7 @@ NUMBERS = {
     "toolbox-dropin": _check_toolbox_dropin,
     "ros": _check_ros,
     "model-limits": _check_model_limits,
+    "identification": _check_identification,
 }
 
 
