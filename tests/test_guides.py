@@ -6,10 +6,9 @@ it), with ``MPLBACKEND=Agg``. ``python`` blocks run in a fresh interpreter each;
 blocks run in bash, where ``unidyn`` and ``python`` are this interpreter's and the
 programs of its environment (``bdrun``) are found.
 
-A block too long for the test suite is preceded by ``<!-- shortened: OLD => NEW -->``:
-the test runs it with the text OLD replaced by NEW (e.g. a shorter duration), and OLD
-must be in the block. A block that cannot run here (it needs a robot, opens a window)
-is preceded by ``<!-- not-run: reason -->``.
+A block that cannot run here is preceded by ``<!-- not-run: reason -->``: it needs a
+robot or ROS, opens a window, installs packages, or is too long for the test suite
+(the full Fig. 11 sweep; the guide runs a small one beside it).
 
 The numbers a guide states about a run (counts of runs and rows, agreement of the
 engines) are checked against what the block prints or writes (:data:`NUMBERS`).
@@ -33,18 +32,6 @@ TIMEOUT = 300
 def _marker(block, kind):
     m = re.match(rf"<!--\s*{kind}:\s*(.*?)\s*-->", block.marker)
     return m.group(1) if m else None
-
-
-def _code(block):
-    """The block's code as the test runs it: with its ``shortened`` replacements."""
-    code = block.code
-    spec = _marker(block, "shortened")
-    if spec is not None:
-        for pair in spec.split(";;"):
-            old, new = (s.strip() for s in pair.split("=>"))
-            assert old in code, f"{block.where}: the shortened text {old!r} is not in the block"
-            code = code.replace(old, new)
-    return code
 
 
 def _runnable(guide):
@@ -81,7 +68,7 @@ def run_guide(guide, tmp):
     env = _env(_bin(tmp))
     outputs = {}
     for b in _runnable(guide):
-        code = _code(b)
+        code = b.code
         if b.lang == "python":
             script = tmp / f"{guide.stem}-L{b.line}.py"
             script.write_text(code, encoding="utf-8")
@@ -227,8 +214,6 @@ def test_guides_exist_and_their_blocks_have_known_languages():
             f"{g.name}: a guide shows code that runs"
         readme.check_languages(blocks)
         readme.check_includes(blocks)
-        for b in blocks:
-            _code(b)   # every shortened text is in its block
 
 
 def test_guides_read_as_plain_markdown():
