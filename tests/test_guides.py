@@ -194,6 +194,16 @@ def _check_identification(guide, ws, outputs):
     assert (float(lo), float(hi)) == (round(min(lengths), 2), round(max(lengths), 2))
 
 
+def _check_teaching(guide, ws, outputs):
+    import unidyn
+    from unidyn.results import figstyle
+    text = " ".join(guide.read_text(encoding="utf-8").split())
+    assert float(_stated(guide, r"draws figures ([\d.]+) times larger")) == figstyle.SLIDES_SCALE
+    words = {7: "seven", 9: "nine"}
+    assert f"The {words[len(list((ROOT / 'examples').glob('*.ipynb')))]} notebooks" in text
+    assert f"the {words[len(unidyn.robots.names())]} robots" in text
+
+
 #: per guide, a check of the numbers it states against what its blocks printed and wrote
 NUMBERS = {
     "command-line": _check_command_line,
@@ -203,6 +213,7 @@ NUMBERS = {
     "ros": _check_ros,
     "model-limits": _check_model_limits,
     "identification": _check_identification,
+    "teaching": _check_teaching,
 }
 
 
