@@ -1,9 +1,7 @@
 """The documentation site: its guides' code runs, its reference lists everything
 public, and ``python -m sphinx -W`` builds it.
 
-- The fenced blocks of each guide, docs/guides/*.md, run twice in a row as the README's
-  do (tests/test_readme.py's :func:`run_twice`: in order, in one working folder holding
-  a copy of examples/, writing nothing outside out/); seconds each: slow tier.
+- The guides' code is run by tests/test_guides.py, from an empty folder.
 - The reference's sources name every name of ``unidyn.__all__`` (and every name
   ``import unidyn`` makes available), every block class of unidyn.blocks and every
   notebook of examples/ (fast: no build).
@@ -34,7 +32,6 @@ import test_readme as readme
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 GUIDES = sorted((DOCS / "guides").glob("*.md"))
-GUIDE_BLOCKS = [b for g in GUIDES for b in readme.markdown_blocks(g)]
 NOTEBOOKS = sorted((ROOT / "examples").glob("*.ipynb"))
 
 
@@ -65,24 +62,6 @@ def _subcommands():
         if isinstance(getattr(action, "choices", None), dict):   # the subcommands
             return sorted(action.choices)
     return []
-
-
-# ------------------------------------------------------------------ the guides' code
-
-def test_guides_exist_and_their_blocks_have_known_languages():
-    assert len(GUIDES) >= 8, GUIDES
-    for g in GUIDES:
-        blocks = readme.markdown_blocks(g)
-        runnable = [b for b in blocks if b.lang in ("python", "sh", "toml")]
-        assert runnable, f"{g.name}: a guide shows code that runs"
-        readme.check_languages(blocks)
-        readme.check_includes(blocks)
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("guide", GUIDES, ids=lambda g: g.stem)
-def test_guide_blocks_run_twice_and_write_only_under_out(guide, tmp_path):
-    readme.run_twice(guide, tmp_path)
 
 
 # --------------------------------------------------------- the reference, unbuilt
@@ -119,9 +98,8 @@ def test_cli_reference_is_generated_from_the_parser():
 # ------------------------------------------------------------------------ the build
 
 #: what the site is built from besides the installed package: its sources, the examples
-#: it shows and the notebooks it runs, the changelog it includes and the sample log a
-#: guide shows
-SITE_SOURCES = ("docs", "examples", "CHANGELOG.md", "src/unidyn/datasets/log.csv")
+#: it shows and the notebooks it runs, and the changelog it includes
+SITE_SOURCES = ("docs", "examples", "CHANGELOG.md")
 
 
 def _copy_site_sources(dest: Path) -> None:

@@ -264,7 +264,10 @@ def test_sdist_and_wheel_pass_twine_and_the_wheel_behaves_as_the_editable_instal
     # notebooks, the guides and the docs build read it so, wherever unidyn is installed)
     r = _in_venv(python, "import unidyn.datasets as d; print(*[d.path(n) for n in d.NAMES])")
     shipped = [Path(p) for p in r.stdout.split()]
-    assert len(shipped) == 2 and all(p.is_file() and site in p.parents for p in shipped), r.stdout
+    data = sorted(p.name for p in (ROOT / "src" / "unidyn" / "datasets").iterdir()
+                  if p.is_file() and p.suffix not in (".py", ".pyc"))
+    assert sorted(p.name for p in shipped) == data, (r.stdout, data)
+    assert all(p.is_file() and site in p.parents for p in shipped), r.stdout
     assert [p.read_bytes() for p in shipped] == [
         (ROOT / "src" / "unidyn" / "datasets" / p.name).read_bytes() for p in shipped]
     _check_install(python, site)

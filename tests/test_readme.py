@@ -2,7 +2,7 @@
 texts, runs as written, so the README cannot drift from the code; the README keeps the
 promises of a front page (a diagram of at most 15 lines, one statement a line; the
 test command, which .ci/run runs as written; the docs build command). The guides of the
-documentation (docs/guides/*.md) are run by the same machinery in tests/test_docs.py.
+documentation (docs/guides/*.md) are run by tests/test_guides.py.
 
 - ``python`` and ``sh`` blocks run in the order a reader meets them, in one empty
   temporary working folder holding a copy of ``examples/`` and of the sample data, and

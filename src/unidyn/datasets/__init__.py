@@ -10,7 +10,13 @@ any install (as ``scipy.datasets`` and ``skimage.data`` ship theirs)::
   w_ref, u, w`` that :func:`unidyn.identification.identify` reads;
 - ``courier.mcap``: a ROS 2 recording (MCAP) of a simulated robot, as
   ``ros2 bag record -s mcap /cmd_vel /odom`` stores it (``tools/make_sample_bag.py``
-  writes it, and says how it was simulated).
+  writes it, and says how it was simulated);
+- ``scenario.toml``: a scenario file to start from (one adaptive run on a circle, 30 s),
+  for ``unidyn run`` and :func:`unidyn.read_scenario`;
+- ``sweep.toml``: a sweep file to start from (two labelled variants crossed with four
+  gains: 8 runs of 40 s), for ``unidyn sweep``.
+
+Copy a file to edit it: ``shutil.copy(unidyn.datasets.path("scenario.toml"), ".")``.
 """
 
 from __future__ import annotations
@@ -22,7 +28,7 @@ from .._validate import choice
 __all__ = ["path", "NAMES"]
 
 #: The files shipped.
-NAMES = ("log.csv", "courier.mcap")
+NAMES = ("log.csv", "courier.mcap", "scenario.toml", "sweep.toml")
 
 
 def path(name: str) -> Path:
