@@ -174,7 +174,7 @@ U_MAX, W_MAX = 3.0, 5.0
 B_MAX = 1.0
 #: sqrt(|theta3 theta2 / (theta1 theta5)|) is a length (m/rad: about the radius of
 #: gyration about the wheel axle, sqrt(Iz/m + b^2), Section 2), which lies within
-#: 0.13 m and 0.92 m for the presets; outside these bounds it reads as other units
+#: 0.06 m (khepera3) and 0.65 m (wheelchair_55kg) for the presets; outside these bounds it reads as other units
 L_MIN, L_MAX = 0.02, 3.0
 _LINEAR = ((100.0, "cm/s"), (1000.0, "mm/s"))
 _ANGULAR = ((180 / math.pi, "deg/s"), (60 / (2 * math.pi), "rpm"))
