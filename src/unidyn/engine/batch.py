@@ -18,7 +18,7 @@ import numpy as np
 
 from .._errors import SimulationInterrupted
 from .._validate import BATCH_ATOL, BATCH_RTOL, ValidationError, tolerances
-from ..model.equations import TRAJECTORY_KINDS
+from ..model.equations import TRAJECTORY_KINDS, S
 from ..model.log import LOG_SERIES, log_layout, log_length
 from ..model.metrics import INTEGRAL, MEAN_ERROR, METRICS, NMETRIC
 from ..model.scenario import ALWAYS_LOGGED, Scenario
@@ -195,11 +195,25 @@ class _Call:
         self.bar, self.results = bar, results
 
     def runs(self, scs, tol, shift=0.0, where=(), keep=None):
-        """One pass over ``scs`` at tolerances ``tol``, each start moved by ``shift`` m."""
+        """One pass of the kernels over ``scs`` at tolerances ``tol``, each start moved
+        by ``shift`` m in x and y (or run i's by ``shift[i]``); one Result per run. On
+        Ctrl-C, the computed part of the first ``keep`` runs (the runs themselves, not
+        their probes) is put into ``results[where]`` first."""
         if not scs:
             return []
-        return _pass(self.engine, scs, tol, [shift] * len(scs), self.label, self.compiled,
-                     self.bar, self.results if keep else None, where, keep)
+        loop = ClosedLoop(scs)
+        runs = _runs(self.engine, loop, self.compiled)
+        runs.state[:, [S.x, S.y]] += np.broadcast_to(np.asarray(shift, dtype=float),
+                                                     (len(scs),))[:, None]
+        done = lambda: _results(self.engine, loop, runs, *tol, self.label)  # noqa: E731
+        try:
+            _integrate(self.engine, loop, runs, tol, self.compiled, self.bar)
+        except KeyboardInterrupt:
+            if keep:
+                for i, r in zip(where, done()[:keep]):
+                    self.results[i] = r
+            raise
+        return done()
 
 
 def _group(run: _Call, scs, idx, rtol, atol):
@@ -213,8 +227,7 @@ def _group(run: _Call, scs, idx, rtol, atol):
         return
     tol, B, results = (rtol, atol), len(scs), run.results
     if _together(scs):  # the runs and their probes in one pass, on cores otherwise idle
-        both = _pass(run.engine, scs + scs, tol, [0.0] * B + [PERTURBATION] * B, run.label,
-                     run.compiled, run.bar, results, idx, keep=B)
+        both = run.runs(scs + scs, tol, [0.0] * B + [PERTURBATION] * B, where=idx, keep=B)
         main, probe = both[:B], both[B:]
     else:
         main = run.runs(scs, tol, where=idx, keep=B)
@@ -333,24 +346,6 @@ def _together(scs) -> bool:
     sc = scs[0]
     log = len(scs) * (sc.steps // sc.log_every + 2) * sc.logged_bytes()
     return len(scs) < (os.cpu_count() or 1) and log <= TOGETHER_BYTES
-
-
-def _pass(engine, scs, tol, shifts, label, compiled, bar, results=None, where=(), keep=None):
-    """One pass of the kernels over ``scs`` at tolerances ``tol``, the starting point of
-    run i moved by ``shifts[i]`` m in x and y; one Result per run. On Ctrl-C, the
-    computed part of the first ``keep`` runs (the runs themselves, not their probes) is
-    put into ``results[where]`` first."""
-    loop = ClosedLoop(scs)
-    runs = _runs(engine, loop, compiled)
-    runs.state[:, 0:2] += np.asarray(shifts, dtype=float)[:, None]
-    try:
-        _integrate(engine, loop, runs, tol, compiled, bar)
-    except KeyboardInterrupt:
-        if results is not None:
-            for i, r in zip(where, _results(engine, loop, runs, *tol, label)[:keep]):
-                results[i] = r
-        raise
-    return _results(engine, loop, runs, *tol, label)
 
 
 def _runs(kernels, loop: ClosedLoop, compiled: bool):

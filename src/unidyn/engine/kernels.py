@@ -68,6 +68,11 @@ SWITCH_TOL_FRACTION = 1e-12
 MAX_SWITCH_CHAIN = 10
 #: The iterations of the Illinois method that locate a switch within a step.
 MAX_LOCATE = 60
+#: A trial point of the Illinois method stays this fraction of the tolerance inside its
+#: bracket (so that the bracket shrinks at each iteration).
+BRACKET_MARGIN = 0.25
+#: A step whose error estimate is not a number is taken again this much shorter.
+NAN_STEP_FACTOR = 0.5
 
 
 #: The per-call scratch of :func:`integrate_interval`: ``K`` (7, n) the stages' rates,
@@ -206,7 +211,7 @@ def switch_at(f, t, x, h, args, work, rtol):
             break
         mid = hi - ghi * (hi - lo) / (ghi - glo) if ghi != glo else 0.5 * (lo + hi)
         # keep inside the bracket, away from its ends by a part of the tolerance
-        mid = min(max(mid, lo + 0.25 * tol), hi - 0.25 * tol)
+        mid = min(max(mid, lo + BRACKET_MARGIN * tol), hi - BRACKET_MARGIN * tol)
         g = margin_at(f, t, x, h, args, work, mid)
         if g < 0.0:
             hi, ghi = mid, g
@@ -453,7 +458,7 @@ def integrate_interval(f, decide, t0, t1, X, h, args, call, work):
         else:
             rejected += 1
             again = True
-            h = h * step_factor(err) if err < math.inf else 0.5 * h  # NaN: halved
+            h = h * step_factor(err) if err < math.inf else NAN_STEP_FACTOR * h
             proposal = h
         if kept + rejected >= call.max_steps or not h >= MIN_STEP_FRACTION * span:
             return proposal, kept, rejected, STEP if err < math.inf else NONFINITE
