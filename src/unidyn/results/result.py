@@ -262,6 +262,12 @@ class Result:
                      + "; plots: plot_path(), plot_error(), ...; save(folder)")
         return "\n".join(lines)
 
+    @property
+    def integrals(self) -> np.ndarray:
+        """The integral metrics (:data:`INTEGRAL_NAMES`) from t = 0 to each logged
+        sample, (N, their number): those columns of :attr:`running`."""
+        return self.running[:, [METRIC_NAMES.index(k) for k in INTEGRAL_NAMES]]
+
     # ------------------------------------------------------------------ #
     def window(self, t0: float, t1: float) -> dict:
         """Metrics over t0 <= t <= t1 (e.g. the paper's before/after windows, Section 5's
