@@ -20,7 +20,7 @@ from .._errors import SimulationInterrupted
 from .._validate import BATCH_ATOL, BATCH_RTOL, ValidationError, tolerances
 from ..model.equations import TRAJECTORY_KINDS, S
 from ..model.log import LOG_SERIES, log_layout, log_length
-from ..model.metrics import INTEGRAL, MEAN_ERROR, METRICS, NMETRIC
+from ..model.metrics import INTEGRAL, INTEGRAL_NAMES, MEAN_ERROR, METRICS, NMETRIC
 from ..model.scenario import ALWAYS_LOGGED, Scenario
 from ..progress import Progress
 from ..results.result import Result
@@ -344,7 +344,7 @@ def _together(scs) -> bool:
     would leave cores idle (fewer runs than cores), and their logs are small
     (:data:`TOGETHER_BYTES`)."""
     sc = scs[0]
-    log = len(scs) * (sc.steps // sc.log_every + 2) * sc.logged_bytes()
+    log = len(scs) * log_length(sc.steps, sc.log_every, True) * sc.logged_bytes()
     return len(scs) < (os.cpu_count() or 1) and log <= TOGETHER_BYTES
 
 
@@ -440,9 +440,8 @@ def _differences(r: Result, other: Result) -> dict:
     ``own_scale``), and the series (``position``, ``heading``, ``distance_error``,
     ``theta_hat``) by their largest difference over the logged samples."""
     a, b = r.metrics, other.metrics
-    integral = [m.name for m in METRICS if m.rule == INTEGRAL]
-    spread = max(_relative(a[k], b[k], a[k]) for k in integral)
-    out = {k: spread for k in integral}
+    spread = max(_relative(a[k], b[k], a[k]) for k in INTEGRAL_NAMES)
+    out = {k: spread for k in INTEGRAL_NAMES}
     for m in METRICS:
         if m.rule != INTEGRAL:
             # the mean error of the run, the scale of a final error (it may end near zero)

@@ -27,8 +27,9 @@ from .jit import AVAILABLE, jit
 if AVAILABLE:
     from numba.extending import overload
 
-__all__ = ["AVAILABLE", "Runs", "Call", "Work", "reference", "loop_rhs", "loop_decide", "advance", "dp_step",
-           "dense", "switch_at", "integrate_interval", "work_arrays", "Status"]
+__all__ = ["AVAILABLE", "Runs", "Call", "Work", "reference", "loop_rhs", "loop_decide",
+           "advance", "dp_step", "dense", "switch_at", "integrate_interval", "work_arrays",
+           "Status"]
 
 
 # ------------------------------------------------ Dormand-Prince 5(4), a table
