@@ -142,8 +142,9 @@ class Result:
         in the order of :data:`METRIC_NAMES` (an integral so far, a peak so far, a final
         value at that sample), accumulated at every sample: what :meth:`window`
         subtracts
-    :ivar numerical_error: the estimated relative error of each metric (``error_final``
-        relative to the mean error of the run, IAE / T) and of the logged series
+    :ivar numerical_error: the estimated relative error of each metric (relative to its
+        own size, or to the mean error of the run, IAE / T, where the metric's entry
+        says so: ``error_final``) and of the logged series
         ``position``, ``heading``, ``distance_error`` and ``theta_hat`` (the largest
         error over the samples, relative to the series' largest value), from the batch
         engine's own estimate
