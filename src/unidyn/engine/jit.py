@@ -29,6 +29,9 @@ from filelock import FileLock
 
 from ..model import equations, log, metrics
 
+#: The model's modules whose functions compiled code calls, each registered with numba.
+COMPILED_MODULES = (equations, metrics, log)
+
 try:  # numba is optional
     import numba
     from numba.extending import register_jitable
@@ -45,7 +48,7 @@ if AVAILABLE:
     # inlined by LLVM (forceinline), not by numba's inline="always", which types each
     # function again at every place it is called
     _OVERLOADED = (equations.select, equations.saturate)
-    for _module in (equations, metrics, log):
+    for _module in COMPILED_MODULES:
         for _name in _module.__all__:
             _f = getattr(_module, _name)
             if (callable(_f) and getattr(_f, "__module__", None) == _module.__name__
@@ -67,10 +70,11 @@ if AVAILABLE:
         return lambda condition, a, b: np.where(condition, a, b)
 
 
-#: The package's files whose code the compiled functions run: the equations and rules
-#: they inline, the overloads here, and the compiled functions.
-COMPILED_SOURCES = ("model/equations.py", "model/metrics.py", "model/log.py", "engine/jit.py",
-                    "engine/kernels.py", "identification/replay.py")
+#: The package's files whose code the compiled functions run: the model's modules they
+#: inline (:data:`COMPILED_MODULES`), the overloads here, and the compiled functions.
+COMPILED_SOURCES = tuple(m.__name__.replace(".", "/")[len("unidyn/"):] + ".py"
+                         for m in COMPILED_MODULES) + (
+    "engine/jit.py", "engine/kernels.py", "identification/replay.py")
 #: Versions of the compiled code whose cache folders are kept (switching between a few
 #: versions, as between git branches, compiles none of them again).
 KEEP_VERSIONS = 3
