@@ -25,7 +25,7 @@ __all__ = ["Metric", "METRICS", "METRIC_NAMES", "INTEGRAL_NAMES", "METRIC_UNITS"
 #: How a metric accumulates over the samples: the integral over the run, the value at
 #: its last sample, the largest value over its samples.
 INTEGRAL, FINAL, PEAK = 0, 1, 2
-#: What a metric is of: the distance error |h_d - h| (m), the effort u² + ω².
+#: What a metric is of: the distance error between h_d and h (m), the effort u² + ω².
 ERROR, EFFORT = 0, 1
 
 
