@@ -360,7 +360,8 @@ def test_extreme_numbers_in_run_files(capsys, tmp_path, text, outcome):
         import json
         summary = json.loads((out / "summary.json").read_text())
         assert summary["complete"] is False and summary["numerical_error"] is None
-        assert set(summary["metrics"]) == {"iae", "ise", "itae", "itse", "energy", "error_final"}
+        assert set(summary["metrics"]) == {"iae", "ise", "itae", "itse", "energy", "error_final",
+                                                   "peak_error"}
 
 
 # ---------------------------------------------------------------------- unidyn sweep

@@ -26,7 +26,8 @@ def test_an_incomplete_batch_run_keeps_the_metrics_of_the_part_computed(tmp_path
     bad = Scenario.paper(3, T=6.0, trajectory=_nan_after(2.0), name="bad")
     rb, = simulate_batch([bad], backend="plain")
     assert rb.complete is False and rb.message and rb.numerical_error is None
-    assert set(rb.metrics) == {"iae", "ise", "itae", "itse", "energy", "error_final"}
+    assert set(rb.metrics) == {"iae", "ise", "itae", "itse", "energy", "error_final",
+                               "peak_error"}
     # the metrics are those of the part computed: the trapezoidal rule over its logged
     # samples (every sample, log_every = 1), computed apart from the engine's own sums
     assert np.all(np.isfinite(rb.pose)) and rb.t[-1] >= 2.0

@@ -62,8 +62,8 @@ def test_grid_expansion_order_and_special_axes():
     assert q.robot.name == "p3dx" and q.theta_hat0 is None
     np.testing.assert_allclose(q.theta_hat_initial, robots.get("p3dx").theta / 1.5)
     assert s.columns == ["index", "variant", "kxy", "seed", "case", "iae", "ise", "itae",
-                         "itse", "energy", "error_final", "numerical_error", "estimate",
-                         "sensitive", "complete", "message"]
+                         "itse", "energy", "error_final", "peak_error", "numerical_error",
+                         "estimate", "sensitive", "complete", "message"]
     # the same spec gives the same points, and round-trips through plain data
     assert Sweep.from_dict(json.loads(json.dumps(s.to_dict()))) == s
 
@@ -704,8 +704,9 @@ def test_cli_sweep_file_resume_and_no_resume(tmp_path, capsys):
     assert len(rows) == 3 and all(math.isfinite(r["iae"]) for r in rows)
     with open(out / "metrics.csv", newline="") as fh:
         assert next(csv.reader(fh)) == ["index", "kxy", "case", "iae", "ise", "itae",
-                                        "itse", "energy", "error_final", "numerical_error",
-                                        "estimate", "sensitive", "complete", "message"]
+                                        "itse", "energy", "error_final", "peak_error",
+                                        "numerical_error", "estimate", "sensitive", "complete",
+                                        "message"]
 
 
 @pytest.mark.filterwarnings("ignore::RuntimeWarning")

@@ -22,14 +22,14 @@ from .._errors import (
 )
 from .._validate import MAX_NAME
 from ..engines import choose, run
+from ..model.metrics import METRIC_NAMES, METRICS
 from ..model.scenario import Scenario
 from ..results.folders import check_manifest, list_files, staged_output
 from ..results.plots import save_figures
-from ..results.result import METRIC_UNITS, RUN_FILES, has_noise
+from ..results.result import RUN_FILES, has_noise
 from ..results.rosbag import check_bag_target, write_run_bag
 from ..sweeps.seeds import SEED_FILES, plus_minus
 from ..sweeps.sweep_files import (
-    METRICS,
     parse_toml_value,
     read_scenario_table,
     scenario_from_layers,
@@ -221,10 +221,10 @@ def _run_summary(sc, out, stage, result, wall, replaced, animation) -> int:
               f"{' '.join(str(result.message).split())}")
     part = "" if result.complete else f" (to t = {float(result.t[-1]) if len(result.t) else 0:g} s)"
     noisy = has_noise(sc)
-    beside = {k: f"  (numerical error {err[k]:.1e} relative)" if k in err and not noisy else ""
-              for k in ("iae", "error_final")}
-    print(f"IAE        {m['iae']:.6g} m·s{part}{beside['iae']}")
-    print(f"error(T)   {m['error_final']:.6g} m{part}{beside['error_final']}")
+    for metric in METRICS:
+        k = metric.name
+        beside = f"  (numerical error {err[k]:.1e} relative)" if k in err and not noisy else ""
+        print(f"{metric.label:10s} {m[k]:.6g} {metric.unit}{part}{beside}")
     if noisy:  # which uncertainty to quote, and how to get it
         print(f"quote      these are one sample of the noise (seed {sc.noise.seed}); their "
               f"spread over seeds is the uncertainty: --seeds N gives mean ± standard error")
@@ -252,11 +252,6 @@ def _run_summary(sc, out, stage, result, wall, replaced, animation) -> int:
         print(f"unidyn: warning: the run stopped early: {result.message}", file=sys.stderr)
         return 1
     return 0
-
-
-#: How the metrics are named in what ``unidyn run`` prints.
-_SHOWN = {"iae": "IAE", "ise": "ISE", "itae": "ITAE", "itse": "ITSE", "energy": "energy",
-          "error_final": "error(T)"}
 
 
 def _run_seeds(args, sc, engine, out) -> int:
@@ -295,18 +290,19 @@ def _run_seeds(args, sc, engine, out) -> int:
     print(f"engine     {first.engine}" + (f" ({first.backend})" if first.backend else "")
           + f", T = {sc.T:g} s, noise seeds {runs.seeds[0]}"
           + (f"-{runs.seeds[-1]}" if len(runs.seeds) > 1 else "") + f" ({len(runs)} runs)")
-    for m in METRICS:
-        unit = METRIC_UNITS.get(m, "")
-        line = f"{_SHOWN[m]:10s} {plus_minus(st[f'{m}_mean'], st[f'{m}_sem'], unit)} (n = {n})"
+    for metric in METRICS:
+        m = metric.name
+        line = (f"{metric.label:10s} {plus_minus(st[f'{m}_mean'], st[f'{m}_sem'], metric.unit)}"
+                f" (n = {n})")
         if runs.numerical_error_small(m) is False:
             line += (f"  (numerical error {runs.numerical_error(m):.1e} relative: not small "
                      f"against the standard error)")
         print(line)
     print(f"quote      mean ± standard error (std / sqrt(n)) over the {n} seeds"
           + ("" if n > 1 else "; one seed has no spread: use more seeds"))
-    if all(runs.numerical_error_small(m) for m in METRICS):
+    if all(runs.numerical_error_small(m) for m in METRIC_NAMES):
         print("numerical  error below a tenth of each standard error")
-    elif n and any(runs.numerical_error(m) is None for m in METRICS):
+    elif n and any(runs.numerical_error(m) is None for m in METRIC_NAMES):
         print("numerical  error not estimated for every run"
               + (" (the diagram integrates once)" if first.engine == "bdsim" else ""))
     print(f"sensitive  {st['sensitive']} of {len(runs)} runs")

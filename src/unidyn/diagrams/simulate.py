@@ -20,9 +20,10 @@ from .._validate import (
     tolerances,
 )
 from ..model.equations import saturate
+from ..model.log import logged
 from ..model.scenario import Scenario
 from ..progress import Progress
-from ..results.result import Result, distance, integrals
+from ..results.result import Result, distance, running
 
 __all__ = ["simulate", "SimulationError", "SimulationInterrupted"]
 
@@ -240,10 +241,9 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
     if velocity is None:  # kinematic robot: v = v_d clipped to the speed limits
         velocity = saturate(signals["v_d"], sc.limits.speed)
     # the metrics over every sample, whatever is logged
-    sums = integrals(grid * sc.Ts, distance(signals["reference"], signals["pose"]), velocity)
-    if sc.log_every > 1:  # every log_every-th sample, and the last one of a failed run
-        keep = grid % sc.log_every == 0
-        keep[-1] |= failure is not None
+    sums = running(grid * sc.Ts, distance(signals["reference"], signals["pose"]), velocity)
+    if sc.log_every > 1:
+        keep = logged(grid, sc.log_every, (grid == grid[-1]) & (failure is not None))
         grid, velocity, sums = grid[keep], velocity[keep], sums[keep]
         signals = {k: v[keep] for k, v in signals.items()}
     t = grid * sc.Ts
@@ -260,7 +260,7 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
                     v_ref=kept("v_ref", signals["v_ref"]),
                     theta_hat=kept("theta_hat", theta_hat), engine="bdsim",
                     complete=failure is None, message=failure or unvouched,
-                    backend=f"solve_ivp {method}", integrals=sums)
+                    backend=f"solve_ivp {method}", running=sums)
     if interrupted:
         raise SimulationInterrupted(failure, result)
     return result

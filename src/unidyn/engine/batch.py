@@ -19,9 +19,12 @@ import numpy as np
 from .._errors import SimulationInterrupted
 from .._validate import BATCH_ATOL, BATCH_RTOL, ValidationError, tolerances
 from ..model import equations, trajectories
+from ..model.equations import S
+from ..model.log import LOG_SERIES, log_layout, log_length
+from ..model.metrics import INTEGRAL, INTEGRAL_NAMES, MEAN_ERROR, METRICS, NMETRIC
 from ..model.scenario import ALWAYS_LOGGED, Scenario
 from ..progress import Progress
-from ..results.result import INTEGRAL_NAMES, Result
+from ..results.result import Result
 from .rhs import ClosedLoop
 
 __all__ = ["simulate_batch", "backend_for", "MAX_STEPS", "ACCURACY", "STATUS_MESSAGES",
@@ -194,11 +197,25 @@ class _Call:
         self.bar, self.results = bar, results
 
     def runs(self, scs, tol, shift=0.0, where=(), keep=None):
-        """One pass over ``scs`` at tolerances ``tol``, each start moved by ``shift`` m."""
+        """One pass of the kernels over ``scs`` at tolerances ``tol``, each start moved
+        by ``shift`` m in x and y (or run i's by ``shift[i]``); one Result per run. On
+        Ctrl-C, the computed part of the first ``keep`` runs (the runs themselves, not
+        their probes) is put into ``results[where]`` first."""
         if not scs:
             return []
-        return _pass(self.engine, scs, tol, [shift] * len(scs), self.label, self.compiled,
-                     self.bar, self.results if keep else None, where, keep)
+        loop = ClosedLoop(scs)
+        runs = _runs(self.engine, loop, self.compiled)
+        runs.state[:, [S.x, S.y]] += np.broadcast_to(np.asarray(shift, dtype=float),
+                                                     (len(scs),))[:, None]
+        done = lambda: _results(self.engine, loop, runs, *tol, self.label)  # noqa: E731
+        try:
+            _integrate(self.engine, loop, runs, tol, self.compiled, self.bar)
+        except KeyboardInterrupt:
+            if keep:
+                for i, r in zip(where, done()[:keep]):
+                    self.results[i] = r
+            raise
+        return done()
 
 
 def _group(run: _Call, scs, idx, rtol, atol):
@@ -212,8 +229,7 @@ def _group(run: _Call, scs, idx, rtol, atol):
         return
     tol, B, results = (rtol, atol), len(scs), run.results
     if _together(scs):  # the runs and their probes in one pass, on cores otherwise idle
-        both = _pass(run.engine, scs + scs, tol, [0.0] * B + [PERTURBATION] * B, run.label,
-                     run.compiled, run.bar, results, idx, keep=B)
+        both = run.runs(scs + scs, tol, [0.0] * B + [PERTURBATION] * B, where=idx, keep=B)
         main, probe = both[:B], both[B:]
     else:
         main = run.runs(scs, tol, where=idx, keep=B)
@@ -330,39 +346,21 @@ def _together(scs) -> bool:
     would leave cores idle (fewer runs than cores), and their logs are small
     (:data:`TOGETHER_BYTES`)."""
     sc = scs[0]
-    log = len(scs) * (sc.steps // sc.log_every + 2) * sc.logged_bytes()
+    log = len(scs) * log_length(sc.steps, sc.log_every, True) * sc.logged_bytes()
     return len(scs) < (os.cpu_count() or 1) and log <= TOGETHER_BYTES
-
-
-def _pass(engine, scs, tol, shifts, label, compiled, bar, results=None, where=(), keep=None):
-    """One pass of the kernels over ``scs`` at tolerances ``tol``, the starting point of
-    run i moved by ``shifts[i]`` m in x and y; one Result per run. On Ctrl-C, the
-    computed part of the first ``keep`` runs (the runs themselves, not their probes) is
-    put into ``results[where]`` first."""
-    loop = ClosedLoop(scs)
-    runs = _runs(engine, loop, compiled)
-    runs.state[:, 0:2] += np.asarray(shifts, dtype=float)[:, None]
-    try:
-        _integrate(engine, loop, runs, tol, compiled, bar)
-    except KeyboardInterrupt:
-        if results is not None:
-            for i, r in zip(where, _results(engine, loop, runs, *tol, label)[:keep]):
-                results[i] = r
-        raise
-    return _results(engine, loop, runs, *tol, label)
 
 
 def _runs(kernels, loop: ClosedLoop, compiled: bool):
     """The arrays of ``loop``'s runs (:data:`unidyn.engine.kernels.Runs`), at t = 0."""
     B, sc0 = loop.B, loop.scenarios[0]
-    columns, _ = kernels.log_layout(ALWAYS_LOGGED + sc0.log_series)  # the series asked for
-    rows = loop.steps // sc0.log_every + 2  # every log_every-th sample, and a run's last
+    columns, _ = log_layout(ALWAYS_LOGGED + sc0.log_series)  # the series asked for
+    rows = log_length(loop.steps, sc0.log_every, True)  # however a run stops
     count = lambda: np.zeros(B, dtype=np.int64)  # noqa: E731
     return kernels.Runs(
         state=loop.initial_state(), params=loop.P, h=np.zeros(B), noise_pos=loop.pos_noise,
         noise_vel=loop.vel_noise, bounds=np.array([sc.divergence_bounds() for sc in loop.scenarios]),
         log_columns=columns, log=np.full((B, rows, len(columns)), np.nan, dtype=sc0.log_dtype),
-        integrals=np.full((B, rows, len(INTEGRAL_NAMES)), np.nan), acc=np.zeros((B, 7)),
+        running=np.full((B, rows, NMETRIC), np.nan), acc=np.zeros((B, 2 * NMETRIC)),
         status=count(), last=count(), steps=count(), rejected=count(),
         # the Python-function references, for the plain copy (compiled code has none)
         references=() if compiled else tuple(loop.trajectories))
@@ -439,15 +437,19 @@ def _series_difference(a, b) -> float:
 def _differences(r: Result, other: Result) -> dict:
     """How far ``other``'s metrics and series are from ``r``'s, relative to their size:
     the integral metrics all by the largest of their differences (one metric's
-    difference may vanish by chance; all of them rarely do), the final error relative
-    to the mean error of the run (IAE / T: it may end near zero), and the series
-    (``position``, ``heading``, ``distance_error``, ``theta_hat``) by their largest
-    difference over the logged samples."""
-    spread = max(_relative(r.metrics[k], other.metrics[k], r.metrics[k]) for k in INTEGRAL_NAMES)
+    difference may vanish by chance; all of them rarely do), the others each relative
+    to its own size or to the mean error of the run (:data:`unidyn.model.metrics.Metric`'s
+    ``own_scale``), and the series (``position``, ``heading``, ``distance_error``,
+    ``theta_hat``) by their largest difference over the logged samples."""
+    a, b = r.metrics, other.metrics
+    spread = max(_relative(a[k], b[k], a[k]) for k in INTEGRAL_NAMES)
     out = {k: spread for k in INTEGRAL_NAMES}
-    mean_error = r.metrics["iae"] / r.t[-1] if len(r.t) > 1 else r.metrics["error_final"]
-    out["error_final"] = _relative(r.metrics["error_final"], other.metrics["error_final"],
-                                   mean_error)
+    for m in METRICS:
+        if m.rule != INTEGRAL:
+            # the mean error of the run, the scale of a final error (it may end near zero)
+            mean_error = a[MEAN_ERROR] / r.t[-1] if len(r.t) > 1 else a[m.name]
+            out[m.name] = _relative(a[m.name], b[m.name], a[m.name] if m.own_scale
+                                    else mean_error)
     n = min(len(r.t), len(other.t))
     last = [x[n - 1] for x in (r.pose, other.pose) if n]
     if r.theta_hat is not None and other.theta_hat is not None and n:
@@ -463,10 +465,11 @@ def _differences(r: Result, other: Result) -> dict:
     return out
 
 
-#: The estimates that decide a run's tolerance and its sensitivity: the metrics, and the
-#: state at the last sample (logged whatever ``log_every``), so that neither depends on
-#: how thinly the series are logged. The series' estimates are over the logged samples.
-DECISIVE = INTEGRAL_NAMES + ("error_final", "final_state")
+#: The estimates that decide a run's tolerance and its sensitivity: the metrics that say
+#: so (:data:`unidyn.model.metrics.Metric`'s ``decisive``), and the state at the last
+#: sample (logged whatever ``log_every``), so that neither depends on how thinly the
+#: series are logged. The series' estimates are over the logged samples.
+DECISIVE = tuple(m.name for m in METRICS if m.decisive) + ("final_state",)
 #: The series whose largest difference over the logged samples is estimated.
 SERIES = ("position", "heading", "distance_error", "theta_hat")
 
@@ -493,10 +496,11 @@ def _series_noted(r: Result) -> Result:
 def _sensitive(r: Result, moved: dict, rtol: float, moved_before: dict, rtol_before: float):
     """``r`` marked sensitive: its probe moved it by ``moved`` at ``rtol`` and by
     ``moved_before`` at ``rtol_before``, both more than :data:`ACCURACY`."""
-    worst = max(moved.values())
-    message = (f"sensitive: a {PERTURBATION:g} m move of the starting point moves IAE by "
-               f"{100 * moved_before['iae']:.2g} % at rtol = {rtol_before:g} and "
-               f"{100 * moved['iae']:.2g} % at rtol = {rtol:g} (its metrics and series up to "
+    worst, first = max(moved.values()), METRICS[0]
+    message = (f"sensitive: a {PERTURBATION:g} m move of the starting point moves "
+               f"{first.label} by {100 * moved_before[first.name]:.2g} % at rtol = "
+               f"{rtol_before:g} and {100 * moved[first.name]:.2g} % at rtol = {rtol:g} "
+               f"(its metrics and series up to "
                f"{100 * worst:.2g} %): the perturbation's effect does not fall as the "
                f"tolerance tightens, so no tolerance converges the run, and its spread over "
                f"noise seeds is the uncertainty to quote (scenario "
@@ -535,18 +539,17 @@ def _results(kernels, loop: ClosedLoop, runs, rtol: float, atol: float, backend:
     incomplete."""
     Status = kernels.Status
     L = loop.scenarios[0].log_every
-    _, layout = kernels.log_layout(ALWAYS_LOGGED + loop.scenarios[0].log_series)
+    _, layout = log_layout(ALWAYS_LOGGED + loop.scenarios[0].log_series)
     out = []
     for i, sc in enumerate(loop.scenarios):
         status, last = Status(int(runs.status[i])), int(runs.last[i])
-        nrow = last // L + 1
-        t = np.arange(nrow) * (L * loop.Ts)
-        if status not in (Status.OK, Status.STEP) and last % L != 0:  # the sample it stopped at
-            nrow += 1
+        nrow = log_length(last, L, status not in (Status.OK, Status.STEP))
+        t = np.arange(last // L + 1) * (L * loop.Ts)
+        if nrow > len(t):  # the sample it stopped at
             t = np.r_[t, last * loop.Ts]
-        log, integrals = runs.log[i, :nrow], runs.integrals[i, :nrow]  # views (no copy)
+        log, running = runs.log[i, :nrow], runs.running[i, :nrow]  # views (no copy)
         if status == Status.NONFINITE:  # drop the non-finite sample
-            log, integrals, t = log[:-1], integrals[:-1], t[:-1]
+            log, running, t = log[:-1], running[:-1], t[:-1]
         # every sample computed: complete, even if Ctrl-C came after the last
         complete = status == Status.OK and last == loop.steps
         label = sc.name or sc.case
@@ -564,8 +567,8 @@ def _results(kernels, loop: ClosedLoop, runs, rtol: float, atol: float, backend:
         else:
             message = (f"{STATUS_MESSAGES[status.name].format(rtol=rtol, atol=atol)} "
                        f"at t = {t_stop:.6g} s (scenario {label})")
-        series = {k: log[:, layout[k]] if k in layout else None for k in kernels.LOG_SERIES}
+        series = {k: log[:, layout[k]] if k in layout else None for k in LOG_SERIES}
         out.append(Result(scenario=sc, t=t, **series, engine="batch", complete=complete,
                           message=message, backend=backend, steps=int(runs.steps[i]),
-                          rejected=int(runs.rejected[i]), integrals=integrals))
+                          rejected=int(runs.rejected[i]), running=running))
     return out

@@ -1,7 +1,8 @@
 """numba, where installed: :func:`jit` compiles a function that calls the paper's
-equations (:mod:`unidyn.model.equations`, each registered with numba's
-``register_jitable`` and inlined by LLVM: the engines compile the equations the rest of
-the library runs); without numba, or in :func:`plain_copy`, it runs as plain Python.
+equations (:mod:`unidyn.model.equations`), the metrics' rules (:mod:`unidyn.model.metrics`)
+or the log's (:mod:`unidyn.model.log`), each registered with numba's
+``register_jitable`` and inlined by LLVM: the engines compile what the rest of the
+library runs; without numba, or in :func:`plain_copy`, it runs as plain Python.
 
 numba keys its on-disk cache on a function's own file, not on the files it inlines
 (a documented limitation), so the package caches in a folder per version of the
@@ -26,7 +27,10 @@ from pathlib import Path
 
 from filelock import FileLock
 
-from ..model import equations
+from ..model import equations, log, metrics
+
+#: The model's modules whose functions compiled code calls, each registered with numba.
+COMPILED_MODULES = (equations, metrics, log)
 
 try:  # numba is optional
     import numba
@@ -44,11 +48,12 @@ if AVAILABLE:
     # inlined by LLVM (forceinline), not by numba's inline="always", which types each
     # function again at every place it is called
     _OVERLOADED = (equations.select, equations.saturate)
-    for _name in equations.__all__:
-        _f = getattr(equations, _name)
-        if (callable(_f) and getattr(_f, "__module__", None) == equations.__name__
-                and _f not in _OVERLOADED):
-            register_jitable(forceinline=True)(_f)
+    for _module in COMPILED_MODULES:
+        for _name in _module.__all__:
+            _f = getattr(_module, _name)
+            if (callable(_f) and getattr(_f, "__module__", None) == _module.__name__
+                    and _f not in _OVERLOADED and not isinstance(_f, type)):
+                register_jitable(forceinline=True)(_f)
     _INLINE = dict(jit_options=dict(forceinline=True))
 
     @overload(equations.saturate, **_INLINE)
@@ -65,10 +70,11 @@ if AVAILABLE:
         return lambda condition, a, b: np.where(condition, a, b)
 
 
-#: The package's files whose code the compiled functions run: the equations they
-#: inline, the overloads here, and the compiled functions.
-COMPILED_SOURCES = ("model/equations.py", "engine/jit.py",
-                    "engine/kernels.py", "identification/replay.py")
+#: The package's files whose code the compiled functions run: the model's modules they
+#: inline (:data:`COMPILED_MODULES`), the overloads here, and the compiled functions.
+COMPILED_SOURCES = tuple(m.__name__.replace(".", "/")[len("unidyn/"):] + ".py"
+                         for m in COMPILED_MODULES) + (
+    "engine/jit.py", "engine/kernels.py", "identification/replay.py")
 #: Versions of the compiled code whose cache folders are kept (switching between a few
 #: versions, as between git branches, compiles none of them again).
 KEEP_VERSIONS = 3

@@ -19,15 +19,17 @@ from enum import IntEnum
 import numpy as np
 
 from ..model import equations as eq
+from ..model import metrics
 from ..model.equations import NSTATE, P, S
+from ..model.log import LOG, LOGGED_STATES, NLOG, log_row, logged
 from .jit import AVAILABLE, jit
 
 if AVAILABLE:
     from numba.extending import overload
 
-__all__ = ["AVAILABLE", "Runs", "Call", "Work", "LOG_COLUMNS", "LOG_SERIES",
-           "log_layout", "reference", "loop_rhs", "loop_decide", "advance", "dp_step",
-           "dense", "switch_at", "integrate_interval", "work_arrays", "Status"]
+__all__ = ["AVAILABLE", "Runs", "Call", "Work", "reference", "loop_rhs", "loop_decide",
+           "advance", "dp_step", "dense", "switch_at", "integrate_interval", "work_arrays",
+           "Status"]
 
 
 # ------------------------------------------------ Dormand-Prince 5(4), a table
@@ -67,6 +69,11 @@ SWITCH_TOL_FRACTION = 1e-12
 MAX_SWITCH_CHAIN = 10
 #: The iterations of the Illinois method that locate a switch within a step.
 MAX_LOCATE = 60
+#: A trial point of the Illinois method stays this fraction of the tolerance inside its
+#: bracket (so that the bracket shrinks at each iteration).
+BRACKET_MARGIN = 0.25
+#: A step whose error estimate is not a number is taken again this much shorter.
+NAN_STEP_FACTOR = 0.5
 
 
 #: The per-call scratch of :func:`integrate_interval`: ``K`` (7, n) the stages' rates,
@@ -205,7 +212,7 @@ def switch_at(f, t, x, h, args, work, rtol):
             break
         mid = hi - ghi * (hi - lo) / (ghi - glo) if ghi != glo else 0.5 * (lo + hi)
         # keep inside the bracket, away from its ends by a part of the tolerance
-        mid = min(max(mid, lo + 0.25 * tol), hi - 0.25 * tol)
+        mid = min(max(mid, lo + BRACKET_MARGIN * tol), hi - BRACKET_MARGIN * tol)
         g = margin_at(f, t, x, h, args, work, mid)
         if g < 0.0:
             hi, ghi = mid, g
@@ -291,74 +298,37 @@ def loop_decide(t, X, args, mode):
 
 
 # -------------------------------------------------------------------- the log
-#: The log's columns: pose, velocity (a kinematic robot's: its clipped command),
-#: theta_hat (the first 11 states), h_d, v_d and v_ref (after the speed limits).
-LOG_COLUMNS = eq.STATE[:11] + ("x_d", "y_d", "u_d", "w_d", "u_ref", "w_ref")
-NLOG = len(LOG_COLUMNS)
-
-
-def _columns(first, last):
-    return slice(LOG_COLUMNS.index(first), LOG_COLUMNS.index(last) + 1)
-
-
-#: Where each series of a :class:`~unidyn.Result` lies in a row of the full log.
-LOG_SERIES = {"pose": _columns("x", "psi"), "velocity": _columns("u", "w"),
-              "theta_hat": _columns("theta_hat1", "theta_hat6"),
-              "reference": _columns("x_d", "y_d"), "v_d": _columns("u_d", "w_d"),
-              "v_ref": _columns("u_ref", "w_ref")}
-
-
-def log_layout(series):
-    """(the columns of :data:`LOG_COLUMNS` kept for the named series, as an index array;
-    where each kept series lies in a row)."""
-    keep, where = [], {}
-    for k, sl in LOG_SERIES.items():  # in the order of the columns
-        if k in series:
-            columns = range(NLOG)[sl]
-            where[k] = slice(len(keep), len(keep) + len(columns))
-            keep += columns
-    return np.array(keep, dtype=np.int64), where
-
-
 @jit
 def sample_row(t, X, p, noise, references, row):
-    """The full log row (:data:`LOG_COLUMNS`) of the sample at (t, X) into row."""
-    for i in range(11):
+    """The full log row (:data:`unidyn.model.log.LOG_COLUMNS`) of the sample at (t, X)
+    into row."""
+    for i in range(LOGGED_STATES):
         row[i] = X[i]
     ref = reference(t, t, p, references)
     ud, wd, udd, wdd, G, u_ref, w_ref, um, wm = eq.loop_signals(X, ref, p, noise)
-    row[11], row[12], row[13], row[14] = ref[0], ref[1], ud, wd
-    row[15], row[16] = eq.saturate(u_ref, p[P.speed_u]), eq.saturate(w_ref, p[P.speed_w])
+    row[LOG.x_d], row[LOG.y_d], row[LOG.u_d], row[LOG.w_d] = ref[0], ref[1], ud, wd
+    row[LOG.u_ref] = eq.saturate(u_ref, p[P.speed_u])
+    row[LOG.w_ref] = eq.saturate(w_ref, p[P.speed_w])
     if p[P.dynamic] == 0.0:  # a kinematic robot moves at its clipped command
-        row[S.u], row[S.w] = row[15], row[16]
+        row[LOG.u], row[LOG.w] = row[LOG.u_ref], row[LOG.w_ref]
 
 
 @jit(inline=True)
 def accumulate(k, Ts, row, acc):
-    """Add the trapezoid from sample k - 1 to sample k (at t = k Ts, its row) to the
-    integrals acc[0:5] (:data:`unidyn.results.result.INTEGRAL_NAMES`, by the rule of
-    :func:`unidyn.results.result.integrals`, at every sample whatever is logged);
-    acc[5], acc[6] hold the last sample's distance error and squared speed."""
-    e = math.hypot(row[11] - row[S.x], row[12] - row[S.y])
-    v2 = row[S.u] * row[S.u] + row[S.w] * row[S.w]
-    if k > 0:
-        t0, t1 = (k - 1) * Ts, k * Ts
-        half, e0, v0 = 0.5 * (t1 - t0), acc[5], acc[6]
-        acc[0] += half * (e0 + e)
-        acc[1] += half * (e0 * e0 + e * e)
-        acc[2] += half * (t0 * e0 + t1 * e)
-        acc[3] += half * (t0 * e0 * e0 + t1 * e * e)
-        acc[4] += half * (v0 + v2)
-    acc[5], acc[6] = e, v2
+    """Sample k (at t = k Ts, its row) into the metrics so far, acc
+    (:func:`unidyn.model.metrics.accumulate`), at every sample whatever is logged."""
+    error = math.hypot(row[LOG.x_d] - row[LOG.x], row[LOG.y_d] - row[LOG.y])
+    effort = row[LOG.u] * row[LOG.u] + row[LOG.w] * row[LOG.w]
+    metrics.accumulate(k, Ts, error, effort, acc)
 
 
 @jit(inline=True)
-def write_log(row, columns, acc, out, integrals):
-    """The kept columns of row into out, the integrals so far into integrals."""
+def write_log(row, columns, acc, out, running):
+    """The kept columns of row into out, the metrics so far into running."""
     for j in range(columns.shape[0]):
         out[j] = row[columns[j]]
-    for j in range(5):
-        integrals[j] = acc[j]
+    for j in range(running.shape[0]):
+        running[j] = acc[j]
 
 
 # ------------------------------------------------------------------- the runs
@@ -378,13 +348,14 @@ OK, NONFINITE, POSITION, SPEED_U, SPEED_W, STEP = (int(s) for s in Status)  # co
 #: :data:`unidyn.model.equations.LOOP_PARAMETERS`); ``h``, the next step (carried across
 #: intervals, 0 at first); ``noise_pos``, ``noise_vel`` (B, rows, 2), the held noise from
 #: interval noise_first on; ``bounds`` (B, 3) on |(x, y)|, |u|, |w|; ``log_columns`` kept
-#: of :data:`LOG_COLUMNS`; ``log`` (B, rows, columns); ``integrals`` (B, rows, 5), float64,
-#: the metrics' integrals at each logged sample; ``acc`` (B, 7), float64, the integrals so
-#: far and the last sample's error and squared speed (:func:`accumulate`); ``status``,
+#: of :data:`unidyn.model.log.LOG_COLUMNS`; ``log`` (B, rows, columns); ``running`` (B,
+#: rows, metrics), float64, the metrics so far at each logged sample; ``acc`` (B, 2
+#: metrics), float64, the metrics so far and what each accumulated at the last sample
+#: (:func:`unidyn.model.metrics.accumulate`); ``status``,
 #: ``last`` (sample reached), ``steps`` (kept) and ``rejected`` (taken again shorter);
 #: ``references``, the call's Python-function references (a tuple; empty compiled).
 Runs = namedtuple("Runs", "state params h noise_pos noise_vel bounds log_columns log "
-                          "integrals acc status last steps rejected references")
+                          "running acc status last steps rejected references")
 #: A call's numbers: ``Ts``; ``noise_first`` (the noise arrays' row 0); ``log_every``;
 #: ``rtol``, ``atol``; ``max_steps`` (kept or not) an interval may take.
 Call = namedtuple("Call", "Ts noise_first log_every rtol atol max_steps")
@@ -481,7 +452,7 @@ def integrate_interval(f, decide, t0, t1, X, h, args, call, work):
         else:
             rejected += 1
             again = True
-            h = h * step_factor(err) if err < math.inf else 0.5 * h  # NaN: halved
+            h = h * step_factor(err) if err < math.inf else NAN_STEP_FACTOR * h
             proposal = h
         if kept + rejected >= call.max_steps or not h >= MIN_STEP_FRACTION * span:
             return proposal, kept, rejected, STEP if err < math.inf else NONFINITE
@@ -492,9 +463,9 @@ def advance(runs, call, k0, k1, which):
     """Advance the runs ``which`` (indices into :data:`Runs`) over sample intervals
     k0..k1-1 (sample 0 logged and checked first where k0 = 0): interval k with its
     noise held, integrated afresh (:func:`integrate_interval`), the sample at its end
-    accumulated into the metrics' integrals (:func:`accumulate`) and, every
-    ``log_every``-th and where the run stops, logged with that noise, as the diagram
-    logs it before the tick."""
+    accumulated into the metrics (:func:`accumulate`) and, where
+    :func:`unidyn.model.log.logged` (every ``log_every``-th and where the run stops),
+    logged with that noise, as the diagram logs it before the tick."""
     work = work_arrays(NSTATE, eq.NSWITCH)
     X, row = np.empty(NSTATE), np.empty(NLOG)
     Ts, L = call.Ts, call.log_every
@@ -512,7 +483,7 @@ def advance(runs, call, k0, k1, which):
             if k == 0:
                 sample_row(0.0, X, p, noise, runs.references, row)
                 accumulate(0, Ts, row, acc)
-                write_log(row, runs.log_columns, acc, runs.log[i, 0], runs.integrals[i, 0])
+                write_log(row, runs.log_columns, acc, runs.log[i, 0], runs.running[i, 0])
                 status = check_state(X, runs.bounds[i])
             if status != OK:
                 break
@@ -531,11 +502,11 @@ def advance(runs, call, k0, k1, which):
             if status != NONFINITE:  # a sample beyond a divergence bound still counts
                 sample_row((k + 1) * Ts, X, p, noise, runs.references, row)
                 accumulate(k + 1, Ts, row, acc)
-            if (k + 1) % L == 0 or status != OK:  # every L-th sample, and where a run stops
-                j = (k + 1) // L + ((k + 1) % L != 0)
+            if logged(k + 1, L, status != OK):
+                j = log_row(k + 1, L)
                 if status == NONFINITE:
                     sample_row((k + 1) * Ts, X, p, noise, runs.references, row)
-                write_log(row, runs.log_columns, acc, runs.log[i, j], runs.integrals[i, j])
+                write_log(row, runs.log_columns, acc, runs.log[i, j], runs.running[i, j])
             last = k + 1
         # written back once: threads advancing neighbouring runs never share a cache
         # line in the loop above

@@ -10,10 +10,21 @@ import numpy as np
 
 from .. import __version__
 from .._validate import ValidationError
+from ..model.metrics import (
+    BY_NAME,
+    FINAL,
+    INTEGRAL,
+    INTEGRAL_NAMES,
+    METRIC_NAMES,
+    METRIC_UNITS,
+    METRICS,
+    running,
+    sample_value,
+)
 from . import plots
 from .folders import Stage, json_ready, staged_output, write_atomic
 
-__all__ = ["Result", "metrics", "integrals", "distance", "write_atomic", "has_noise",
+__all__ = ["Result", "metrics", "running", "distance", "write_atomic", "has_noise",
            "uncertainty", "RESULT_FILES", "RUN_FILES", "METRIC_NAMES", "INTEGRAL_NAMES",
            "METRIC_UNITS"]
 
@@ -25,13 +36,7 @@ RUN_FILES = RESULT_FILES + ("path.png", "error.png", "positions.png", "velocitie
                             "theta_hat.png", "animation.gif")
 
 
-#: The metrics that are integrals over the run, in the order of :func:`integrals`'
-#: columns; then :data:`METRIC_NAMES` adds the final error.
-INTEGRAL_NAMES = ("iae", "ise", "itae", "itse", "energy")
-METRIC_NAMES = INTEGRAL_NAMES + ("error_final",)
-
-#: Samples a metric is accumulated over at a time (float64), so that a long series
-#: in float32 needs no float64 copy of itself.
+#: Rows of a series taken at a time (no temporaries the size of the series).
 _BLOCK = 1 << 16
 
 
@@ -55,60 +60,26 @@ def distance(a, b):
     return out
 
 
-def integrals(t, error, velocity) -> np.ndarray:
-    r"""The metrics' integrals from t[0] to each sample, (N, 5), float64, by the
-    trapezoidal rule on the samples given: the columns of :data:`INTEGRAL_NAMES`,
-    :math:`\int |\tilde h|`, :math:`\int |\tilde h|^2`, :math:`\int t|\tilde h|`,
-    :math:`\int t|\tilde h|^2`, :math:`\int (u^2 + \omega^2)` (see :func:`metrics`).
-    The engines accumulate the same at every sample whatever they log."""
-    t = np.asarray(t, dtype=float)
-    e, v = np.asarray(error), np.asarray(velocity)
-    out = np.zeros((len(t), len(INTEGRAL_NAMES)))
-    total = np.zeros(len(INTEGRAL_NAMES))
-    with np.errstate(over="ignore", invalid="ignore"):  # beyond floats: inf (null in files)
-        for i0 in range(0, max(len(t) - 1, 0), _BLOCK):  # a block at a time (float32 series)
-            i1 = min(len(t), i0 + _BLOCK + 1)
-            tb, eb = t[i0:i1], e[i0:i1].astype(float)
-            y = np.stack([eb, eb ** 2, tb * eb, tb * eb ** 2,
-                          np.sum(v[i0:i1].astype(float) ** 2, axis=-1)], axis=1)
-            steps = 0.5 * (y[1:] + y[:-1]) * np.diff(tb)[:, None]
-            out[i0 + 1:i1] = total + np.cumsum(steps, axis=0)
-            total = out[i1 - 1]
-    return out
-
-
-def _metrics_of(integrals_, error) -> dict:
-    """The metrics dict from integrals at the last sample and the error series."""
-    last = integrals_[-1] if len(integrals_) else np.full(len(INTEGRAL_NAMES), np.nan)
-    out = {k: float(v) for k, v in zip(INTEGRAL_NAMES, last)}
-    out["error_final"] = _floats(error[-1:])[0] if len(error) else float("nan")
+def _metrics_of(running_, error) -> dict:
+    """The metrics dict from their values so far at the last logged sample and the
+    logged distance error (a final value: as logged)."""
+    last = running_[-1] if len(running_) else np.full(len(METRICS), np.nan)
+    out = {}
+    for m, v in zip(METRICS, last):
+        out[m.name] = float(v)
+        if m.rule == FINAL:  # the logged value, in its precision
+            out[m.name] = _floats(error[-1:])[0] if len(error) else float("nan")
     return out
 
 
 def metrics(t, error, velocity) -> dict:
-    r"""The run's figures of merit (trapezoidal rule on the samples given).
-
-    - ``iae``: :math:`\int |\tilde h|\,dt`, the paper's IAE (Fig. 11), m·s
-    - ``ise``: :math:`\int |\tilde h|^2 dt`, m²·s
-    - ``itae``: :math:`\int t\,|\tilde h|\,dt`, m·s²
-    - ``itse``: :math:`\int t\,|\tilde h|^2 dt`, m²·s² (FX44850's index)
-    - ``energy``: :math:`\int (u^2 + \omega^2)\,dt`, m²/s + rad²/s (the two integrals
-      added, as a control-effort index)
-    - ``error_final``: :math:`|\tilde h(T)|`, m
+    """The run's figures of merit (:data:`unidyn.model.metrics.METRICS`: name, unit and
+    what each is) over the samples given: the trapezoidal rule on them for an integral.
 
     A :class:`Result`'s metrics are these over every sample of the run, whatever it
-    logged (:attr:`Result.integrals`).
+    logged (:attr:`Result.running`).
     """
-    return _metrics_of(integrals(t, error, velocity), np.asarray(error))
-
-
-#: The unit of each metric, for printing. The energy adds ∫u² dt (m²/s) and ∫ω² dt
-#: (rad²/s), as the control-effort index it is; a sum of two units, written once,
-#: simplified, as people write them (:data:`ENERGY_NOTE` says what it adds).
-METRIC_UNITS = {"iae": "m·s", "ise": "m²·s", "itae": "m·s²", "itse": "m²·s²",
-                "energy": "m²/s + rad²/s", "error_final": "m"}
-#: What the energy adds, printed beside its unit.
-ENERGY_NOTE = "∫u² dt + ∫ω² dt"
+    return _metrics_of(running(t, error, velocity), np.asarray(error))
 
 
 def has_noise(scenario) -> bool:
@@ -167,11 +138,13 @@ class Result:
     :ivar metrics: see :func:`metrics`, over every sample computed (``log_every``
         thins the series, not the metrics); for a run that stopped, those of the part
         computed (``complete`` says which)
-    :ivar integrals: the integral metrics from t = 0 at each logged sample, (N, 5),
-        float64 (:data:`INTEGRAL_NAMES`), accumulated at every sample: what
-        :meth:`window` subtracts
-    :ivar numerical_error: the estimated relative error of each metric (``error_final``
-        relative to the mean error of the run, IAE / T) and of the logged series
+    :ivar running: each metric from t = 0 to each logged sample, (N, metrics), float64,
+        in the order of :data:`METRIC_NAMES` (an integral so far, a peak so far, a final
+        value at that sample), accumulated at every sample: what :meth:`window`
+        subtracts
+    :ivar numerical_error: the estimated relative error of each metric (relative to its
+        own size, or to the mean error of the run, IAE / T, where the metric's entry
+        says so: ``error_final``) and of the logged series
         ``position``, ``heading``, ``distance_error`` and ``theta_hat`` (the largest
         error over the samples, relative to the series' largest value), from the batch
         engine's own estimate
@@ -216,7 +189,7 @@ class Result:
     steps: int | None = None
     rejected: int | None = None
     backend: str = ""
-    integrals: np.ndarray | None = None
+    running: np.ndarray | None = None
     numerical_error: dict | None = None
     sensitive: bool = False
     rtol: float | None = None
@@ -229,9 +202,9 @@ class Result:
         self.sensitive = bool(self.sensitive)
         self.message = str(self.message)
         self.error = distance(self.reference, self.pose)
-        if self.integrals is None:  # from the series (every sample, where all are logged)
-            self.integrals = integrals(self.t, self.error, self.velocity)
-        self.metrics = _metrics_of(self.integrals, self.error)
+        if self.running is None:  # from the series (every sample, where all are logged)
+            self.running = running(self.t, self.error, self.velocity)
+        self.metrics = _metrics_of(self.running, self.error)
 
     def __repr__(self) -> str:
         """A dozen lines: the run, its engine, whether it completed, its metrics and
@@ -257,10 +230,10 @@ class Result:
             lines.append("  no noise: deterministic, each metric to its numerical error")
         err = self.numerical_error or {}
         for k, v in self.metrics.items():
-            unit = METRIC_UNITS.get(k, "")
+            unit, note = BY_NAME[k].unit, BY_NAME[k].note
             line = f"  {k:12s} {'-' if v is None else f'{v:.6g}'}" + (f" {unit}" if unit else "")
-            if k == "energy":
-                line += f" ({ENERGY_NOTE})"
+            if note:
+                line += f" ({note})"
             if k in err and not noisy:
                 line += f"  (numerical error {err[k]:.1e} relative)"
             lines.append(line)
@@ -290,12 +263,19 @@ class Result:
                      + "; plots: plot_path(), plot_error(), ...; save(folder)")
         return "\n".join(lines)
 
+    @property
+    def integrals(self) -> np.ndarray:
+        """The integral metrics (:data:`INTEGRAL_NAMES`) from t = 0 to each logged
+        sample, (N, their number): those columns of :attr:`running`."""
+        return self.running[:, [METRIC_NAMES.index(k) for k in INTEGRAL_NAMES]]
+
     # ------------------------------------------------------------------ #
     def window(self, t0: float, t1: float) -> dict:
         """Metrics over t0 <= t <= t1 (e.g. the paper's before/after windows, Section 5's
         IAE over 15-30 s), from the integrals accumulated at every sample: between the
         first and the last logged sample in the window (with ``log_every`` 1, every
-        sample).
+        sample), and the final values at the last; not a peak, which every sample of the
+        window would give (:attr:`running` holds each peak from t = 0).
 
         :raises ValidationError: the window is not within the run's samples"""
         m = np.flatnonzero((self.t >= t0 - 1e-9) & (self.t <= t1 + 1e-9))
@@ -304,9 +284,15 @@ class Result:
             raise ValidationError(f"the window {t0:g}-{t1:g} s is not covered by the run's "
                                   f"samples ({span})")
         i0, i1 = m[0], m[-1]
-        out = {k: float(self.integrals[i1, j] - self.integrals[i0, j])
-               for j, k in enumerate(INTEGRAL_NAMES)}
-        out["error_final"] = _floats(self.error[i1:i1 + 1])[0]
+        w = slice(i1, i1 + 1)
+        effort = np.sum(np.asarray(self.velocity[w], dtype=float) ** 2, axis=-1)
+        out = {}
+        for j, metric in enumerate(METRICS):
+            if metric.rule == INTEGRAL:
+                out[metric.name] = float(self.running[i1, j] - self.running[i0, j])
+            elif metric.rule == FINAL:
+                out[metric.name] = _floats(sample_value(j, self.t[w], self.error[w],
+                                                        effort)[-1:])[0]
         return out
 
     def summary(self) -> dict:

@@ -10,6 +10,7 @@ import math
 import numpy as np
 
 from .._validate import choice
+from ..model.metrics import BY_NAME
 from ..results import figstyle
 from .statistics import mean_std_sem
 from .sweep_files import METRICS, is_number, text
@@ -117,7 +118,7 @@ def plot_metrics(sweep, rows, path, metric: str = "iae"):
         elif vals.size:
             figstyle.ylim_from_data(ax, floor=0 if vals.min() >= 0 else None)
         ax.set_xlabel(_AXIS_LABELS.get(x_axis, x_axis) if x_axis else "point index")
-        ax.set_ylabel(_METRIC_LABELS[metric])
+        ax.set_ylabel(f"{BY_NAME[metric].label} ({BY_NAME[metric].unit})")
         ax.set_title((figstyle.as_text(sweep.name) or "sweep")
                      + (f"\nmean ± standard error over {n_seeds} noise seeds" if seeds else ""))
         ax.grid(True, which="major")
@@ -167,10 +168,6 @@ def _seed_range(seeds) -> str:
     return ", ".join(map(str, seeds[:6])) + (", ..." if len(seeds) > 6 else "")
 
 
-#: Axis labels of the metrics (units as in :func:`unidyn.results.result.metrics`).
-_METRIC_LABELS = {"iae": "IAE (m·s)", "ise": "ISE (m²·s)", "itae": "ITAE (m·s²)",
-                  "itse": "ITSE (m²·s²)",
-                  "energy": "control effort ∫(u² + ω²) dt", "error_final": "final error (m)"}
 #: Axis labels of the special sweep keys and common numeric fields.
 _AXIS_LABELS = {"kxy": "$k_x = k_y$ (1/s)", "kx": "$k_x$ (1/s)", "ky": "$k_y$ (1/s)",
                 "ku": "$k_u$ (1/s)", "kw": "$k_\\omega$ (1/s)", "a": "a (m)", "T": "T (s)",

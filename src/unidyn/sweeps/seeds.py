@@ -30,9 +30,10 @@ import numpy as np
 
 from .. import __version__
 from .._validate import ValidationError, integer
+from ..model.metrics import BY_NAME, MEAN_ERROR, METRIC_UNITS
 from ..model.scenario import Scenario
 from ..results.folders import json_ready, staged_output, write_atomic
-from ..results.result import METRIC_UNITS, has_noise
+from ..results.result import has_noise
 from .statistics import numerical_error_small, seed_statistics, statistics_columns
 from .sweep_files import METRICS, rows_text
 
@@ -156,11 +157,13 @@ class SeedRuns:
     def numerical_error_small(self, metric: str):
         """Whether the runs' numerical error of ``metric`` is small (below a tenth)
         against its standard error over the seeds: True, False, or None where unknown
-        (one seed, no estimate). The final error's is relative to the run's mean error
-        IAE / T, its other metrics' to their own size."""
+        (one seed, no estimate). A final error's is relative to the run's mean error
+        IAE / T, the other metrics' to their own size
+        (:data:`unidyn.model.metrics.Metric`'s ``own_scale``)."""
         st = self.statistics
-        scale = (st["iae_mean"] / self.scenario.T if metric == "error_final"
-                 and st["iae_mean"] is not None else st[f"{metric}_mean"])
+        mean_error = st[f"{MEAN_ERROR}_mean"]
+        scale = (mean_error / self.scenario.T if not BY_NAME[metric].own_scale
+                 and mean_error is not None else st[f"{metric}_mean"])
         return numerical_error_small(self.numerical_error(metric), scale, st[f"{metric}_sem"])
 
     def __repr__(self) -> str:

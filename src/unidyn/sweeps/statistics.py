@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 
+from ..model.metrics import BY_NAME
 from .sweep_files import METRICS
 
 __all__ = ["seed_statistics", "statistics_columns", "mean_std_sem", "numerical_error_small",
@@ -44,9 +45,9 @@ def mean_std_sem(values) -> tuple:
 #: A numerical error is small against a standard error below this fraction of it: then
 #: the standard error alone is the uncertainty to quote.
 SMALL = 0.1
-#: The metrics whose numerical error is relative to their own size (the final error's is
+#: The metrics whose numerical error is relative to their own size (a final error's is
 #: relative to the run's mean error, :attr:`unidyn.Result.numerical_error`).
-_OWN_SCALE = tuple(m for m in METRICS if m != "error_final")
+_OWN_SCALE = tuple(m for m in METRICS if BY_NAME[m].own_scale)
 
 
 def numerical_error_small(relative, mean, sem):

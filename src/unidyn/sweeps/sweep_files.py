@@ -31,6 +31,7 @@ import numpy as np
 
 from .._errors import MissingDependency
 from .._validate import ValidationError, did_you_mean, integer, positive, real
+from ..model.metrics import METRIC_NAMES
 from ..model.scenario import Scenario, plain_value
 from ..results.folders import json_ready
 
@@ -41,8 +42,8 @@ __all__ = ["read_toml", "parse_toml_value", "read_scenario_table", "read_scenari
 
 #: Keys that are not Scenario fields but set one or more of them.
 SPECIAL_KEYS = ("kxy", "theta_hat_scale", "seed")
-#: The per-point metrics written to metrics.csv (see :func:`unidyn.results.result.metrics`).
-METRICS = ("iae", "ise", "itae", "itse", "energy", "error_final")
+#: The per-point metrics written to metrics.csv (:data:`unidyn.model.metrics.METRICS`).
+METRICS = METRIC_NAMES
 #: A sweep with more points than this is refused (almost surely a typo in a range).
 MAX_POINTS = 1_000_000
 
