@@ -129,6 +129,30 @@ def _unvouched(sc, rtol):
             f"rtol={HIGH_GAIN_RTOL:g}, atol=1e-13) (scenario {sc.name or sc.case})")
 
 
+def _logged_before(err, simstate, sc):
+    """What bdsim logged before ``err`` stopped the run: (t, the watched signals, the
+    message saying where and why it stopped). Raises where it stopped before its start."""
+    interrupted = isinstance(err, KeyboardInterrupt)
+    if getattr(simstate, "tlist", None) is None:  # failed while bdsim started the blocks
+        simstate = None
+    cause = err if interrupted else _root_cause(err)
+    t_stop = getattr(simstate, "t", None)
+    t_stop = float("nan") if t_stop is None else t_stop
+    failure = (f"{sc.name or sc.case}: interrupted at t = {t_stop:.6g} s" if interrupted else
+               f"{sc.name or sc.case}: run stopped at t = {t_stop:.6g} s: "
+               f"{type(cause).__name__}: {cause}")
+    if simstate is None:  # it failed before the run started
+        if interrupted:
+            raise SimulationInterrupted(failure) from err
+        if isinstance(cause, GuardStop):
+            raise SimulationError(failure) from err
+        raise err
+    t = np.asarray(simstate.tlist, dtype=float)
+    y = [list(p) for p in simstate.plist]
+    n = min([len(t)] + [len(p) for p in y])
+    return t[:n], [p[:n] for p in y], failure
+
+
 def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DEFAULT_ATOL,
              method: str = "RK45", timeout: float | None = None, progress=None,
              max_step: float | None = None, **builder_args) -> Result:
@@ -203,25 +227,7 @@ def simulate(scenario: Scenario, *, rtol: float = DEFAULT_RTOL, atol: float = DE
     except (Exception, KeyboardInterrupt) as err:  # keep what bdsim logged before the failure
         bar.close()
         interrupted = isinstance(err, KeyboardInterrupt)
-        simstate = guard.simstate
-        if getattr(simstate, "tlist", None) is None:  # failed while bdsim started the blocks
-            simstate = None
-        cause = err if interrupted else _root_cause(err)
-        t_stop = getattr(simstate, "t", None)
-        t_stop = float("nan") if t_stop is None else t_stop
-        failure = (f"{sc.name or sc.case}: interrupted at t = {t_stop:.6g} s" if interrupted else
-                   f"{sc.name or sc.case}: run stopped at t = {t_stop:.6g} s: "
-                   f"{type(cause).__name__}: {cause}")
-        if simstate is None:  # it failed before the run started
-            if interrupted:
-                raise SimulationInterrupted(failure) from err
-            if isinstance(cause, GuardStop):
-                raise SimulationError(failure) from err
-            raise
-        t = np.asarray(simstate.tlist, dtype=float)
-        y = [list(p) for p in simstate.plist]
-        n = min([len(t)] + [len(p) for p in y])
-        t, y = t[:n], [p[:n] for p in y]
+        t, y, failure = _logged_before(err, guard.simstate, sc)
     if len(t) == 0:
         if interrupted:
             raise SimulationInterrupted(failure)

@@ -218,16 +218,12 @@ class _Call:
         return done()
 
 
-def _group(run: _Call, scs, idx, rtol, atol):
-    """Run one group (scenarios sharing the kernels' call) into ``run.results[idx]``: the
-    runs at (rtol, atol) and their probes; then each run not yet judged again at
-    tolerances :data:`TIGHTEN` times tighter (its probe too, where the probe moved it),
-    each returned with the difference from the run before as its estimate, until that
-    is within :data:`ACCURACY`; sensitive where the probe moves it at two tolerances in
-    a row."""
-    if not scs:
-        return
-    tol, B, results = (rtol, atol), len(scs), run.results
+def _first_pass(run: _Call, scs, idx, tol):
+    """The runs of a group at ``tol`` and their probes, into ``run.results[idx]``:
+    returns (``moved``: run j -> (how far its probe moved it, at which rtol), for the runs
+    their probe moved; ``steady``: the runs whose error is to be estimated by
+    tightening)."""
+    B, results = len(scs), run.results
     if _together(scs):  # the runs and their probes in one pass, on cores otherwise idle
         both = run.runs(scs + scs, tol, [0.0] * B + [PERTURBATION] * B, where=idx, keep=B)
         main, probe = both[:B], both[B:]
@@ -237,9 +233,7 @@ def _group(run: _Call, scs, idx, rtol, atol):
         done = [j for j, r in enumerate(main) if r.complete]
         for j, q in zip(done, run.runs([scs[j] for j in done], tol, PERTURBATION)):
             probe[j] = q
-    moved = {}  # run j -> (how far its probe moved it, at which rtol), while it moves it
-    shaky = {}  # run j -> whether its last estimate was beyond the promise
-    steady = []  # runs whose error is estimated by tightening
+    moved, steady = {}, []
     for j, (r, q) in enumerate(zip(main, probe)):
         results[idx[j]] = _noted(r, rtol=tol[0], estimate="tightened" if r.complete else "")
         if not r.complete:
@@ -252,6 +246,21 @@ def _group(run: _Call, scs, idx, rtol, atol):
         if _decisive(d) > ACCURACY:
             moved[j] = (d, tol[0])
         steady.append(j)
+    return moved, steady
+
+
+def _group(run: _Call, scs, idx, rtol, atol):
+    """Run one group (scenarios sharing the kernels' call) into ``run.results[idx]``: the
+    runs at (rtol, atol) and their probes; then each run not yet judged again at
+    tolerances :data:`TIGHTEN` times tighter (its probe too, where the probe moved it),
+    each returned with the difference from the run before as its estimate, until that
+    is within :data:`ACCURACY`; sensitive where the probe moves it at two tolerances in
+    a row."""
+    if not scs:
+        return
+    tol, results = (rtol, atol), run.results
+    moved, steady = _first_pass(run, scs, idx, tol)
+    shaky = {}  # run j -> whether its last estimate was beyond the promise
     while steady:
         tol = (tol[0] / TIGHTEN, tol[1] / TIGHTEN)
         if tol[0] < RTOL_FLOOR:

@@ -376,6 +376,13 @@ def check_state(X, bound):
     return OK
 
 
+@jit(inline=True)
+def copy_into(dst, src):
+    """dst[:] = src[:], element by element (as numba and the plain copy both run it)."""
+    for i in range(dst.shape[0]):
+        dst[i] = src[i]
+
+
 # not cached itself (as dp_step): it takes the right-hand side as an argument
 @jit(inline=True)
 def integrate_interval(f, decide, t0, t1, X, h, args, call, work):
@@ -393,7 +400,6 @@ def integrate_interval(f, decide, t0, t1, X, h, args, call, work):
     ``call.max_steps`` steps or the step below :data:`MIN_STEP_FRACTION` of the
     interval; ``NONFINITE``: the last error estimate not a number)."""
     K, G, mode = work.K, work.G, work.mode
-    n = X.shape[0]
     span = t1 - t0
     h = h if h > 0.0 else span
     t_switch = decide(t0, X, args, mode)
@@ -413,8 +419,7 @@ def integrate_interval(f, decide, t0, t1, X, h, args, call, work):
                                                                     call.rtol)
             switched = theta == 1.0  # a switch at the step's end: the mode decided there
             if theta < 1.0 or (switched and not last):  # ended on a switch: decided there
-                for i in range(n):
-                    X[i] = work.Xd[i]
+                copy_into(X, work.Xd)
                 t = t + theta * h
                 proposal = h * factor
                 chain += 1
@@ -431,8 +436,7 @@ def integrate_interval(f, decide, t0, t1, X, h, args, call, work):
                     proposal = h * factor
                 elif factor < 1.0:  # the step cut to the interval's end or a time switch
                     proposal = min(proposal, h * factor)
-                for i in range(n):
-                    X[i] = work.Xn[i]
+                copy_into(X, work.Xn)
                 if last and end == t1:
                     if mode[1] == eq.AUTO or switched:  # back on the limits
                         decide(t1, X, args, mode)
@@ -442,10 +446,8 @@ def integrate_interval(f, decide, t0, t1, X, h, args, call, work):
                     t_switch = decide(t, X, args, mode)
                     f(t, X, args, mode, K[0], G[0])
                 else:  # the rates at the step's end start the next (the pair's FSAL)
-                    for i in range(n):
-                        K[0, i] = K[6, i]
-                    for j in range(G.shape[1]):
-                        G[0, j] = G[6, j]
+                    copy_into(K[0], K[6])
+                    copy_into(G[0], G[6])
                 chain = 0
                 h = proposal
                 again = False
