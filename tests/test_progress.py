@@ -2,6 +2,7 @@
 plain line when a tenth more is done or every few seconds, with the time left; on a
 terminal a bar; nothing from a job that ends within a second."""
 
+import dataclasses
 import io
 import os
 import re
@@ -165,3 +166,20 @@ def test_parts_of_a_unit_count_as_not_yet_done():
     clock.now += 1.5
     bar.to(1.9)
     assert lines(out)[-1] == "unidyn: 1 of 2 points (95 %), 10 s elapsed, under 1 s left"
+
+
+@pytest.mark.parametrize("estimate", ["per_point", "each"])
+def test_the_batch_engine_counts_the_work_it_does(estimate):
+    # four noise seeds of one point: the work counted at the start (each run and its
+    # probe, or once for a run that shares its sibling's estimate) plus what each tighter
+    # pass adds is the work done, so the last report reads 100 %
+    import unidyn
+    from unidyn.engine.batch import simulate_batch
+    sc = unidyn.Scenario.paper(3, T=5.0)
+    seen = []
+    runs = [sc.replace(noise=dataclasses.replace(sc.noise, seed=s)) for s in range(4)]
+    simulate_batch(runs, progress=lambda done, total: seen.append((done, total)),
+                   estimate=estimate)
+    done, total = seen[-1]
+    assert done == total and total >= 4 * sc.steps, seen[-3:]
+    assert all(d <= t for d, t in seen)

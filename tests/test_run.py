@@ -172,6 +172,16 @@ def test_seeds_print_each_metric_as_mean_plus_minus_standard_error_with_n():
             assert runs.numerical_error_small(m) is False
 
 
+def test_a_metric_exact_and_alike_over_seeds_has_a_small_numerical_error():
+    # the peak distance error of these runs is the start's offset, 0.2 m whatever the
+    # seed: no spread, and no numerical error (the initial state is exact)
+    from unidyn.sweeps.statistics import numerical_error_small
+    assert numerical_error_small(0.0, 0.2, 0.0) is True
+    assert numerical_error_small(1e-9, 0.2, 0.0) is False
+    assert numerical_error_small(1e-6, 1.0, 1e-4) is True
+    assert numerical_error_small(1e-4, 1.0, 1e-4) is False
+
+
 @pytest.mark.parametrize("mean, sem, text", [
     (2.74382, 0.0213, "2.744 ± 0.021"), (2.74382, 0.00002, "2.743820 ± 0.000020"),
     (1234.56, 12.3, "1235 ± 12"), (0.5, None, "0.5"), (3e12, 4e10, "3.000e+12 ± 4.0e+10")])

@@ -167,10 +167,13 @@ def simulate_batch(scenarios, *, rtol: float = BATCH_RTOL, atol: float = BATCH_A
     groups = {}
     for i, s in enumerate(scs):
         groups.setdefault((s.T, s.Ts, s.log_every, s.log_dtype, s.log_series), []).append(i)
-    work = sum(s.steps for s in scs)
-    bar = Progress(progress, 2 * work, show=work >= PROGRESS_SAMPLES, desc="unidyn batch")
-    results = [None] * len(scs)
     shared = _seed_siblings(scs) if estimate == "per_point" else {}
+    # the first pass: each run and its probe, or once for a run sharing a sibling's
+    # estimate; a tighter pass adds its work when it starts (Progress.grow)
+    work = sum(s.steps * (1 if i in shared else 2) for i, s in enumerate(scs))
+    bar = Progress(progress, work, show=sum(s.steps for s in scs) >= PROGRESS_SAMPLES,
+                   desc="unidyn batch")
+    results = [None] * len(scs)
     run = _Call(engine, label, compiled, bar, results)
     try:
         for idx in groups.values():

@@ -57,7 +57,7 @@ def numerical_error_small(relative, mean, sem):
     either is unknown (one seed, no estimate)."""
     if relative is None or mean is None or sem is None:
         return None
-    return float(relative) * abs(float(mean)) < SMALL * float(sem)
+    return float(relative) * abs(float(mean)) <= SMALL * float(sem)  # both 0: exact alike
 
 
 def statistics_columns(axes) -> list:
