@@ -67,7 +67,7 @@ from unidyn.diagrams import simulate as runner  # noqa: E402
 from unidyn.engine import kernels  # noqa: E402
 from unidyn.engine.batch import simulate_batch  # noqa: E402
 from unidyn.engines import PLAIN_SECONDS_PER_SAMPLE  # noqa: E402
-from unidyn.engine.rhs import ClosedLoop  # noqa: E402
+from unidyn.model.closed_loop import ClosedLoop  # noqa: E402
 from unidyn.model.scenario import Scenario  # noqa: E402
 
 HERE = Path(__file__).resolve().parent

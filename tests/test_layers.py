@@ -26,8 +26,8 @@ LAYERS = {
     "science": ("unidyn.model",),
     # what a run gives back: the result, its folders, files and figures
     "results": ("unidyn.results",),
-    # bdsim's blocks and diagrams, and the batch engine
-    "simulation": ("unidyn.blocks", "unidyn.diagrams", "unidyn.engine"),
+    # bdsim's blocks and diagrams, the batch engine and what it compiles with numba
+    "simulation": ("unidyn.blocks", "unidyn.diagrams", "unidyn.engine", "unidyn.compiled"),
     # the choice between the two engines, above both; identification, sweeps,
     # teaching tools and bridges
     "tools": ("unidyn.engines", "unidyn.identification", "unidyn.sweeps", "unidyn.teaching"),

@@ -3,7 +3,7 @@ of at most 1e-4 (relative) and its true error is within twice its estimate; a ru
 amplifies perturbations says so (``sensitive``) and keeps its metrics.
 
 The true error is measured against an independent converged solution: scipy's DOP853 at
-rtol 1e-11 on the loop's right-hand side as arrays (unidyn.engine.rhs), restarted at
+rtol 1e-11 on the loop's right-hand side as arrays (unidyn.model.closed_loop), restarted at
 every sample with the noise held, as bdsim restarts its solver at every clock tick, its
 steps capped at 1 ms so that no episode of the limits' clipping is jumped over
 (ClosedLoop.converged: it evaluates the limits where it evaluates the loop, and shares
@@ -18,7 +18,7 @@ import unidyn
 from unidyn._errors import AccuracyWarning
 from unidyn.engine import kernels as _kernels
 from unidyn.engine.batch import ACCURACY, DECISIVE, SERIES, simulate_batch
-from unidyn.engine.rhs import ClosedLoop
+from unidyn.model.closed_loop import ClosedLoop
 from unidyn.model.noise import NoiseSpec
 from unidyn.model.scenario import Scenario
 from unidyn.model.trajectories import Circle, FigureEight

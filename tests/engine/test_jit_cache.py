@@ -4,13 +4,13 @@ sharing it never load a half-written one.
 numba keys its cache on the file of each compiled function, not on the functions
 it inlines; the compiled engine inlines :mod:`unidyn.model.equations`, so the package
 caches its compiled functions in a folder per version of the compiled sources
-(:data:`unidyn.engine.jit.STAMP`), which numba is pointed at through its documented
+(:data:`unidyn.compiled.STAMP`), which numba is pointed at through its documented
 ``NUMBA_CACHE_DIR``. The tests edit Eq. (2) in a copy of the package, between real
 processes, and check that a compiled function follows the edit (and agrees with the
 same code run by Python on the edited equations); they fail loudly if numba stops
 writing the package's cache where it is told to. The function is the log simulator of
 identification, which inlines Eq. (2) as the engine's kernels do and is declared
-through the same :func:`unidyn.engine.jit.jit`: it compiles in seconds, the kernels in
+through the same :func:`unidyn.compiled.jit`: it compiles in seconds, the kernels in
 tens of seconds.
 """
 
@@ -23,7 +23,7 @@ from pathlib import Path
 
 import pytest
 
-from unidyn.engine import jit as _jit
+from unidyn import compiled as _jit
 
 pytestmark = pytest.mark.skipif(not _jit.AVAILABLE, reason="needs numba (the cache is numba's)")
 
@@ -31,7 +31,7 @@ SRC = Path(__file__).resolve().parents[2] / "src" / "unidyn"
 HELD = """
 import sys
 import numpy as np
-from unidyn.engine.jit import plain_copy
+from unidyn.compiled import plain_copy
 from unidyn.identification import replay
 # argv[1] "plain": the same code run by Python (nothing compiled)
 simulate_held = (plain_copy(replay) if sys.argv[1:] == ["plain"] else replay).simulate_held
@@ -133,7 +133,7 @@ def test_the_cache_keeps_the_current_version_and_the_two_used_last(tmp_path):
 @pytest.mark.slow
 def test_a_process_waits_while_another_compiles_into_the_same_cache(tmp_path):
     """numba writes its cache without a lock between processes; the package's compiled
-    entry points load or compile under one (unidyn.engine.jit.Compiled), so processes that
+    entry points load or compile under one (unidyn.compiled.Compiled), so processes that
     start together (xdist workers, a Dask cluster) never load a mix of files each
     wrote. Here the test holds the lock of a fresh cache folder: a process that needs
     a compiled function waits until it is released."""

@@ -1,6 +1,6 @@
 """The batch engine's kernels (unidyn.engine.kernels): their right-hand side, one run at
 a time with the reference evaluated from the parameter table, against the closed loop of
-unidyn.engine.rhs, all runs at once as arrays with the reference from the trajectory
+unidyn.model.closed_loop, all runs at once as arrays with the reference from the trajectory
 objects. Both evaluate unidyn.model.equations.loop_rates, so this checks the kernels'
 packing of parameters, references and noise, not the equations (which tests/model
 holds to the paper's, typed in again); and the Dormand-Prince step against what the
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from unidyn.engine import kernels as _kernels
-from unidyn.engine.rhs import ClosedLoop
+from unidyn.model.closed_loop import ClosedLoop
 from unidyn.model.equations import AUTO
 from unidyn.model.scenario import Scenario
 from unidyn.model.trajectories import Circle, Line

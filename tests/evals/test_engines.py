@@ -7,7 +7,7 @@ import pytest
 import unidyn
 from unidyn.engine import kernels as _kernels
 from unidyn.engine.batch import DECISIVE, simulate_batch
-from unidyn.engine.rhs import ClosedLoop
+from unidyn.model.closed_loop import ClosedLoop
 from unidyn.model.scenario import Scenario
 
 pytestmark = pytest.mark.slow  # the whole-system tier (tests/README.md)

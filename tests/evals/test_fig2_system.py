@@ -6,7 +6,7 @@ from scipy.integrate import solve_ivp
 
 import unidyn
 from unidyn import NO_LIMITS
-from unidyn.engine.rhs import ClosedLoop
+from unidyn.model.closed_loop import ClosedLoop
 from unidyn.model.scenario import Scenario
 
 pytestmark = pytest.mark.slow  # the whole-system tier (tests/README.md)

@@ -4,7 +4,7 @@ their accuracy of a converged solution, or the run says it cannot vouch for them
 The converged reference is the batch engine at rtol 1e-12: its own equations' code
 (component form) and its own error control, independent of the diagram's blocks. At
 these gains it is within 7e-7 of scipy's DOP853 at rtol 1e-12 on the closed loop
-(unidyn.engine.rhs.ClosedLoop.converged, 30 s a run); tests/engine/test_accuracy.py
+(unidyn.model.closed_loop.ClosedLoop.converged, 30 s a run); tests/engine/test_accuracy.py
 checks the engine against that reference at gamma 100 and 1000 on every run."""
 
 import warnings
@@ -64,7 +64,7 @@ def test_where_the_limits_switch_within_15_ms_the_diagram_caps_its_steps():
     off within 15 ms; with steps of a sample interval bdsim's solver jumps such episodes
     (IAE off by 0.36 %). Capped, the diagram agrees with the converged reference (scipy's
     DOP853 at rtol 1e-11, its steps capped at 1 ms) to 1e-6."""
-    from unidyn.engine.rhs import ClosedLoop
+    from unidyn.model.closed_loop import ClosedLoop
     from unidyn.model.noise import NoiseSpec
     from unidyn.model.trajectories import Circle
     from unidyn.results.result import metrics

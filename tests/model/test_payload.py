@@ -120,7 +120,7 @@ def test_scenario_keeps_the_schedule_through_its_dict():
 
 
 def test_table_holds_the_schedule_and_unused_rows_never_apply():
-    from unidyn.engine.rhs import ClosedLoop
+    from unidyn.model.closed_loop import ClosedLoop
     sc = Scenario.paper(2, T=1.0, payload=[[0.5, 2.0]], noise=None)
     p = ClosedLoop([sc]).P[0]
     steps = p[eq.P.payload_time1:eq.P.payload_time1 + 2 * PAYLOAD_STEPS]
@@ -132,8 +132,8 @@ def test_table_holds_the_schedule_and_unused_rows_never_apply():
 def test_the_loop_sees_the_loaded_robot():
     """The loop's acceleration of (u, w) after the load is Eq. (2) with the loaded
     theta (an independent evaluation of Eq. 2), and before it the empty robot's."""
-    from unidyn.engine.rhs import ClosedLoop
     from unidyn.model import unicycle
+    from unidyn.model.closed_loop import ClosedLoop
     sc = Scenario.paper(2, T=1.0, payload=[[0.5, 2.5]], noise=None, limits=unicycle.NO_LIMITS)
     loop = ClosedLoop([sc])
     X = loop.initial_state()

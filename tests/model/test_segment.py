@@ -17,7 +17,7 @@ import unidyn
 from unidyn import NO_LIMITS, Scenario, ValidationError
 from unidyn.diagrams import bdfile, build_fig2, new_simulator
 from unidyn.engine.batch import simulate_batch
-from unidyn.engine.rhs import ClosedLoop
+from unidyn.model.closed_loop import ClosedLoop
 from unidyn.model.trajectories import Segment, from_spec
 from unidyn.results.result import metrics
 from unidyn.sweeps.sweep import Sweep, run_sweep

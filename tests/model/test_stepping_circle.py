@@ -15,8 +15,8 @@ import pytest
 import unidyn
 from unidyn import NO_LIMITS, Scenario, ValidationError
 from unidyn.engine import kernels
-from unidyn.engine.rhs import ClosedLoop
 from unidyn.model import equations as eq
+from unidyn.model.closed_loop import ClosedLoop
 from unidyn.model.trajectories import Circle, from_spec
 from unidyn.sweeps.sweep_files import read_scenario_table
 

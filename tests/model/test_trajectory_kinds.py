@@ -10,8 +10,8 @@ import pytest
 from unidyn import Scenario, ValidationError
 from unidyn.engine import kernels
 from unidyn.engine.batch import backend_for
-from unidyn.engine.rhs import ClosedLoop
 from unidyn.model import equations as eq
+from unidyn.model.closed_loop import ClosedLoop
 from unidyn.model.trajectories import KINDS, FunctionTrajectory, Line, from_spec
 
 # the batch engine's reference from its parameter table: plain Python, and compiled

@@ -81,7 +81,7 @@ def test_the_held_noise_drawn_in_windows_is_the_noise_drawn_whole(backend, monke
     """The engine draws the held noise a window at a time (a long run keeps only the
     window in memory); with windows of 3 samples the runs are bit for bit those with
     the whole noise in one window, and the noise is that of held_sequence."""
-    import unidyn.engine.rhs as cl
+    import unidyn.model.closed_loop as cl
     from unidyn.model.noise import held_sequence, noise_seeds
     scs = [Scenario.paper(4, T=3.0, adapt_from=1.0), Scenario.paper(2, T=3.0,
            noise={"seed": 5})]

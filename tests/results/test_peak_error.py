@@ -1,6 +1,6 @@
 """The peak distance error, a metric of one entry (unidyn.model.metrics.METRICS), in
 both engines, against an independent computation: the largest distance error over the
-samples of scipy's converged solution of the same loop (unidyn.engine.rhs.ClosedLoop,
+samples of scipy's converged solution of the same loop (unidyn.model.closed_loop.ClosedLoop,
 solve_ivp at rtol 1e-11), and over every sample each engine logs.
 
 The robot starts at rest where the figure eight starts, which moves off at 0.5 m/s: the
@@ -13,7 +13,7 @@ import pytest
 import unidyn
 from unidyn.engine import kernels as _kernels
 from unidyn.engine.batch import ACCURACY, DECISIVE, simulate_batch
-from unidyn.engine.rhs import ClosedLoop
+from unidyn.model.closed_loop import ClosedLoop
 from unidyn.model.trajectories import FigureEight
 
 SCENARIO = unidyn.Scenario(case="compensated", noise=None, T=4.0, x0=(0.0, 0.0, 0.0),

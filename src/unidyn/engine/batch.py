@@ -5,7 +5,7 @@ its metrics' estimated numerical error (:func:`simulate_batch`;
 Each noise interval [k Ts, (k+1) Ts) is integrated on its own, the noise held over it as
 in the bdsim diagram, by the Dormand-Prince 5(4) pair with step-size control
 (:mod:`unidyn.engine.kernels`, compiled or plain: :func:`backend_for`). The runs'
-parameters, noise and initial state come from :class:`unidyn.engine.rhs.ClosedLoop`.
+parameters, noise and initial state come from :class:`unidyn.model.closed_loop.ClosedLoop`.
 """
 
 from __future__ import annotations
@@ -19,13 +19,13 @@ import numpy as np
 from .._errors import SimulationInterrupted
 from .._validate import BATCH_ATOL, BATCH_RTOL, ValidationError, tolerances
 from ..model import equations, trajectories
+from ..model.closed_loop import ClosedLoop
 from ..model.equations import S
 from ..model.log import LOG_SERIES, log_layout, log_length
 from ..model.metrics import INTEGRAL, INTEGRAL_NAMES, MEAN_ERROR, METRICS, NMETRIC
 from ..model.scenario import ALWAYS_LOGGED, Scenario
 from ..progress import Progress
 from ..results.result import Result
-from .rhs import ClosedLoop
 
 __all__ = ["simulate_batch", "backend_for", "MAX_STEPS", "ACCURACY", "STATUS_MESSAGES",
            "ESTIMATES", "seedless", "DECISIVE", "SERIES"]
@@ -161,8 +161,8 @@ def simulate_batch(scenarios, *, rtol: float = BATCH_RTOL, atol: float = BATCH_A
         raise ValidationError(f"estimate must be one of {', '.join(ESTIMATES)}; got {estimate!r}")
     label = backend_for(scs, backend)
     compiled = label == "compiled"
+    from ..compiled import plain_copy
     from . import kernels
-    from .jit import plain_copy
     engine = kernels if compiled else plain_copy(kernels)
     groups = {}
     for i, s in enumerate(scs):

@@ -6,8 +6,8 @@ switch's margin turns negative ends where it crosses zero, found from the step's
 interpolant (:func:`integrate_interval`, :func:`switch_at`), restarted at every sample
 interval; the Fig. 2 loop (:func:`loop_rhs`, its switches decided by
 :func:`loop_decide`) one run after another, its metrics accumulated at every sample
-(:func:`advance`, called from a thread per core). numba compiles this module where installed (:mod:`unidyn.engine.jit`);
-:func:`unidyn.engine.jit.plain_copy` runs the same source as plain Python.
+(:func:`advance`, called from a thread per core). numba compiles this module where installed (:mod:`unidyn.compiled`);
+:func:`unidyn.compiled.plain_copy` runs the same source as plain Python.
 """
 
 from __future__ import annotations
@@ -18,11 +18,11 @@ from enum import IntEnum
 
 import numpy as np
 
+from ..compiled import AVAILABLE, jit
 from ..model import equations as eq
 from ..model import metrics
 from ..model.equations import NSTATE, P, S
 from ..model.log import LOG, LOGGED_STATES, NLOG, log_row, logged
-from .jit import AVAILABLE, jit
 
 if AVAILABLE:
     from numba.extending import overload

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from ..engine.jit import jit
+from ..compiled import jit
 from ..model.equations import dynamics_components
 from ..model.unicycle import unicycle_deriv
 

@@ -15,7 +15,7 @@ the reference trajectories; and the whole Fig. 2 loop built from them
 
 The arguments may be Python floats or numpy arrays of any broadcastable shape
 (the runs of a batch, the samples of a log), and numba compiles the same
-functions for the batch engine and for identification (:mod:`unidyn.engine.jit`
+functions for the batch engine and for identification (:mod:`unidyn.compiled`
 registers every function of this module with numba, so they call each other in
 compiled code). Components in, tuples of components out: no function allocates an
 array of its own.
@@ -379,7 +379,7 @@ S = namedtuple("LoopState", STATE)(*range(len(STATE)))
 NSTATE = len(STATE)
 
 #: The per-run parameter table of the Fig. 2 loop, one value per name; see
-#: :meth:`unidyn.engine.rhs.ClosedLoop.parameter_table`. ``dynamic`` (1: the robot has
+#: :meth:`unidyn.model.closed_loop.ClosedLoop.parameter_table`. ``dynamic`` (1: the robot has
 #: Eq. 2, 0: kinematic), ``compensated`` (1: v_ref = G theta_hat, Eq. 14; 0: v_ref = v_d)
 #: and ``filtered`` (1: v_d' from the filter (v_d - z)/tau; 0: the exact rate) are
 #: 0/1; ``leak1..6`` are the leakage rates of :func:`adaptation_rate_components`; ``adapt_from`` is

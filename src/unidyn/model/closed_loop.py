@@ -14,11 +14,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..model import equations, laws
-from ..model.equations import LOOP_PARAMETERS, NSTATE, PYTHON, P
-from ..model.noise import HeldNoise, noise_seeds
-from ..model.parameters import THETA_NAMES
-from ..model.scenario import Scenario
+from . import equations, laws
+from .equations import LOOP_PARAMETERS, NSTATE, PYTHON, P
+from .noise import HeldNoise, noise_seeds
+from .parameters import THETA_NAMES
+from .scenario import Scenario
 
 __all__ = ["ClosedLoop"]
 

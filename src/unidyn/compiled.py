@@ -27,7 +27,7 @@ from pathlib import Path
 
 from filelock import FileLock
 
-from ..model import equations, log, metrics
+from .model import equations, log, metrics
 
 #: The model's modules whose functions compiled code calls, each registered with numba.
 COMPILED_MODULES = (equations, metrics, log)
@@ -74,7 +74,7 @@ if AVAILABLE:
 #: inline (:data:`COMPILED_MODULES`), the overloads here, and the compiled functions.
 COMPILED_SOURCES = tuple(m.__name__.replace(".", "/")[len("unidyn/"):] + ".py"
                          for m in COMPILED_MODULES) + (
-    "engine/jit.py", "engine/kernels.py", "identification/replay.py")
+    "compiled.py", "engine/kernels.py", "identification/replay.py")
 #: Versions of the compiled code whose cache folders are kept (switching between a few
 #: versions, as between git branches, compiles none of them again).
 KEEP_VERSIONS = 3
