@@ -703,6 +703,14 @@ def _kept(err: BaseException, text: str) -> BaseException:
     return err
 
 
+def _rows_in(csv_path: Path, columns, n: int) -> tuple:
+    """The rows of a sweep of ``n`` points in its metrics.csv, by index (the last of an
+    index written twice), and whether every line of the file was read."""
+    rows, clean = read_rows(csv_path, columns)
+    by_index = {r["index"]: r for r in rows if 0 <= r["index"] < n}
+    return [by_index[i] for i in sorted(by_index)], clean
+
+
 def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume,
             lock=None, yes=False) -> SweepRun:
     """Run the sweep in ``out`` (locked by the caller or private): resume from its rows,
@@ -712,13 +720,13 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
     owner = lock if lock is not None and lock.folder == output_folder(out) else None
     ledger = Ledger(out, "sweep", SWEEP_FILES, owner)  # (not a private folder's)
     csv_path = out / "metrics.csv"
-    done = {}
+    done = set()  # the indices of the finished rows (the rows stay in the file)
     if resume and csv_path.exists():
-        rows, clean = read_rows(csv_path, columns)
-        done = {r["index"]: r for r in rows if 0 <= r["index"] < len(sweep)}
+        rows, clean = _rows_in(csv_path, columns, len(sweep))
+        done = {r["index"] for r in rows}
         if not clean:  # drop a line cut short by an interruption
-            ledger.write("metrics.csv", rows_text(columns, sorted(done.values(),
-                                                                 key=lambda r: r["index"])))
+            ledger.write("metrics.csv", rows_text(columns, rows))
+        del rows
     try:  # the time and disk it will take, said (or refused) before anything is written
         size = size_sweep(sweep, out, _chunks(sweep, done, chunk_size),
                           functools.partial(_chunk_rows, engine=engine, rtol=sweep.rtol,
@@ -726,7 +734,7 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
                           columns, rows_text, points=len(sweep) - len(done),
                           workers=workers(client))
     except KeyboardInterrupt as err:
-        raise _kept(err, f"no point was run; {out} is as it was") from None
+        raise _kept(err, f"no point had finished; nothing was written to {out}") from None
     if size.refusal and not yes:
         raise SweepTooBig(size.refusal)
     if progress and size.seconds >= QUIET:  # (a sweep over sooner says nothing, as its progress)
@@ -746,26 +754,27 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
     written += [ID_NAME, RECORD_NAME]
 
     chunks = _chunks(sweep, done, chunk_size)
-    new_rows = []
+    ran = 0  # rows this call appended (they are read back from the file at the end)
     # points done, in fractions of a chunk as its batch call advances (not on Dask,
     # whose workers report chunks only)
     bar = Progress(None if progress else False, len(sweep), desc="sweep", unit="point",
                    initial=len(done), leave=True)
     try:
         def take(rows):
+            nonlocal ran
             ledger.append("metrics.csv", rows_text(columns, rows, header=False))
-            new_rows.extend(rows)
-            bar.to(len(done) + len(new_rows))
+            ran += len(rows)
+            bar.to(len(done) + ran)
 
         if client is None:
             for chunk in chunks:
-                share = _share(bar, len(done) + len(new_rows), sum(p[3] for p in chunk))
+                share = _share(bar, len(done) + ran, sum(p[3] for p in chunk))
                 take(_run_chunk(chunk, engine, sweep.rtol, sweep.atol, share))
         else:
             run_on_dask(client, _run_chunk, chunks, take, engine=engine,
                         rtol=sweep.rtol, atol=sweep.atol)
     except BaseException as err:
-        if not done and not new_rows:  # nothing finished: leave nothing behind
+        if not done and not ran:  # nothing finished: leave nothing behind
             for name in written:
                 ledger.discard(name)
             kept = f"no point had finished; nothing was written to {out}"
@@ -779,7 +788,7 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
     finally:
         bar.close()
 
-    rows = sorted([*done.values(), *new_rows], key=lambda r: r["index"])
+    rows, _ = _rows_in(csv_path, columns, len(sweep))  # every row, as the file holds it
     failed = [r["index"] for r in rows if not r["complete"]]
     seconds = time.perf_counter() - t0
     try:  # every row is in metrics.csv: a full disk from here on loses none
@@ -798,5 +807,5 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
         raise disk_full(err, f"all {len(rows)} of {len(sweep)} points are in {csv_path}, "
                              f"intact (free some space and run the same command again to "
                              f"write the rest)") from None
-    return SweepRun(out_dir=out, rows=rows, ran=len(new_rows), skipped=len(done),
+    return SweepRun(out_dir=out, rows=rows, ran=ran, skipped=len(done),
                     seconds=seconds, failed=failed)
