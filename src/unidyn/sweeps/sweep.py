@@ -362,6 +362,9 @@ class SweepRun:
     :ivar failed: indices of points that did not complete (empty metrics)
     :ivar replaced: indices of the rows of an earlier sweep that this one replaced
         (``overwrite=True``)
+    :ivar size: the size estimated before the first point ran (:class:`SweepSize`):
+        its ``seconds`` beside :attr:`points_seconds` say how good the estimate was
+    :ivar points_seconds: wall time from the first point run to the last row written
     """
 
     out_dir: Path
@@ -371,6 +374,8 @@ class SweepRun:
     seconds: float
     failed: list
     replaced: tuple = ()
+    size: SweepSize | None = None
+    points_seconds: float = 0.0
 
 
 def _row(index, params, result) -> dict:
@@ -755,6 +760,7 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
 
     chunks = _chunks(sweep, done, chunk_size)
     ran = 0  # rows this call appended (they are read back from the file at the end)
+    started = time.perf_counter()
     # points done, in fractions of a chunk as its batch call advances (not on Dask,
     # whose workers report chunks only)
     bar = Progress(None if progress else False, len(sweep), desc="sweep", unit="point",
@@ -788,6 +794,7 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
     finally:
         bar.close()
 
+    points_seconds = time.perf_counter() - started
     rows, _ = _rows_in(csv_path, columns, len(sweep))  # every row, as the file holds it
     failed = [r["index"] for r in rows if not r["complete"]]
     seconds = time.perf_counter() - t0
@@ -808,4 +815,5 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
                              f"intact (free some space and run the same command again to "
                              f"write the rest)") from None
     return SweepRun(out_dir=out, rows=rows, ran=ran, skipped=len(done),
-                    seconds=seconds, failed=failed)
+                    seconds=seconds, failed=failed, size=size,
+                    points_seconds=points_seconds)
