@@ -247,7 +247,12 @@ class Sweep:
         s("_strides", tuple(math.prod(shape[k + 1:]) for k in range(len(shape))))
         # each axis value is checked once, with the first value of every other axis: a
         # work that grows with the sum of the axes' lengths, not with their product
+        # (a seed sets the noise's seed alone: checked as a seed, its points not built)
         for axis, size in enumerate(shape):
+            if axis and list(grid)[axis - 1] == "seed":
+                for v in grid["seed"]:
+                    integer("grid.seed", v, 0)
+                continue
             for value in range(1 if axis else 0, size):
                 self.point(value * self._strides[axis])
 
@@ -259,8 +264,8 @@ class Sweep:
 
     @property
     def shape(self) -> tuple:
-        """The number of values of each axis, in the order of :attr:`axes` (a sweep
-        without variants has one ``variant`` axis of length 1 first, not named)."""
+        """The number of values of each axis: the variants' first (1 where there are
+        none, and :attr:`axes` does not name it), then the grid's, in order."""
         return self._shape
 
     @property
@@ -450,26 +455,29 @@ def _share(bar, start: float, points: int):
 
 
 def _chunks(sweep, done, size: int):
-    """The points not in ``done`` (indices), in chunks of at most ``size`` (more only
-    where one point's seeds are more), as lists of (index, params, scenario, write),
-    built as they are asked for: the memory of a chunk, whatever the sweep's size.
+    """The points not in ``done`` (indices), in chunks of at most ``size`` points and the
+    run their seeds share, as lists of (index, params, scenario, write), built as they
+    are asked for: the memory of a chunk, whatever the sweep's size.
 
-    A point's runs over the ``seed`` axis (the points that differ in it alone) go in
-    one chunk with the run whose numerical error estimate they share (the smallest
-    seed's, :func:`unidyn.simulate_batch`'s ``estimate="per_point"``), that run added
-    unwritten where its row is written already, so that every row is the same however
-    the sweep is cut or resumed."""
-    chunk = []
+    A point's runs over the ``seed`` axis (the points that differ in it alone) share the
+    numerical error estimate of the smallest seed's run
+    (:func:`unidyn.simulate_batch`'s ``estimate="per_point"``): each chunk that holds
+    one of them holds that run too, added unwritten where it is written elsewhere, so
+    that every row is the same however the sweep is cut or resumed."""
+    chunk, held = [], set()
     for members, ref in _seed_groups(sweep):
         todo = [i for i in members if i not in done]
-        if not todo:
-            continue
-        extra = [] if ref in todo else [ref]
-        if chunk and len(chunk) + len(extra) + len(todo) > size:  # a point's seeds stay together
-            yield chunk
-            chunk = []
-        chunk += ([(*sweep.point(i), False) for i in extra]
-                  + [(*sweep.point(i), True) for i in todo])
+        if ref in todo:  # written first, so that the group's next points need no copy
+            todo.remove(ref)
+            todo.insert(0, ref)
+        for i in todo:
+            extra = [] if ref in held or ref == i else [ref]
+            if chunk and len(chunk) + len(extra) + 1 > size:
+                yield chunk
+                chunk, held = [], set()
+                extra = [] if ref == i else [ref]
+            chunk += [(*sweep.point(k), False) for k in extra] + [(*sweep.point(i), True)]
+            held.update(extra + [i])
     if chunk:
         yield chunk
 
