@@ -461,23 +461,35 @@ def _chunks(sweep, done, size: int):
 
     A point's runs over the ``seed`` axis (the points that differ in it alone) share the
     numerical error estimate of the smallest seed's run
-    (:func:`unidyn.simulate_batch`'s ``estimate="per_point"``): each chunk that holds
-    one of them holds that run too, added unwritten where it is written elsewhere, so
-    that every row is the same however the sweep is cut or resumed."""
-    chunk, held = [], set()
+    (:func:`unidyn.simulate_batch`'s ``estimate="per_point"``): they go in one chunk
+    where they fit, in several otherwise, and each chunk that holds one of them holds
+    that run too, added unwritten where its row is written elsewhere, so that every row
+    is the same however the sweep is cut or resumed."""
+    def entries(indices, write):
+        return [(*sweep.point(i), write) for i in indices]
+
+    chunk = []
     for members, ref in _seed_groups(sweep):
         todo = [i for i in members if i not in done]
-        if ref in todo:  # written first, so that the group's next points need no copy
-            todo.remove(ref)
-            todo.insert(0, ref)
-        for i in todo:
-            extra = [] if ref in held or ref == i else [ref]
-            if chunk and len(chunk) + len(extra) + 1 > size:
+        if not todo:
+            continue
+        extra = [] if ref in todo else [ref]
+        if len(extra) + len(todo) <= size:  # the point's seeds fit in a chunk: together
+            if chunk and len(chunk) + len(extra) + len(todo) > size:
                 yield chunk
-                chunk, held = [], set()
-                extra = [] if ref == i else [ref]
-            chunk += [(*sweep.point(k), False) for k in extra] + [(*sweep.point(i), True)]
-            held.update(extra + [i])
+                chunk = []
+            chunk += entries(extra, False) + entries(todo, True)
+            continue
+        if chunk:
+            yield chunk
+            chunk = []
+        if ref in todo:  # a point over more seeds than a chunk holds: cut, each part
+            todo.remove(ref)  # with the shared run (written in the first)
+            todo.insert(0, ref)
+        part = max(size - 1, 1)
+        for k in range(0, len(todo), part):
+            written = todo[k:k + part]
+            yield entries([] if ref in written else [ref], False) + entries(written, True)
     if chunk:
         yield chunk
 
