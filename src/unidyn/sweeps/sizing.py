@@ -4,14 +4,16 @@ without being asked to (:attr:`SweepSize.refusal`).
 
 The time is measured, not guessed: the sweep's first chunk (at most
 :data:`CALIBRATION_POINTS` of its points, with their seeds as the sweep runs them) is
-run here twice, shortened to two durations of at most :data:`CALIBRATION_T` seconds of
-simulated time, after a first run that loads the compiled engine; a straight line
-through the two times gives the chunk's fixed cost and its cost per simulated second,
-and so the time of the whole sweep at its own ``T``. The disk is the size of the rows
+run here twice, shortened to two durations (the second long enough to take about
+:data:`CALIBRATION_SECONDS`), after a first run that loads the compiled engine; a
+straight line through the two times gives the chunk's fixed cost and its cost per
+simulated second, and so the time of the whole sweep at its own ``T``; the time to
+build the chunk's scenarios is added. The disk is the size of the rows
 those runs give, as ``metrics.csv`` writes them, times the points to run."""
 
 from __future__ import annotations
 
+import math
 import os
 import shutil
 import time
@@ -31,8 +33,11 @@ LONG_SWEEP = 3600.0
 DISK_SHARE = 0.5
 #: Points of the first chunk timed for the estimate, at most.
 CALIBRATION_POINTS = 16
-#: Simulated seconds of the longer timing run, at most.
-CALIBRATION_T = 2.0
+#: Simulated seconds of the first timing run (where the sweep's runs are longer).
+CALIBRATION_T = 1.0
+#: Wall seconds the second timing run is made to take, about (its duration at most 50
+#: times the first's and at most the sweep's own).
+CALIBRATION_SECONDS = 0.3
 
 
 @dataclass(frozen=True)
@@ -142,40 +147,47 @@ def _T_scale(sweep, T: float) -> float:
 
 
 def _timed(sample, run_chunk, T: float):
-    """The rows of ``sample`` and the estimated seconds its runs take at their own ``T``:
-    timed at two shortened durations (after a first run that loads the engine) and
-    drawn on a straight line, or timed as they are where they are short already."""
-    if T <= CALIBRATION_T:
-        run_chunk(_shortened(sample, min(T, CALIBRATION_T / 8)))  # the engine loaded
-        start = time.perf_counter()
-        rows = run_chunk(sample)
-        return rows, time.perf_counter() - start
-    short, long = _shortened(sample, CALIBRATION_T / 2), _shortened(sample, CALIBRATION_T)
-    run_chunk(_shortened(sample, CALIBRATION_T / 8))
+    """The rows of ``sample`` and the estimated seconds its runs take at their own ``T``.
+    After a short first run that loads the engine, the sample is timed at a duration of
+    :data:`CALIBRATION_T` s, then at one long enough to take about
+    :data:`CALIBRATION_SECONDS` (at most ``T``, timed as it is where reached); a
+    straight line through the two times gives the time at ``T``."""
+    run_chunk(_shortened(sample, min(T, CALIBRATION_T / 8))[0])  # the engine loaded
+    t_a, T_a, rows = _clock(run_chunk, sample, min(T, CALIBRATION_T))
+    if T_a >= T:
+        return rows, t_a
+    t_b, T_b, rows = _clock(run_chunk, sample, min(
+        T, T_a * min(max(CALIBRATION_SECONDS / max(t_a, 1e-6), 2.0), 50.0)))
+    if T_b >= T:
+        return rows, t_b
+    slope = (t_b - t_a) / (T_b - T_a) if T_b > T_a else 0.0
+    if slope <= 0:  # the two times did not tell the cost per second apart
+        return rows, t_b * T / T_b
+    return rows, max(t_b + slope * (T - T_b), 0.0)
+
+
+def _clock(run_chunk, sample, T: float):
+    """The seconds the sample's runs take shortened to ``T``, the duration they had (the
+    longest of the runs) and their rows."""
+    chunk, T = _shortened(sample, T)
     start = time.perf_counter()
-    run_chunk(short)
-    middle = time.perf_counter()
-    rows = run_chunk(long)
-    end = time.perf_counter()
-    t_short, t_long = middle - start, end - middle
-    slope = max((t_long - t_short) / (CALIBRATION_T / 2), 0.0)
-    fixed = max(t_long - slope * CALIBRATION_T, 0.0)
-    if slope == 0.0:  # the two times did not tell the cost per second apart
-        slope, fixed = t_long / CALIBRATION_T, 0.0
-    return rows, fixed + slope * T
+    rows = run_chunk(chunk)
+    return time.perf_counter() - start, T, rows
 
 
-def _shortened(sample, T: float) -> list:
-    """The sample's points with their duration cut to ``T`` (where their scenario
-    allows it; as they are otherwise)."""
+def _shortened(sample, T: float) -> tuple:
+    """The sample's points with their duration cut to about ``T`` (whole sample times;
+    as they are where their scenario allows no shorter run), and the longest duration."""
     out = []
     for index, params, sc, write in sample:
-        try:
-            short = sc.replace(T=min(sc.T, max(T, sc.Ts)))
-        except (ValidationError, ValueError):
-            short = sc
+        short = sc
+        if T < sc.T:
+            try:
+                short = sc.replace(T=max(math.floor(T / sc.Ts + 1e-9), 1) * sc.Ts)
+            except (ValidationError, ValueError):
+                pass
         out.append((index, params, short, write))
-    return out
+    return out, max(p[2].T for p in out)
 
 
 def _about(seconds: float) -> str:
