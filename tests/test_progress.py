@@ -124,6 +124,10 @@ def test_a_sweep_off_a_terminal_speaks_and_ends_saying_what_it_wrote(tmp_path):
     assert p.returncode == 0, p.stderr
     said = [ln for ln in p.stderr.splitlines() if ln.startswith("sweep: ")]
     assert said, p.stderr
+    if "points to run" in said[0]:  # first its size, where estimated at a second or more
+        assert re.fullmatch(r"sweep: 40 points to run, about \d+ (s|min \d+ s) \(timed on 4 "
+                            r"points\), about [\d.]+ kB written \([\d.]+ [kMGT]?B free\)",
+                            said.pop(0)), p.stderr
     for ln in said[:-1]:
         assert re.fullmatch(r"sweep: \d+ of 40 points \(\d+ %\), \d+ s elapsed"
                             r"(, (about \d+ (s|min \d+ s)|under 1 s) left)?", ln), ln

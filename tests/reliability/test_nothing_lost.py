@@ -361,7 +361,7 @@ def test_ctrl_c_stops_the_shell_script_that_ran_the_command(tmp_path, launch):
     env = dict(os.environ, MPLBACKEND="Agg", PYTHONUNBUFFERED="1",
                **without_numba(tmp_path))  # plain Python: nothing to compile first
     cmd = " ".join(map(shlex.quote, [*launch, "sweep", str(f), "--out", "S",
-                                     "--engine", "batch", "--no-progress"]))
+                                     "--engine", "batch", "--no-progress", "--yes"]))
     p = subprocess.Popen(["bash", "-c", f"{cmd}; echo went on: $?"], cwd=tmp_path, env=env,
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                          preexec_fn=_no_sigint_ignore, start_new_session=True)

@@ -133,7 +133,11 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--overwrite", action="store_true",
                    help="allow the finished rows in DIR to be replaced (by a different sweep, "
                         "or with --no-resume); they are kept until the new sweep has finished")
-    s.add_argument("--no-progress", action="store_true", help="no progress (bar or lines)")
+    s.add_argument("--yes", action="store_true",
+                   help="start a sweep estimated to take more than an hour or more than half "
+                        "the free disk (refused otherwise, before anything is written)")
+    s.add_argument("--no-progress", action="store_true",
+                   help="no progress (bar or lines) and no estimate of the sweep's size")
 
     sub.add_parser("robots", help="list the preset robots",
                    description="The preset robots: theta1..theta6 and their source.",

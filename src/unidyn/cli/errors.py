@@ -4,6 +4,7 @@ keyword arguments)."""
 
 from __future__ import annotations
 
+import re
 import sys
 
 
@@ -29,9 +30,9 @@ def _shorten(word: str) -> str:
 def flag_words(message: str) -> str:
     """The library's keyword arguments in a message about output folders, as flags."""
     for lib, cli in (("overwrite=True", "--overwrite"), ("resume=False", "--no-resume"),
-                     ("out_dir ", "--out ")):
+                     ("yes=True", "--yes"), ("dask_address=", "--dask ")):
         message = message.replace(lib, cli)
-    return message
+    return re.sub(r"\bout_dir\b", "--out", message)
 
 
 def report(message) -> None:

@@ -19,6 +19,11 @@ from .arguments import tolerance_options
 from .errors import UsageError
 from .output import out_folder, refuse_other_results, short_name
 
+#: Sweeps of at most this many points say at their start whether the batch engine would
+#: run them as plain Python, and how long that would take (each point's scenario is
+#: built for it); a larger sweep's time is measured on its first points instead.
+PLAIN_CHECKED = 10_000
+
 
 def unidyn_sweep(args) -> int:
     """``unidyn sweep``: run a sweep file or the paper's Fig. 11 into --out."""
@@ -86,15 +91,17 @@ def _run(spec, out, args):
     else:
         client, close = connect_dask(args.dask, "--dask")
     try:
-        print(f"sweep: {short_name(spec.name or str(args.sweep))}: {len(spec)} points, engine "
+        n = len(spec)
+        print(f"sweep: {short_name(spec.name or str(args.sweep))}: {n} points, engine "
               f"{args.engine}" + (f", Dask at {args.dask}" if args.dask else ""), flush=True)
-        if args.engine == "batch" and args.dask is None:  # its time as plain Python, if so
+        if args.engine == "batch" and args.dask is None and n <= PLAIN_CHECKED:
+            # its time as plain Python, if so (a larger sweep's time is measured)
             done = set(finished_rows(out / "metrics.csv")) if not args.no_resume else set()
             warn_if_plain([p.scenario for p in spec.points()
                            if p.index not in done and p.scenario.control == "continuous"])
         return run_sweep(spec, out, engine=args.engine, chunk_size=args.chunk_size,
                          resume=not args.no_resume, progress=not args.no_progress,
-                         dask_address=client, overwrite=args.overwrite)
+                         dask_address=client, overwrite=args.overwrite, yes=args.yes)
     finally:
         if close is not None:
             close()

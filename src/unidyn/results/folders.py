@@ -91,7 +91,7 @@ from .ownership import (
     write_file,
 )
 
-__all__ = ["Stage", "staged_output", "OwnedFile", "Ledger", "FolderLock", "FolderInUse",
+__all__ = ["Stage", "staged_output", "Claim", "claimed_folder", "OwnedFile", "Ledger", "FolderLock", "FolderInUse",
            "DiskFull", "LOCK_NAME", "MAX_MANIFEST_BYTES", "check_manifest", "foreign_files",
            "output_folder", "make_output_folder", "write_file", "write_atomic", "disk_full", "json_ready",
            "list_files"]
@@ -258,6 +258,56 @@ def staged_output(out, *, kind: str, names, overwrite: bool, what: str = "result
             with contextlib.suppress(OSError):
                 final.rmdir()
         raise
+
+
+@dataclass
+class Claim:
+    """An output folder held for a command's results (:func:`claimed_folder`).
+
+    :ivar path: where the files are written: the folder itself, or the private folder
+        of a replacement (moved into place when the block ends)
+    :ivar lock: the folder's :class:`FolderLock`
+    :ivar staged: whether ``path`` is the private folder of a replacement
+    """
+
+    path: Path
+    lock: FolderLock
+    staged: bool
+
+
+@contextlib.contextmanager
+def claimed_folder(out, *, kind: str, names, replace, what: str = "results",
+                   option: str = "--out"):
+    """Hold ``out`` for results of ``kind`` (file ``names``) that are either written
+    into it as they come (a run that resumes, or a folder with nothing to lose) or
+    replace what it holds once they are complete; yields a :class:`Claim`.
+
+    ``out`` is made if needed and locked for the block; files with a result's name that
+    unidyn cannot prove it wrote are refused up front (:func:`foreign_files`); then
+    ``replace(folder)``, called under the lock, says which: False writes in place,
+    True stages the results as :func:`staged_output` does, moving them into place only
+    when the block has finished (an error or an interrupt leaves ``out`` as it was). It
+    may raise to refuse. A folder made here is removed again if the block fails and it
+    is empty."""
+    final = output_folder(out, option)
+    created = make_output_folder(out, option)  # one line where it cannot be made
+    with FolderLock(final, option) as lock:
+        try:
+            held, foreign = Ledger(final, kind, names).sort()
+            if foreign:
+                raise ValidationError(foreign_files(out, foreign, what, option))
+            if not replace(final):
+                yield Claim(final, lock, staged=False)
+                return
+            with staged_output(final, kind=kind, names=names, overwrite=True, what=what,
+                               option=option, lock=lock) as stage:
+                yield Claim(stage.path, lock, staged=True)
+        except BaseException:
+            if created:
+                lock.release()
+                with contextlib.suppress(OSError):
+                    final.rmdir()
+            raise
 
 
 def _commit(stage: Stage, out: Path, kind, names, what, option) -> Path:

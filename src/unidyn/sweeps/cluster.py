@@ -9,7 +9,7 @@ import os
 from .._errors import MissingDependency
 from .._validate import ValidationError
 
-__all__ = ["connect_dask", "run_on_dask"]
+__all__ = ["connect_dask", "run_on_dask", "workers"]
 
 
 def connect_dask(address, option: str = "dask_address"):
@@ -56,15 +56,37 @@ def connect_dask(address, option: str = "dask_address"):
     return client, client.close
 
 
+def workers(client) -> int:
+    """The threads of ``client``'s workers, which run chunks at once (1 without a client)."""
+    if client is None:
+        return 1
+    return max(1, sum(client.nthreads().values()))
+
+
 def run_on_dask(client, run_chunk, chunks, take, **kwargs):
-    """Run ``run_chunk(chunk, **kwargs)`` for every chunk on ``client``'s workers and
+    """Run ``run_chunk(chunk, **kwargs)`` for every chunk of ``chunks`` (an iterable,
+    read as the workers need more: two chunks per worker thread are out at a time, so
+    that the memory here does not grow with the sweep) on ``client``'s workers, and
     call ``take(rows)`` with each result as it arrives; on any error or interrupt the
-    chunks still pending are cancelled."""
+    chunks still out are cancelled."""
     from distributed import as_completed
-    futures = client.map(run_chunk, chunks, **kwargs, pure=False)
+    chunks = iter(chunks)
+    out, queue = set(), as_completed()
+
+    def submit() -> None:
+        chunk = next(chunks, None)
+        if chunk is not None:
+            future = client.submit(run_chunk, chunk, **kwargs, pure=False)
+            out.add(future)
+            queue.add(future)
+
     try:
-        for fut in as_completed(futures):
-            take(fut.result())
+        for _ in range(2 * workers(client)):
+            submit()
+        for future in queue:
+            out.discard(future)
+            take(future.result())
+            submit()
     except BaseException:
-        client.cancel(futures)
+        client.cancel(list(out))
         raise

@@ -39,13 +39,14 @@ from __future__ import annotations
 
 import dataclasses
 import errno
-import itertools
+import functools
 import json
 import math
+import operator
 import sys
 import time
 import unicodedata
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -65,22 +66,20 @@ from .._validate import (
     tolerances,
 )
 from ..diagrams.simulate import simulate
-from ..engine.batch import seedless, simulate_batch
+from ..engine.batch import simulate_batch
 from ..engines import ENGINES
-from ..progress import Progress
+from ..progress import QUIET, Progress
 from ..results.folders import (
-    FolderLock,
     Ledger,
     check_manifest,
+    claimed_folder,
     disk_full,
-    foreign_files,
     json_ready,
-    make_output_folder,
     output_folder,
-    staged_output,
 )
-from .cluster import connect_dask, run_on_dask
+from .cluster import connect_dask, run_on_dask, workers
 from .plots import plot_metrics
+from .sizing import SweepSize, size_sweep
 from .statistics import seed_statistics, statistics_columns
 from .sweep_files import (
     ID_NAME,
@@ -104,12 +103,17 @@ from .sweep_files import (
     text,
 )
 
-__all__ = ["Sweep", "SweepPoint", "SweepRun", "run_sweep", "sweep_id", "SWEEP_FILES"]
+__all__ = ["Sweep", "SweepPoint", "SweepPoints", "SweepRun", "SweepSize", "SweepTooBig",
+           "run_sweep", "sweep_id", "SWEEP_FILES"]
 
 #: Default points per chunk, by engine (:data:`unidyn.engines.ENGINES`): ``"batch"``,
 #: :func:`unidyn.engine.batch.simulate_batch` once per chunk (sampled-control points go
 #: through :func:`unidyn.simulate`); ``"bdsim"``, :func:`unidyn.simulate` per point.
 DEFAULT_CHUNK = {"batch": 40, "bdsim": 1}
+
+#: Chunks per Dask worker at least, where the chunk size is not given: a worker reports
+#: a chunk when it has run all of it, so smaller chunks make finer progress.
+DASK_CHUNKS = 8
 
 _TOP_KEYS = ("name", "base", "grid", "variants", "rtol", "atol")
 
@@ -128,11 +132,33 @@ class SweepPoint:
         return iter((self.index, self.params, self.scenario))
 
 
+class SweepPoints(Sequence):
+    """The points of a sweep as a sequence: each built when it is read
+    (:meth:`Sweep.point`), none kept."""
+
+    def __init__(self, sweep: "Sweep"):
+        self.sweep = sweep
+
+    def __len__(self) -> int:
+        return len(self.sweep)
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return [self.sweep.point(k) for k in range(*i.indices(len(self)))]
+        n = len(self)
+        k = operator.index(i)
+        if not -n <= k < n:
+            raise IndexError(f"sweep point {i} out of range (the sweep has {n} points)")
+        return self.sweep.point(k % n)
+
+
 @dataclass(frozen=True)
 class Sweep:
     """A set of scenarios: ``base`` crossed with ``variants`` and the ``grid`` axes.
 
-    Every point is built (and so validated) on construction.
+    Every value of every axis is checked on construction (with the first value of the
+    other axes); the points are built as they are read (:meth:`points`), and a
+    combination of values that makes no valid scenario is named when its point is.
 
     :param base: Scenario fields and special keys (``kxy``, ``theta_hat_scale``,
         ``seed``) shared by every point
@@ -216,14 +242,31 @@ class Sweep:
         n = max(len(self.variants), 1) * math.prod(len(v) for v in grid.values())
         if n > MAX_POINTS:
             raise ValidationError(f"the sweep has {n} points; at most {MAX_POINTS} are allowed")
-        object.__setattr__(self, "_points", None)
-        self.points()
+        shape = (max(len(self.variants), 1),) + tuple(len(v) for v in grid.values())
+        s("_shape", shape)
+        s("_strides", tuple(math.prod(shape[k + 1:]) for k in range(len(shape))))
+        # each axis value is checked once, with the first value of every other axis: a
+        # work that grows with the sum of the axes' lengths, not with their product
+        # (a seed sets the noise's seed alone: checked as a seed, its points not built)
+        for axis, size in enumerate(shape):
+            if axis and list(grid)[axis - 1] == "seed":
+                for v in grid["seed"]:
+                    integer("grid.seed", v, 0)
+                continue
+            for value in range(1 if axis else 0, size):
+                self.point(value * self._strides[axis])
 
     # ------------------------------------------------------------------ #
     @property
     def axes(self) -> list:
         """The axis names, slowest first: ``variant`` (if there are variants), then the grid's."""
         return (["variant"] if self.variants else []) + list(self.grid)
+
+    @property
+    def shape(self) -> tuple:
+        """The number of values of each axis: the variants' first (1 where there are
+        none, and :attr:`axes` does not name it), then the grid's, in order."""
+        return self._shape
 
     @property
     def columns(self) -> list:
@@ -233,45 +276,41 @@ class Sweep:
                                    "message"])
 
     def __len__(self) -> int:
-        return len(self.points())
+        return math.prod(self.shape)
 
-    def points(self) -> list:
+    def points(self) -> "SweepPoints":
         """Every point as (index, params, scenario), in a fixed order: variants slowest,
-        then the grid axes in their order, the last fastest."""
-        if self._points is not None:
-            return list(self._points)
-        out = []
-        variants = self.variants or (None,)
+        then the grid axes in their order, the last fastest. A sequence built as it is
+        read (:meth:`point`): its memory does not grow with the number of points."""
+        return SweepPoints(self)
+
+    def point(self, index: int) -> SweepPoint:
+        """The point at ``index`` (0 to ``len(self) - 1``), its scenario built and checked;
+        a combination of values that makes no valid scenario raises a
+        :class:`ValidationError` naming the point."""
+        digits = []
+        for stride, size in zip(self._strides, self.shape):
+            digits.append(index // stride % size)
+        v = self.variants[digits[0]] if self.variants else None
+        combo = [values[d] for values, d in zip(self.grid.values(), digits[1:])]
         axes = list(self.grid)
-        index = 0
-        # each point's scenario is built and checked here, about a millisecond each:
-        # a large sweep says how far it is before it runs
-        n = len(variants) * math.prod(len(self.grid[a]) for a in axes)
-        with Progress(None, n, show=n >= PREPARING_SHOWN, desc="preparing the sweep",
-                      unit="point") as bar:
-            for v, combo in itertools.product(variants, itertools.product(
-                    *(self.grid[a] for a in axes))):
-                params = {} if v is None else {"variant": v["label"]}
-                params.update(zip(axes, combo))
-                layers = [("base", self.base)]
-                if v is not None:
-                    layers.append((f"variants[{v['label']}]",
-                                   {k: x for k, x in v.items() if k != "label"}))
-                layers.append(("grid", dict(zip(axes, combo))))
-                desc = ", ".join(f"{k}={text(x)}" for k, x in params.items())
-                if len(desc) > MAX_NAME:
-                    desc = desc[:MAX_NAME - 3] + "..."
-                try:
-                    sc = scenario_from_layers(layers, name=(f"{self.name} " if self.name else "")
-                                + f"#{index}" + (f" ({desc})" if desc else ""))
-                except ValidationError as err:
-                    at = f"sweep point {index}" + (f" ({desc})" if desc else "")
-                    raise ValidationError(f"{at}: {err}") from None
-                out.append(SweepPoint(index, params, sc))
-                index += 1
-                bar.advance(1)
-        object.__setattr__(self, "_points", tuple(out))
-        return list(out)
+        params = {} if v is None else {"variant": v["label"]}
+        params.update(zip(axes, combo))
+        layers = [("base", self.base)]
+        if v is not None:
+            layers.append((f"variants[{v['label']}]",
+                           {k: x for k, x in v.items() if k != "label"}))
+        layers.append(("grid", dict(zip(axes, combo))))
+        desc = ", ".join(f"{k}={text(x)}" for k, x in params.items())
+        if len(desc) > MAX_NAME:
+            desc = desc[:MAX_NAME - 3] + "..."
+        try:
+            sc = scenario_from_layers(layers, name=(f"{self.name} " if self.name else "")
+                                      + f"#{index}" + (f" ({desc})" if desc else ""))
+        except ValidationError as err:
+            at = f"sweep point {index}" + (f" ({desc})" if desc else "")
+            raise ValidationError(f"{at}: {err}") from None
+        return SweepPoint(index, params, sc)
 
     def with_base(self, **changes) -> "Sweep":
         """A copy with some base keys changed (validated)."""
@@ -311,6 +350,11 @@ class Sweep:
 
 # ----------------------------------------------------------------------- running
 
+class SweepTooBig(ValidationError):
+    """A sweep that would take longer than an hour or fill much of the free disk, not
+    started without ``yes=True`` (:attr:`unidyn.sweeps.sizing.SweepSize.refusal`)."""
+
+
 @dataclass
 class SweepRun:
     """What :func:`run_sweep` did.
@@ -323,6 +367,9 @@ class SweepRun:
     :ivar failed: indices of points that did not complete (empty metrics)
     :ivar replaced: indices of the rows of an earlier sweep that this one replaced
         (``overwrite=True``)
+    :ivar size: the size estimated before the first point ran (:class:`SweepSize`):
+        its ``seconds`` beside :attr:`points_seconds` say how good the estimate was
+    :ivar points_seconds: wall time from the first point run to the last row written
     """
 
     out_dir: Path
@@ -332,6 +379,8 @@ class SweepRun:
     seconds: float
     failed: list
     replaced: tuple = ()
+    size: SweepSize | None = None
+    points_seconds: float = 0.0
 
 
 def _row(index, params, result) -> dict:
@@ -360,10 +409,17 @@ def _metric(v):
 
 
 def _run_chunk(points, engine: str, rtol: float, atol: float, progress=False) -> list:
+    """Run one chunk of the sweep (:func:`_chunk_rows`)."""
+    return _chunk_rows(points, engine, rtol, atol, progress)
+
+
+def _chunk_rows(points, engine: str, rtol: float, atol: float, progress=False,
+                warn: bool = True) -> list:
     """Simulate a list of (index, params, scenario, write); return the metrics rows of
     those to write (the others are run for the estimate their seeds share:
     :func:`_chunks`). ``progress``: ``False``, or ``f(done, total)`` in samples, called
-    by the chunk's batch call, or by its diagram run where the chunk is one point.
+    by the chunk's batch call, or by its diagram run where the chunk is one point;
+    ``warn``: a point that fails is named on stderr.
 
     Runs wherever it is called (here or on a Dask worker) and returns only the
     small rows, not the time series."""
@@ -377,7 +433,8 @@ def _run_chunk(points, engine: str, rtol: float, atol: float, progress=False) ->
             own = progress if len(points) == 1 else False
             rows[j] = _row(index, params, simulate(sc, progress=own))
         except (RuntimeError, ArithmeticError) as err:  # before its first sample
-            print(f"unidyn: warning: sweep point {index} failed: {err}", file=sys.stderr)
+            if warn:
+                print(f"unidyn: warning: sweep point {index} failed: {err}", file=sys.stderr)
             rows[j] = _failed_row(index, params, sc.case, str(err))
     if batch:
         results = simulate_batch([points[j][2] for j in batch], rtol=rtol, atol=atol,
@@ -397,36 +454,61 @@ def _share(bar, start: float, points: int):
     return moved
 
 
-def _chunks(sweep, pending, size: int) -> list:
-    """The pending points in chunks of at most ``size`` (more only where one point's seeds
-    are more), as (index, params, scenario, write): a point's runs over noise seeds in one chunk with the run whose numerical
-    error estimate they share (the smallest seed's, :func:`unidyn.simulate_batch`'s
-    ``estimate="per_point"``), that run added unwritten where its row is written
-    already, so that every row is the same however the sweep is cut or resumed."""
-    first, keys = {}, {}
-    for p in sweep.points():  # (a key builds a scenario: once per point)
-        key = keys[p.index] = seedless(p.scenario)
-        if key is not None and (key not in first
-                                or p.scenario.noise.seed < first[key].scenario.noise.seed):
-            first[key] = p
-    groups = {}
-    for p in pending:
-        key = keys[p.index]
-        groups.setdefault(p.index if key is None else key, []).append(p)
-    chunks, chunk = [], []
-    for key, members in groups.items():
-        ref = first.get(key)
-        extra = [] if ref is None or ref.index in {m.index for m in members} else [(*ref, False)]
-        if chunk and len(chunk) + len(extra) + len(members) > size:  # a point's seeds stay together
-            chunks.append(chunk)
+def _chunks(sweep, done, size: int):
+    """The points not in ``done`` (indices), in chunks of at most ``size`` points and the
+    run their seeds share, as lists of (index, params, scenario, write), built as they
+    are asked for: the memory of a chunk, whatever the sweep's size.
+
+    A point's runs over the ``seed`` axis (the points that differ in it alone) share the
+    numerical error estimate of the smallest seed's run
+    (:func:`unidyn.simulate_batch`'s ``estimate="per_point"``): they go in one chunk
+    where they fit, in several otherwise, and each chunk that holds one of them holds
+    that run too, added unwritten where its row is written elsewhere, so that every row
+    is the same however the sweep is cut or resumed."""
+    def entries(indices, write):
+        return [(*sweep.point(i), write) for i in indices]
+
+    chunk = []
+    for members, ref in _seed_groups(sweep):
+        todo = [i for i in members if i not in done]
+        if not todo:
+            continue
+        extra = [] if ref in todo else [ref]
+        if len(extra) + len(todo) <= size:  # the point's seeds fit in a chunk: together
+            if chunk and len(chunk) + len(extra) + len(todo) > size:
+                yield chunk
+                chunk = []
+            chunk += entries(extra, False) + entries(todo, True)
+            continue
+        if chunk:
+            yield chunk
             chunk = []
-        chunk += extra + [(*p, True) for p in members]
-    return chunks + ([chunk] if chunk else [])
+        if ref in todo:  # a point over more seeds than a chunk holds: cut, each part
+            todo.remove(ref)  # with the shared run (written in the first)
+            todo.insert(0, ref)
+        part = max(size - 1, 1)
+        for k in range(0, len(todo), part):
+            written = todo[k:k + part]
+            yield entries([] if ref in written else [ref], False) + entries(written, True)
+    if chunk:
+        yield chunk
 
 
-#: Sweeps of at least this many points show their preparation (each point's scenario
-#: built and checked, about a millisecond each) as they show their run.
-PREPARING_SHOWN = 1000
+def _seed_groups(sweep):
+    """The sweep's points by the values of its axes other than ``seed``, in the order of
+    their first index: (indices, the index of the smallest seed) for each; every point
+    alone where ``seed`` is not an axis."""
+    if "seed" not in sweep.grid:
+        for i in range(len(sweep)):
+            yield [i], i
+        return
+    at = 1 + list(sweep.grid).index("seed")  # (the variant axis is first)
+    seeds, stride = sweep.grid["seed"], sweep._strides[at]
+    smallest = min(range(len(seeds)), key=lambda j: seeds[j])
+    for outer in range(math.prod(sweep.shape[:at])):
+        for inner in range(stride):
+            first = outer * len(seeds) * stride + inner
+            yield [first + j * stride for j in range(len(seeds))], first + smallest * stride
 
 
 #: Every file a sweep's folder may hold (the names its manifest may list): the rows, the
@@ -519,7 +601,7 @@ def rows_named(indices) -> str:
 
 def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | None = None,
               resume: bool = True, progress: bool = True, dask_address=None,
-              overwrite: bool = False) -> SweepRun:
+              overwrite: bool = False, yes: bool = False) -> SweepRun:
     """Run every point of ``sweep``, writing into ``out_dir``:
 
     - ``sweep.json``: the spec, its id (:func:`sweep_id`), engine and library
@@ -555,13 +637,19 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
 
     :param engine: ``"batch"`` (one :func:`~unidyn.engine.batch.simulate_batch` call per chunk;
         sampled-control points run through :func:`unidyn.simulate`) or ``"bdsim"``
-    :param chunk_size: points per chunk (default 40 for batch, 1 for bdsim)
+    :param chunk_size: points per chunk (default 40 for batch, 1 for bdsim; on Dask,
+        smaller where the sweep would give a worker fewer than :data:`DASK_CHUNKS`)
     :param resume: skip the points already in ``metrics.csv``; ``False`` starts over
     :param progress: show a tqdm progress bar on stderr (only when it is a terminal)
     :param dask_address: ``"local"`` (a local cluster), a Dask scheduler address or a
         ``distributed.Client``: the chunks run on its workers (which need unidyn
         installed), and rows are written as they arrive (see :func:`unidyn.sweeps.cluster.connect_dask`)
     :param overwrite: allow finished rows to be replaced
+    :param yes: start a sweep estimated to take more than an hour, or more than half
+        the free disk, which is otherwise refused (:class:`SweepTooBig`) before it
+        writes anything; the estimate (:func:`unidyn.sweeps.sizing.size_sweep`: the
+        points to run, the time measured on a few of them, the bytes of their rows) is
+        printed on stderr before the first point runs, unless ``progress`` is false
     :return: :class:`SweepRun`
     """
     t0 = time.perf_counter()
@@ -569,9 +657,9 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
         raise ValidationError(f"sweep must be a unidyn.sweeps.sweep.Sweep, got {type(sweep).__name__}")
     engine = choice("engine", engine, ENGINES)
     resume, overwrite = flag("resume", resume), flag("overwrite", overwrite)
-    if chunk_size is None:
-        chunk_size = DEFAULT_CHUNK[engine]
-    chunk_size = integer("chunk_size", chunk_size, 1)
+    yes = flag("yes", yes)
+    if chunk_size is not None:
+        chunk_size = integer("chunk_size", chunk_size, 1)
     out = Path(out_dir)
     output_folder(out, "out_dir")  # one line for an empty name or a file
     record = _spec_record(sweep, engine)
@@ -579,43 +667,42 @@ def run_sweep(sweep: Sweep, out_dir, engine: str = "batch", chunk_size: int | No
         client, close = None, None
     else:
         client, close = connect_dask(dask_address)
+    if chunk_size is None:  # on Dask, at least DASK_CHUNKS chunks per worker: their
+        # progress, which comes by whole chunks, in steps of at most 1/DASK_CHUNKS
+        chunk_size = DEFAULT_CHUNK[engine] if client is None else max(1, min(
+            DEFAULT_CHUNK[engine], len(sweep) // (DASK_CHUNKS * workers(client))))
+    plan = {"resume": False, "held": []}
+
+    def replace(folder) -> bool:  # (under the folder's lock)
+        state, detail = _what_is_held(folder, record)
+        held = finished_rows(folder / "metrics.csv") if state != "none" else []
+        if state == "same" and resume:
+            plan["resume"] = True
+            return False
+        if held and not overwrite:
+            raise ValidationError(_refusal(out, state, detail, held, resume))
+        plan["held"] = held  # nothing finished to lose: start over in place
+        return bool(held)
+
     try:
-        created = make_output_folder(out, "out_dir")  # one line where it cannot be made
-        with FolderLock(out) as lock:
-            try:
-                held, foreign = Ledger(out, "sweep", SWEEP_FILES).sort()
-                if foreign:
-                    raise ValidationError(foreign_files(out, foreign, "sweep results",
-                                                        "output folder"))
-                state, detail = _what_is_held(out, record)
-                rows_held = finished_rows(out / "metrics.csv") if state != "none" else []
-                if state == "same" and resume:
-                    return _run_in(sweep, out, record, engine, chunk_size, progress, client,
-                                   t0, resume=True, lock=lock)
-                if rows_held and not overwrite:
-                    raise ValidationError(_refusal(out, state, detail, rows_held, resume))
-                if not rows_held:  # nothing finished to lose: start over in place
-                    return _run_in(sweep, out, record, engine, chunk_size, progress, client,
-                                   t0, resume=False, lock=lock)
-                try:
-                    with staged_output(out, kind="sweep", names=SWEEP_FILES, overwrite=True,
-                                       what="sweep results", lock=lock) as stage:  # held above
-                        run = _run_in(sweep, stage.path, record, engine, chunk_size,
-                                      progress, client, t0, resume=False)
-                except BaseException as err:
-                    raise _kept(err, f"{out} is as it was ({rows_named(rows_held)}); the "  # noqa: B904 (err itself, or Ctrl-C as Interrupted)
-                                     f"new sweep's rows were discarded")
-                run.out_dir = out
-                run.replaced = tuple(rows_held)
-                return run
-            except BaseException:
-                if created:
-                    lock.release()
-                    _remove_if_empty(out)
-                raise
+        with claimed_folder(out, kind="sweep", names=SWEEP_FILES, replace=replace,
+                            what="sweep results", option="out_dir") as place:
+            run = _run_in(sweep, place.path, record, engine, chunk_size, progress, client,
+                          t0, resume=plan["resume"], lock=place.lock, yes=yes)
+    except SweepTooBig:
+        raise
+    except BaseException as err:
+        if plan["held"]:  # a replacement: the old rows are as they were
+            raise _kept(err, f"{out} is as it was ({rows_named(plan['held'])}); the "  # noqa: B904 (err itself, or Ctrl-C as Interrupted)
+                             f"new sweep's rows were discarded")
+        raise
     finally:
         if close is not None:
             close()
+    if plan["held"]:
+        run.out_dir = out
+        run.replaced = tuple(plan["held"])
+    return run
 
 
 def _refusal(out, state, detail, rows, resume) -> str:
@@ -641,15 +728,16 @@ def _kept(err: BaseException, text: str) -> BaseException:
     return err
 
 
-def _remove_if_empty(folder: Path) -> None:
-    try:
-        folder.rmdir()
-    except OSError:
-        pass
+def _rows_in(csv_path: Path, columns, n: int) -> tuple:
+    """The rows of a sweep of ``n`` points in its metrics.csv, by index (the last of an
+    index written twice), and whether every line of the file was read."""
+    rows, clean = read_rows(csv_path, columns)
+    by_index = {r["index"]: r for r in rows if 0 <= r["index"] < n}
+    return [by_index[i] for i in sorted(by_index)], clean
 
 
 def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume,
-            lock=None) -> SweepRun:
+            lock=None, yes=False) -> SweepRun:
     """Run the sweep in ``out`` (locked by the caller or private): resume from its rows,
     or start it afresh. Every file is written through the folder's :class:`Ledger`,
     which records its content before it changes."""
@@ -657,14 +745,25 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
     owner = lock if lock is not None and lock.folder == output_folder(out) else None
     ledger = Ledger(out, "sweep", SWEEP_FILES, owner)  # (not a private folder's)
     csv_path = out / "metrics.csv"
-    done = {}
+    done = set()  # the indices of the finished rows (the rows stay in the file)
     if resume and csv_path.exists():
-        rows, clean = read_rows(csv_path, columns)
-        valid = {p.index for p in sweep.points()}
-        done = {r["index"]: r for r in rows if r["index"] in valid}
+        rows, clean = _rows_in(csv_path, columns, len(sweep))
+        done = {r["index"] for r in rows}
         if not clean:  # drop a line cut short by an interruption
-            ledger.write("metrics.csv", rows_text(columns, sorted(done.values(),
-                                                                 key=lambda r: r["index"])))
+            ledger.write("metrics.csv", rows_text(columns, rows))
+        del rows
+    try:  # the time and disk it will take, said (or refused) before anything is written
+        size = size_sweep(sweep, out, _chunks(sweep, done, chunk_size),
+                          functools.partial(_chunk_rows, engine=engine, rtol=sweep.rtol,
+                                            atol=sweep.atol, warn=False),
+                          columns, rows_text, points=len(sweep) - len(done),
+                          workers=workers(client))
+    except KeyboardInterrupt as err:
+        raise _kept(err, f"no point had finished; nothing was written to {out}") from None
+    if size.refusal and not yes:
+        raise SweepTooBig(size.refusal)
+    if progress and size.seconds >= QUIET:  # (a sweep over sooner says nothing, as its progress)
+        print(f"sweep: {size.line}", file=sys.stderr, flush=True)
     written = []  # files this call created, removed again if it fails before a row
     try:
         if not done:
@@ -679,28 +778,29 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
                         "no point was run") from None
     written += [ID_NAME, RECORD_NAME]
 
-    pending = [p for p in sweep.points() if p.index not in done]
-    chunks = _chunks(sweep, pending, chunk_size)
-    new_rows = []
+    chunks = _chunks(sweep, done, chunk_size)
+    ran = 0  # rows this call appended (they are read back from the file at the end)
+    started = time.perf_counter()
     # points done, in fractions of a chunk as its batch call advances (not on Dask,
     # whose workers report chunks only)
     bar = Progress(None if progress else False, len(sweep), desc="sweep", unit="point",
                    initial=len(done), leave=True)
     try:
         def take(rows):
+            nonlocal ran
             ledger.append("metrics.csv", rows_text(columns, rows, header=False))
-            new_rows.extend(rows)
-            bar.to(len(done) + len(new_rows))
+            ran += len(rows)
+            bar.to(len(done) + ran)
 
         if client is None:
             for chunk in chunks:
-                share = _share(bar, len(done) + len(new_rows), sum(p[3] for p in chunk))
+                share = _share(bar, len(done) + ran, sum(p[3] for p in chunk))
                 take(_run_chunk(chunk, engine, sweep.rtol, sweep.atol, share))
-        elif chunks:
+        else:
             run_on_dask(client, _run_chunk, chunks, take, engine=engine,
                         rtol=sweep.rtol, atol=sweep.atol)
     except BaseException as err:
-        if not done and not new_rows:  # nothing finished: leave nothing behind
+        if not done and not ran:  # nothing finished: leave nothing behind
             for name in written:
                 ledger.discard(name)
             kept = f"no point had finished; nothing was written to {out}"
@@ -714,7 +814,8 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
     finally:
         bar.close()
 
-    rows = sorted([*done.values(), *new_rows], key=lambda r: r["index"])
+    points_seconds = time.perf_counter() - started
+    rows, _ = _rows_in(csv_path, columns, len(sweep))  # every row, as the file holds it
     failed = [r["index"] for r in rows if not r["complete"]]
     seconds = time.perf_counter() - t0
     try:  # every row is in metrics.csv: a full disk from here on loses none
@@ -733,5 +834,6 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
         raise disk_full(err, f"all {len(rows)} of {len(sweep)} points are in {csv_path}, "
                              f"intact (free some space and run the same command again to "
                              f"write the rest)") from None
-    return SweepRun(out_dir=out, rows=rows, ran=len(new_rows), skipped=len(done),
-                    seconds=seconds, failed=failed)
+    return SweepRun(out_dir=out, rows=rows, ran=ran, skipped=len(done),
+                    seconds=seconds, failed=failed, size=size,
+                    points_seconds=points_seconds)
