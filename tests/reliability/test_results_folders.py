@@ -263,8 +263,9 @@ def test_save_from_python_keeps_the_command_lines_rule(tmp_path):
     (out / "mine.txt").write_text("mine\n")
     before = tree(out)
     r = simulate_batch([Scenario.paper(1, T=0.5)], progress=False)[0]
-    with pytest.raises(ValidationError, match=r"already holds run results \(timeseries.csv, "
-                                              r"summary.json.*\); pass overwrite=True"):
+    with pytest.raises(ValidationError, match=r"already holds run results \(\d+ files, e.g. "
+                                              r"timeseries.csv, summary.json.*\); "
+                                              r"pass overwrite=True"):
         r.save(out)
     assert tree(out) == before
     assert r.save(out, overwrite=True) == out

@@ -120,6 +120,54 @@ _TOP_KEYS = ("name", "base", "grid", "variants", "rtol", "atol")
 
 # -------------------------------------------------------------------------- Sweep
 
+def _axis_values(axis, values) -> tuple:
+    """A grid axis' values (a list, or a range table {start, stop, step}), checked: a
+    name an axis may have, at least one value, none twice (1 and 1.0 are one value)."""
+    where = f"grid.{axis}"
+    if axis in ("variant", "label", "name"):
+        raise ValidationError(f"{where}: {axis!r} cannot be a grid axis"
+                              + (" (use [[variants]])" if axis != "name" else ""))
+    check_keys("grid", {axis: None})
+    if isinstance(values, Mapping):
+        values = expand_range(where, values)
+    elif isinstance(values, (list, tuple, np.ndarray)):
+        values = [plain(v) for v in values]
+    else:
+        raise ValidationError(f"{where} must be a list of values or a range table "
+                              f"{{start, stop, step}}, got {values!r}")
+    if not values:
+        raise ValidationError(f"{where} is empty; give at least one value")
+    seen = set()
+    for v in values:
+        try:  # 1 and 1.0 are one value
+            key = float(v) if is_number(v) else cell(v)
+        except OverflowError:  # an integer beyond floats: refused with its point
+            key = cell(v)
+        if key in seen:
+            raise ValidationError(f"{where} has the value {v!r} twice")
+        seen.add(key)
+    return tuple(values)
+
+
+def _variant(where, v, labels: set) -> dict:
+    """A variant's table, checked: its keys, and a label on one line, not too long, not
+    among ``labels`` (which it joins)."""
+    v = check_keys(where, v, allow_label=True)
+    label = v.get("label")
+    if not isinstance(label, str) or not label or any(
+            unicodedata.category(c) in ("Cc", "Zl", "Zp") for c in label):
+        raise ValidationError(f"{where} needs a label (a non-empty string on one line: "
+                              f"no line breaks, tabs or control characters), got "
+                              f"{label!r}")
+    if len(label) > MAX_NAME:
+        raise ValidationError(f"{where}.label is {len(label)} characters long; at most "
+                              f"{MAX_NAME} are allowed (it names rows and legends)")
+    if label in labels:
+        raise ValidationError(f"{where}: label {label!r} is used twice")
+    labels.add(label)
+    return v
+
+
 @dataclass(frozen=True)
 class SweepPoint:
     """One point of a sweep: its index, its axis values and its scenario."""
@@ -191,53 +239,13 @@ class Sweep:
         s("base", check_keys("base", self.base))
         if not isinstance(self.grid, Mapping):
             raise ValidationError(f"grid must be a table of axis = [values], got {self.grid!r}")
-        grid = {}
-        for axis, values in self.grid.items():
-            where = f"grid.{axis}"
-            if axis in ("variant", "label", "name"):
-                raise ValidationError(f"{where}: {axis!r} cannot be a grid axis"
-                                      + (" (use [[variants]])" if axis != "name" else ""))
-            check_keys("grid", {axis: None})
-            if isinstance(values, Mapping):
-                values = expand_range(where, values)
-            elif isinstance(values, (list, tuple, np.ndarray)):
-                values = [plain(v) for v in values]
-            else:
-                raise ValidationError(f"{where} must be a list of values or a range table "
-                                      f"{{start, stop, step}}, got {values!r}")
-            if not values:
-                raise ValidationError(f"{where} is empty; give at least one value")
-            seen = set()
-            for v in values:
-                try:  # 1 and 1.0 are one value
-                    key = float(v) if is_number(v) else cell(v)
-                except OverflowError:  # an integer beyond floats: refused with its point
-                    key = cell(v)
-                if key in seen:
-                    raise ValidationError(f"{where} has the value {v!r} twice")
-                seen.add(key)
-            grid[str(axis)] = tuple(values)
+        grid = {str(axis): _axis_values(axis, values) for axis, values in self.grid.items()}
         s("grid", grid)
         if isinstance(self.variants, Mapping) or not isinstance(self.variants, (list, tuple)):
             raise ValidationError(f"variants must be a list of tables ([[variants]]), "
                                   f"got {self.variants!r}")
-        variants, labels = [], set()
-        for i, v in enumerate(self.variants):
-            where = f"variants[{i}]"
-            v = check_keys(where, v, allow_label=True)
-            label = v.get("label")
-            if not isinstance(label, str) or not label or any(
-                    unicodedata.category(c) in ("Cc", "Zl", "Zp") for c in label):
-                raise ValidationError(f"{where} needs a label (a non-empty string on one line: "
-                                      f"no line breaks, tabs or control characters), got "
-                                      f"{label!r}")
-            if len(label) > MAX_NAME:
-                raise ValidationError(f"{where}.label is {len(label)} characters long; at most "
-                                      f"{MAX_NAME} are allowed (it names rows and legends)")
-            if label in labels:
-                raise ValidationError(f"{where}: label {label!r} is used twice")
-            labels.add(label)
-            variants.append(v)
+        labels = set()
+        variants = [_variant(f"variants[{i}]", v, labels) for i, v in enumerate(self.variants)]
         s("variants", tuple(variants))
         n = max(len(self.variants), 1) * math.prod(len(v) for v in grid.values())
         if n > MAX_POINTS:
@@ -245,12 +253,15 @@ class Sweep:
         shape = (max(len(self.variants), 1),) + tuple(len(v) for v in grid.values())
         s("_shape", shape)
         s("_strides", tuple(math.prod(shape[k + 1:]) for k in range(len(shape))))
-        # each axis value is checked once, with the first value of every other axis: a
-        # work that grows with the sum of the axes' lengths, not with their product
-        # (a seed sets the noise's seed alone: checked as a seed, its points not built)
-        for axis, size in enumerate(shape):
-            if axis and list(grid)[axis - 1] == "seed":
-                for v in grid["seed"]:
+        self._check_each_value()
+
+    def _check_each_value(self):
+        """Each axis value checked once, with the first value of every other axis: a work
+        that grows with the sum of the axes' lengths, not with their product (a seed sets
+        the noise's seed alone: checked as a seed, its points not built)."""
+        for axis, size in enumerate(self._shape):
+            if axis and list(self.grid)[axis - 1] == "seed":
+                for v in self.grid["seed"]:
                     integer("grid.seed", v, 0)
                 continue
             for value in range(1 if axis else 0, size):
@@ -736,6 +747,43 @@ def _rows_in(csv_path: Path, columns, n: int) -> tuple:
     return [by_index[i] for i in sorted(by_index)], clean
 
 
+def _resumed(ledger, csv_path, columns, n) -> set:
+    """The indices of the rows a resumed sweep finds finished in ``csv_path`` (a line cut
+    short by an interruption dropped from the file)."""
+    if not csv_path.exists():
+        return set()
+    rows, clean = _rows_in(csv_path, columns, n)
+    if not clean:
+        ledger.write("metrics.csv", rows_text(columns, rows))
+    return {r["index"] for r in rows}
+
+
+def _finish(ledger, sweep, csv_path, record):
+    """A sweep's last files, once every row is in metrics.csv (a full disk from here on
+    loses none): the rows sorted, the record finished, the statistics over seeds and
+    the figure. Returns (the rows, the indices of the incomplete ones)."""
+    columns = sweep.columns
+    rows, _ = _rows_in(csv_path, columns, len(sweep))  # every row, as the file holds it
+    failed = [r["index"] for r in rows if not r["complete"]]
+    try:
+        ledger.write("metrics.csv", rows_text(columns, rows))
+        ledger.write(RECORD_NAME, sweep_record_text(record, finished=True, failed=failed))
+        if "seed" in sweep.axes:
+            ledger.write("statistics.csv", rows_text(statistics_columns(sweep.axes),
+                                                     seed_statistics(rows, sweep.axes)))
+        try:
+            ledger.write_with("metrics.png", lambda path: plot_metrics(sweep, rows, path))
+        except ImportError:  # no matplotlib: the data is what matters
+            pass
+    except OSError as err:
+        if err.errno not in (errno.ENOSPC, errno.EDQUOT):
+            raise
+        raise disk_full(err, f"all {len(rows)} of {len(sweep)} points are in {csv_path}, "
+                             f"intact (free some space and run the same command again to "
+                             f"write the rest)") from None
+    return rows, failed
+
+
 def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume,
             lock=None, yes=False) -> SweepRun:
     """Run the sweep in ``out`` (locked by the caller or private): resume from its rows,
@@ -745,13 +793,8 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
     owner = lock if lock is not None and lock.folder == output_folder(out) else None
     ledger = Ledger(out, "sweep", SWEEP_FILES, owner)  # (not a private folder's)
     csv_path = out / "metrics.csv"
-    done = set()  # the indices of the finished rows (the rows stay in the file)
-    if resume and csv_path.exists():
-        rows, clean = _rows_in(csv_path, columns, len(sweep))
-        done = {r["index"] for r in rows}
-        if not clean:  # drop a line cut short by an interruption
-            ledger.write("metrics.csv", rows_text(columns, rows))
-        del rows
+    # the indices of the finished rows (the rows stay in the file)
+    done = _resumed(ledger, csv_path, columns, len(sweep)) if resume else set()
     try:  # the time and disk it will take, said (or refused) before anything is written
         size = size_sweep(sweep, out, _chunks(sweep, done, chunk_size),
                           functools.partial(_chunk_rows, engine=engine, rtol=sweep.rtol,
@@ -815,25 +858,8 @@ def _run_in(sweep, out, record, engine, chunk_size, progress, client, t0, resume
         bar.close()
 
     points_seconds = time.perf_counter() - started
-    rows, _ = _rows_in(csv_path, columns, len(sweep))  # every row, as the file holds it
-    failed = [r["index"] for r in rows if not r["complete"]]
+    rows, failed = _finish(ledger, sweep, csv_path, record)
     seconds = time.perf_counter() - t0
-    try:  # every row is in metrics.csv: a full disk from here on loses none
-        ledger.write("metrics.csv", rows_text(columns, rows))
-        ledger.write(RECORD_NAME, sweep_record_text(record, finished=True, failed=failed))
-        if "seed" in sweep.axes:
-            ledger.write("statistics.csv", rows_text(statistics_columns(sweep.axes),
-                                                     seed_statistics(rows, sweep.axes)))
-        try:
-            ledger.write_with("metrics.png", lambda path: plot_metrics(sweep, rows, path))
-        except ImportError:  # no matplotlib: the data is what matters
-            pass
-    except OSError as err:
-        if err.errno not in (errno.ENOSPC, errno.EDQUOT):
-            raise
-        raise disk_full(err, f"all {len(rows)} of {len(sweep)} points are in {csv_path}, "
-                             f"intact (free some space and run the same command again to "
-                             f"write the rest)") from None
     return SweepRun(out_dir=out, rows=rows, ran=ran, skipped=len(done),
                     seconds=seconds, failed=failed, size=size,
                     points_seconds=points_seconds)
