@@ -44,11 +44,12 @@ def _bin(tmp):
     interpreter's, as in a virtual environment that is active."""
     bin_ = tmp / "bin"
     bin_.mkdir()
-    for name in ("python", "python3"):
-        (bin_ / name).symlink_to(sys.executable)
-    script = bin_ / "unidyn"
-    script.write_text(f'#!/bin/sh\nexec "{sys.executable}" -m unidyn "$@"\n')
-    script.chmod(0o755)
+    # scripts, not links: a link to a venv's python outside the venv's folder starts
+    # Python without the venv (its pyvenv.cfg is looked for beside the link)
+    for name, run in (("python", ""), ("python3", ""), ("unidyn", " -m unidyn")):
+        script = bin_ / name
+        script.write_text(f'#!/bin/sh\nexec "{sys.executable}"{run} "$@"\n')
+        script.chmod(0o755)
     return bin_
 
 

@@ -240,7 +240,7 @@ class Circle(_FromEquations):
 
     @property
     def period(self):
-        """2 pi / |omega| for a radius that does not step, else None."""
+        """2 pi / abs(omega), s, for a radius that does not step, else None."""
         return 2 * math.pi / abs(self.omega) if len(self.radius_schedule) == 1 else None
 
 
