@@ -145,7 +145,7 @@ def test_a_million_point_sweep_file_is_sized_and_refused_in_seconds(tmp_path):
                        stdin=subprocess.DEVNULL, timeout=120)
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     assert p.returncode == 2, p.stderr
-    assert "1000000 points" in p.stdout
+    assert "1,000,000 points" in p.stdout
     error, = [ln for ln in p.stderr.splitlines() if ln.startswith("unidyn: error:")]
     assert "the sweep would take about" in error and " h " in error
     assert "1,000,000 points to run" in error and "MB written" in error

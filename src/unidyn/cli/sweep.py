@@ -92,7 +92,7 @@ def _run(spec, out, args):
         client, close = connect_dask(args.dask, "--dask")
     try:
         n = len(spec)
-        print(f"sweep: {short_name(spec.name or str(args.sweep))}: {n} points, engine "
+        print(f"sweep: {short_name(spec.name or str(args.sweep))}: {n:,} points, engine "
               f"{args.engine}" + (f", Dask at {args.dask}" if args.dask else ""), flush=True)
         if args.engine == "batch" and args.dask is None and n <= PLAIN_CHECKED:
             # its time as plain Python, if so (a larger sweep's time is measured)
