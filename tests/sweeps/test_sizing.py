@@ -116,10 +116,14 @@ def test_a_sweep_over_an_hour_or_half_the_free_disk_is_refused_saying_how_to_run
     assert size(seconds=LONG_SWEEP).refusal == ""
     assert size(peak=int(DISK_SHARE * 10**9)).refusal == ""
     long = size(seconds=LONG_SWEEP + 60).refusal
-    assert long.startswith("the sweep would take about 1 h 1 min: 10 points to run")
+    assert long.startswith("the sweep would take longer than 1 h: 10 points to run, "
+                           "about 1 h 1 min (timed on 4 points)")
+    assert long.count("1 h 1 min") == 1
     assert "yes=True" in long and "dask_address='local'" in long
     full = size(peak=int(DISK_SHARE * 10**9) + 1).refusal
-    assert "about 500.0 MB of the 1.0 GB free on disk" in full
+    assert full.startswith("the sweep would take more than 50% of the free disk (about "
+                           "500.0 MB at its largest): ")
+    assert "(1.0 GB free)" in full
 
 
 def test_the_command_line_names_the_flags_in_the_refusal():
@@ -147,7 +151,7 @@ def test_a_million_point_sweep_file_is_sized_and_refused_in_seconds(tmp_path):
     assert p.returncode == 2, p.stderr
     assert "1,000,000 points" in p.stdout
     error, = [ln for ln in p.stderr.splitlines() if ln.startswith("unidyn: error:")]
-    assert "the sweep would take about" in error and " h " in error
+    assert "the sweep would take longer than 1 h: " in error and " h " in error
     assert "1,000,000 points to run" in error and "MB written" in error
     assert "--yes" in error and "--dask" in error
     assert not (tmp_path / "out").exists()

@@ -82,9 +82,10 @@ class SweepSize:
         the free disk."""
         why = []
         if self.seconds > LONG_SWEEP:
-            why.append(_about(self.seconds))
+            why.append(f"longer than {LONG_SWEEP / 3600:g} h")
         if self.peak > DISK_SHARE * self.free:
-            why.append(f"about {amount(self.peak)} of the {amount(self.free)} free on disk")
+            why.append(f"more than {DISK_SHARE:.0%} of the free disk (about "
+                       f"{amount(self.peak)} at its largest)")
         if not why:
             return ""
         return (f"the sweep would take {' and '.join(why)}: {self.line}; pass yes=True to "
