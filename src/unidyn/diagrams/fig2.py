@@ -220,20 +220,18 @@ def _measurements(fig, R):
     if sc.noise is None:
         return q_meas, v_meas
     clock = fig.clocks["sensor"].name
-    # the streams 0 and 1 of the run's seed (unidyn.model.noise.noise_seeds)
-    pn = SensorNoise(Ts=sc.Ts, clock_name=clock, std=sc.noise.position_std,
-                     seed=sc.noise.seed, stream=0, indices=(0, 1), bd=bd,
-                     name="position_noise")
-    bd.connect(R[0], pn)
-    fig.blocks["position_noise"] = pn
-    q_meas = pn[0]
+
+    def noisy(plug, std, stream, name):
+        # stream 0 (position) or 1 (velocity) of the run's seed (unidyn.model.noise.noise_seeds)
+        block = SensorNoise(Ts=sc.Ts, clock_name=clock, std=std, seed=sc.noise.seed,
+                            stream=stream, indices=(0, 1), bd=bd, name=name)
+        bd.connect(plug, block)
+        fig.blocks[name] = block
+        return block[0]
+
+    q_meas = noisy(R[0], sc.noise.position_std, 0, "position_noise")
     if dynamic:
-        vn = SensorNoise(Ts=sc.Ts, clock_name=clock, std=sc.noise.velocity_std,
-                         seed=sc.noise.seed, stream=1, indices=(0, 1), bd=bd,
-                         name="velocity_noise")
-        bd.connect(R[1], vn)
-        fig.blocks["velocity_noise"] = vn
-        v_meas = vn[0]
+        v_meas = noisy(R[1], sc.noise.velocity_std, 1, "velocity_noise")
     return q_meas, v_meas
 
 
