@@ -215,8 +215,8 @@ def test_a_full_disk_during_a_sweep_names_the_file_and_keeps_the_finished_rows(t
         filler.write_bytes(b"\0" * (free.f_bavail * free.f_frsize - 40_000))
         # its estimated 56 kB of rows are refused up front, nothing written
         code, _, err = cli(tmp_path, "sweep", spec, "--out", out, "--no-progress")
-        assert code == 2 and re.search(r"about [\d.]+ kB of the [\d.]+ kB free on disk: "
-                                       r"300 points to run", err) and "--yes" in err, err
+        assert code == 2 and re.search(r"more than 50% of the free disk \(about [\d.]+ kB at its "
+                                       r"largest\): 300 points to run", err) and "--yes" in err, err
         assert {p.name for p in out.iterdir()} - {"lost+found"} == {"filler.bin", "notes.txt"}
         # started anyway, the disk fills up after the first rows
         code, _, err = cli(tmp_path, "sweep", spec, "--out", out, "--no-progress",
