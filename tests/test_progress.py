@@ -175,8 +175,8 @@ def test_parts_of_a_unit_count_as_not_yet_done():
 @pytest.mark.parametrize("estimate", ["per_point", "each"])
 def test_the_batch_engine_counts_the_work_it_does(estimate):
     # four noise seeds of one point: the work counted at the start (each run and its
-    # probe, or once for a run that shares its sibling's estimate) plus what each tighter
-    # pass adds is the work done, so the last report reads 100 %
+    # probe, or once for a run that starts from its sibling's tolerance) plus what each
+    # tighter pass adds is the work done, so the last report reads 100 %
     import unidyn
     from unidyn.engine.batch import simulate_batch
     sc = unidyn.Scenario.paper(3, T=5.0)

@@ -153,7 +153,7 @@ def run(scenario: Scenario, engine: str = "auto", *, seeds=None, **options):
         return _run_all([scenario], chosen, options, keep_failed=False)[0]
     from .sweeps.seeds import SeedRuns, seed_scenarios
     seeds, scenarios = seed_scenarios(scenario, seeds)
-    if chosen == "batch":  # the seeds share one numerical error estimate, the first seed's
+    if chosen == "batch":  # the seeds start from the tolerance the first seed needed
         options = {**options, "estimate": "per_point"}
     return SeedRuns(scenario, tuple(seeds), _run_all(scenarios, chosen, options, keep_failed=True))
 

@@ -167,17 +167,32 @@ def test_identical_calls_give_identical_bits_whatever_ran_before():
     assert first.numerical_error == again.numerical_error and first.metrics == again.metrics
 
 
-def test_runs_over_noise_seeds_share_the_smallest_seed_s_estimate():
-    """estimate="per_point": the smallest seed is estimated as it is alone; the others are
-    integrated once at the tolerance it was returned at and carry its estimate, whatever
-    else is in the call."""
-    scs = [Scenario.paper(3, T=5.0, noise=NoiseSpec(seed=s), name=f"seed {s}") for s in (4, 2, 9)]
+def _seed_runs_keep_the_promise(scs):
+    """estimate="per_point" over ``scs`` (one scenario over seeds, the smallest second):
+    the smallest seed as it is alone; every other seed with an estimate of its own, made
+    from a decade looser than the smallest seed's tolerance on, and its metrics and
+    position within twice it of the converged solution, whatever else is in the call."""
     out = simulate_batch(scs, estimate="per_point")
     alone, = simulate_batch([scs[1]])
-    assert out[1].metrics == alone.metrics and out[1].estimate == "tightened"
-    for r in (out[0], out[2]):
-        assert r.complete and r.estimate == "from seed 2" and r.rtol == alone.rtol
-        assert r.numerical_error == alone.numerical_error and r.sensitive == alone.sensitive
-        assert "seed 2" in r.message
+    assert out[1].metrics == alone.metrics and out[1].numerical_error == alone.numerical_error
+    # a 5 ms cap: within 1e-9 of the 1 ms one on these runs, in a quarter of the time
+    X = ClosedLoop(scs).converged(rtol=1e-10, atol=1e-12, max_step=5e-3)
+    loop = ClosedLoop(scs)
+    t = np.arange(loop.steps + 1) * loop.Ts
+    ref = np.array([np.array(loop.reference(tt))[:2] for tt in t]).transpose(2, 0, 1)
+    for r, x, h in zip(out, X, ref):
+        assert r.complete and not r.sensitive and r.estimate == "tightened", r.message
+        assert r.rtol <= alone.rtol and max(r.numerical_error[k] for k in DECISIVE) <= ACCURACY
+        truth = metrics(t, np.hypot(*(x[:, :2] - h).T), x[:, 3:5])
+        for k in INTEGRAL_NAMES:
+            true = abs(r.metrics[k] - truth[k]) / abs(truth[k])
+            assert true <= 2 * r.numerical_error[k], (r.scenario.name, k, true, r.numerical_error)
+        true = np.max(np.abs(r.pose[:, :2] - x[:, :2])) / np.max(np.abs(x[:, :2]))
+        assert true <= max(2 * r.numerical_error["position"], 1e-12), (r.scenario.name, true)
     fewer = simulate_batch([scs[2], scs[1]], estimate="per_point")
     assert fewer[0].metrics == out[2].metrics
+
+
+def test_runs_over_noise_seeds_each_keep_the_promise():
+    _seed_runs_keep_the_promise([Scenario.paper(3, T=3.0, noise=NoiseSpec(seed=s), name=f"seed {s}")
+                                 for s in (4, 2, 9)])

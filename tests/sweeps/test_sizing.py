@@ -101,7 +101,7 @@ def test_rows_are_the_same_however_the_sweep_is_cut(tmp_path):
     one = run_sweep(seed_sweep(), tmp_path / "one", chunk_size=1, progress=False)
     whole = run_sweep(seed_sweep(), tmp_path / "whole", chunk_size=40, progress=False)
     assert one.rows == whole.rows
-    assert {r["estimate"] for r in one.rows} >= {"from seed 0"}
+    assert all(r["numerical_error"] is not None for r in one.rows)
 
 
 # ------------------------------------------------------------------ refusal

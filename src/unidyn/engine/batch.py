@@ -114,10 +114,13 @@ def simulate_batch(scenarios, *, rtol: float = BATCH_RTOL, atol: float = BATCH_A
     cannot be reached says so in its** ``message``.
 
     With ``estimate="per_point"``, runs that differ only in their noise seed (the
-    seeds of one point of a sweep) share one estimate: the run with the smallest seed
-    among them is estimated as above, and the others are integrated once at the
-    tolerance it was returned at, with its ``numerical_error`` and ``sensitive``
-    (``Result.estimate`` names the seed). Their statistics over seeds are then the
+    seeds of one point of a sweep) share the search for a tolerance: the run with the
+    smallest seed among them is estimated as above, and each of the others starts a
+    decade looser than the tolerance it was returned at, without the loose passes
+    and the first probe, and is estimated on its own from there (tightened, and
+    probed, where its own estimate is not yet within :data:`ACCURACY`; from ``rtol``
+    with its probe where the smallest seed is sensitive). Every run keeps the promise
+    above with an estimate of its own; their statistics over seeds are the
     uncertainty to quote, and the numerical error is checked small against it.
 
     **Runs that stop** (diverged, or the error not held within :data:`MAX_STEPS` steps
@@ -133,8 +136,9 @@ def simulate_batch(scenarios, *, rtol: float = BATCH_RTOL, atol: float = BATCH_A
     :param progress: ``None`` (a tqdm bar on a terminal for long calls), ``False``,
         ``True``, or a callable ``f(done_samples, total_samples)`` (the total grows
         where runs are tightened)
-    :param estimate: ``"each"`` (every run its own estimate) or ``"per_point"`` (runs
-        that differ only in their noise seed share one, above)
+    :param estimate: ``"each"`` (every run estimated from ``rtol``) or ``"per_point"``
+        (runs that differ only in their noise seed start from the tolerance the smallest
+        seed needed, above)
 
     A call's results share one log array per group (views, no copy): ``np.array(r.pose)``
     copies what is to outlive the rest. ``Result.steps`` and ``Result.rejected`` count
@@ -179,7 +183,7 @@ def simulate_batch(scenarios, *, rtol: float = BATCH_RTOL, atol: float = BATCH_A
         for idx in groups.values():
             first = [i for i in idx if i not in shared]
             _group(run, [scs[i] for i in first], first, rtol, atol)
-            _siblings(run, scs, [i for i in idx if i in shared], shared, atol / rtol)
+            _siblings(run, scs, [i for i in idx if i in shared], shared, rtol, atol)
     except KeyboardInterrupt:
         done = [r for r in results if r is not None]
         raise SimulationInterrupted(
@@ -221,40 +225,40 @@ class _Call:
         return done()
 
 
-def _first_pass(run: _Call, scs, idx, tol):
-    """The runs of a group at ``tol`` and their probes, into ``run.results[idx]``:
-    returns (``moved``: run j -> (how far its probe moved it, at which rtol), for the runs
-    their probe moved; ``steady``: the runs whose error is to be estimated by
-    tightening)."""
+def _first_pass(run: _Call, scs, idx, tol, probe=True):
+    """The runs of a group at ``tol`` and, with ``probe``, their probes, into
+    ``run.results[idx]``: returns (``moved``: run j -> (how far its probe moved it, at
+    which rtol), for the runs their probe moved; ``steady``: the runs whose error is to
+    be estimated by tightening)."""
     B, results = len(scs), run.results
-    if _together(scs):  # the runs and their probes in one pass, on cores otherwise idle
+    if probe and _together(scs):  # the runs and their probes in one pass, on cores otherwise idle
         both = run.runs(scs + scs, tol, [0.0] * B + [PERTURBATION] * B, where=idx, keep=B)
-        main, probe = both[:B], both[B:]
+        main, probes = both[:B], both[B:]
     else:
         main = run.runs(scs, tol, where=idx, keep=B)
-        probe = [None] * B
-        done = [j for j, r in enumerate(main) if r.complete]
+        probes = [None] * B
+        done = [j for j, r in enumerate(main) if r.complete] if probe else []
         for j, q in zip(done, run.runs([scs[j] for j in done], tol, PERTURBATION)):
-            probe[j] = q
+            probes[j] = q
     moved, steady = {}, []
-    for j, (r, q) in enumerate(zip(main, probe)):
+    for j, (r, q) in enumerate(zip(main, probes)):
         results[idx[j]] = _noted(r, rtol=tol[0], estimate="tightened" if r.complete else "")
         if not r.complete:
             continue
-        if not q.complete:
+        if q is not None and not q.complete:
             results[idx[j]] = _noted(r, message=f"every sample computed, its numerical error "
                                                 f"not estimated: its probe stopped ({q.message})")
             continue
-        d = _differences(r, q)
-        if _decisive(d) > ACCURACY:
+        d = _differences(r, q) if q is not None else {}
+        if d and _decisive(d) > ACCURACY:
             moved[j] = (d, tol[0])
         steady.append(j)
     return moved, steady
 
 
-def _group(run: _Call, scs, idx, rtol, atol):
+def _group(run: _Call, scs, idx, rtol, atol, probe=True):
     """Run one group (scenarios sharing the kernels' call) into ``run.results[idx]``: the
-    runs at (rtol, atol) and their probes; then each run not yet judged again at
+    runs at (rtol, atol) and, with ``probe``, their probes; then each run not yet judged again at
     tolerances :data:`TIGHTEN` times tighter (its probe too, where the probe moved it),
     each returned with the difference from the run before as its estimate, until that
     is within :data:`ACCURACY`; sensitive where the probe moves it at two tolerances in
@@ -262,7 +266,7 @@ def _group(run: _Call, scs, idx, rtol, atol):
     if not scs:
         return
     tol, results = (rtol, atol), run.results
-    moved, steady = _first_pass(run, scs, idx, tol)
+    moved, steady = _first_pass(run, scs, idx, tol, probe)
     shaky = {}  # run j -> whether its last estimate was beyond the promise
     while steady:
         tol = (tol[0] / TIGHTEN, tol[1] / TIGHTEN)
@@ -328,29 +332,24 @@ def _seed_siblings(scs) -> dict:
             if key is not None and first[key] != i}
 
 
-def _siblings(run: _Call, scs, idx, shared, atol_per_rtol):
-    """The runs ``idx`` integrated once, each at the tolerance its seed sibling
-    ``shared[i]`` (already in ``run.results``) was returned at, with its estimate."""
-    by_tol = {}
+def _siblings(run: _Call, scs, idx, shared, rtol, atol):
+    """The runs ``idx``, each estimated on its own, starting where its seed sibling
+    ``shared[i]`` (already in ``run.results``) ended: a run first at :data:`TIGHTEN`
+    times the tolerance that sibling was returned at, without a probe, then tightened
+    as in :func:`_group` (its estimate from the last two tolerances, a probe where it
+    is not yet within :data:`ACCURACY`). Where the sibling is sensitive or was not
+    estimated, from (``rtol``, ``atol``) with its probe, as alone."""
+    by_start = {}
     for i in idx:
         ref = run.results[shared[i]]
-        tol = ref.rtol if ref is not None and ref.rtol else None
-        by_tol.setdefault(tol, []).append(i)
-    for tol, members in by_tol.items():
-        rtol = tol or BATCH_RTOL
-        out = run.runs([scs[i] for i in members], (rtol, rtol * atol_per_rtol),
-                       where=members, keep=len(members))
-        for i, r in zip(members, out):
-            ref = run.results[shared[i]]
-            seed = scs[shared[i]].noise.seed
-            r = _noted(r, rtol=rtol, estimate=f"from seed {seed}")
-            if r.complete and ref is not None and ref.complete and ref.numerical_error:
-                r = _noted(r, numerical_error=dict(ref.numerical_error), sensitive=ref.sensitive,
-                           message=(f"integrated once at rtol = {rtol:g}, the tolerance seed "
-                                    f"{seed} of the same point needed; its numerical error "
-                                    f"estimate is that seed's" + (" (sensitive)" if ref.sensitive
-                                                                  else "")))
-            run.results[i] = r
+        known = ref is not None and ref.complete and ref.numerical_error and not ref.sensitive
+        start = min(ref.rtol * TIGHTEN, rtol) if known else None
+        by_start.setdefault(start, []).append(i)
+    for start, members in by_start.items():
+        tol = (rtol, atol) if start is None else (start, start * atol / rtol)
+        if start is None:  # the probes, not counted at the call's start
+            run.bar.grow(sum(scs[i].steps for i in members))
+        _group(run, [scs[i] for i in members], members, *tol, probe=start is None)
 
 
 def _together(scs) -> bool:

@@ -170,9 +170,7 @@ class Result:
         for the diagram)
     :ivar estimate: how ``numerical_error`` was obtained: ``"tightened"`` (the run
         against the same run at a looser tolerance), ``"probe"`` (sensitive: how far a
-        perturbed start moved it), ``"from seed N"`` (the estimate of the same point's
-        seed N, :func:`unidyn.simulate_batch`'s ``estimate="per_point"``), or ``""``
-        (not estimated)
+        perturbed start moved it), or ``""`` (not estimated)
     """
 
     scenario: object

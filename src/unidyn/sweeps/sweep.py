@@ -427,7 +427,7 @@ def _run_chunk(points, engine: str, rtol: float, atol: float, progress=False) ->
 def _chunk_rows(points, engine: str, rtol: float, atol: float, progress=False,
                 warn: bool = True) -> list:
     """Simulate a list of (index, params, scenario, write); return the metrics rows of
-    those to write (the others are run for the estimate their seeds share:
+    those to write (the others are run for the tolerance their seeds start from:
     :func:`_chunks`). ``progress``: ``False``, or ``f(done, total)`` in samples, called
     by the chunk's batch call, or by its diagram run where the chunk is one point;
     ``warn``: a point that fails is named on stderr.
@@ -470,8 +470,8 @@ def _chunks(sweep, done, size: int):
     run their seeds share, as lists of (index, params, scenario, write), built as they
     are asked for: the memory of a chunk, whatever the sweep's size.
 
-    A point's runs over the ``seed`` axis (the points that differ in it alone) share the
-    numerical error estimate of the smallest seed's run
+    A point's runs over the ``seed`` axis (the points that differ in it alone) start
+    from the tolerance the smallest seed's run needed
     (:func:`unidyn.simulate_batch`'s ``estimate="per_point"``): they go in one chunk
     where they fit, in several otherwise, and each chunk that holds one of them holds
     that run too, added unwritten where its row is written elsewhere, so that every row
