@@ -108,7 +108,8 @@ def parser() -> argparse.ArgumentParser:
                            "unidyn sweep examples/sweep.toml --out out/sweep",
                            "unidyn sweep --paper-fig11 --gains '[1, 5, 23]' --T 50 --no-noise "
                            "--out out/fig11-three-gains     # all 70 gains: leave out --gains",
-                           "unidyn sweep --paper-fig11 --seeds 5 --out out/fig11-5-seeds"))
+                           "unidyn sweep --paper-fig11 --gains '[1, 5, 23]' --seeds 5 "
+                           "--out out/fig11-5-seeds     # error bars over 5 noise seeds"))
     s.add_argument("sweep", nargs="?", metavar="SWEEP.toml", help="the sweep file")
     s.add_argument("--paper-fig11", action="store_true",
                    help="the paper's Fig. 11: IAE against kx = ky, four cases; also writes "
