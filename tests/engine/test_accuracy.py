@@ -63,19 +63,21 @@ SLOW += tuple(SWITCHING)
 JOINT = tuple(n for n, sc in SWITCHING.items() if sc.T == 20.0)
 
 
-def _converged(sc):
-    X = ClosedLoop(sc).converged(rtol=1e-11, atol=1e-13)[0]
-    loop = ClosedLoop(sc)
-    t = np.arange(sc.steps + 1) * sc.Ts
-    ref = np.array([np.ravel(loop.reference(tt)[:2]) for tt in t])
-    return metrics(t, np.hypot(*(X[:, :2] - ref).T), X[:, 3:5]), X
+def _converged(scs, rtol=1e-11, atol=1e-13, **options):
+    """For each of ``scs`` (one ClosedLoop): its metrics and states (steps + 1, 13) by
+    ClosedLoop.converged at these tolerances."""
+    loop = ClosedLoop(scs)
+    X = loop.converged(rtol=rtol, atol=atol, **options)
+    t = np.arange(loop.steps + 1) * loop.Ts
+    ref = np.array([np.array(loop.reference(tt))[:2] for tt in t]).transpose(2, 0, 1)
+    return [(metrics(t, np.hypot(*(x[:, :2] - h).T), x[:, 3:5]), x) for x, h in zip(X, ref)]
 
 
 @pytest.fixture(scope="module")
 def converged():
     """The converged solution of a scenario of SCENARIOS by its name, computed once per
     process and only for the scenarios the tests that run there ask for."""
-    return functools.cache(lambda name: _converged(SCENARIOS[name]))
+    return functools.cache(lambda name: _converged([SCENARIOS[name]])[0])
 
 
 @pytest.mark.parametrize("name", [pytest.param(n, marks=[pytest.mark.slow] if n in SLOW else [])
@@ -99,16 +101,15 @@ def test_where_the_limits_switch_runs_of_20_s_are_within_twice_their_estimates()
     of the three: scipy's error norm is the RMS over all their components, so its
     tolerances are divided by sqrt(3) to hold each run's within the single run's."""
     scs = [SCENARIOS[n] for n in JOINT]
-    loop = ClosedLoop(scs)
     root = np.sqrt(len(scs))
-    X = loop.converged(rtol=1e-11 / root, atol=1e-13 / root)
-    t = np.arange(loop.steps + 1) * loop.Ts
-    ref = np.array([np.array(loop.reference(tt))[:2] for tt in t]).transpose(2, 0, 1)
-    for r, x, h in zip(simulate_batch(scs), X, ref):
-        _within_twice(r, metrics(t, np.hypot(*(x[:, :2] - h).T), x[:, 3:5]), x, "compiled")
+    for r, (truth, x) in zip(simulate_batch(scs),
+                             _converged(scs, rtol=1e-11 / root, atol=1e-13 / root)):
+        _within_twice(r, truth, x, "compiled")
 
 
 def _within_twice(r, truth, X, backend):
+    """``r`` not sensitive, its estimates within the promise, and its metrics and series
+    within twice them of ``truth`` and ``X`` (the converged metrics and states)."""
     assert r.complete and not r.sensitive, r.message
     # the metrics within the promise; a logged series beyond it is named in the message
     assert max(r.numerical_error[k] for k in DECISIVE) <= ACCURACY, r.numerical_error
@@ -197,19 +198,9 @@ def _seed_runs_keep_the_promise(scs):
     alone, = simulate_batch([scs[1]])
     assert out[1].metrics == alone.metrics and out[1].numerical_error == alone.numerical_error
     # a 5 ms cap: within 1e-9 of the 1 ms one on these runs, in a quarter of the time
-    X = ClosedLoop(scs).converged(rtol=1e-10, atol=1e-12, max_step=5e-3)
-    loop = ClosedLoop(scs)
-    t = np.arange(loop.steps + 1) * loop.Ts
-    ref = np.array([np.array(loop.reference(tt))[:2] for tt in t]).transpose(2, 0, 1)
-    for r, x, h in zip(out, X, ref):
-        assert r.complete and not r.sensitive and r.estimate == "tightened", r.message
-        assert r.rtol <= alone.rtol and max(r.numerical_error[k] for k in DECISIVE) <= ACCURACY
-        truth = metrics(t, np.hypot(*(x[:, :2] - h).T), x[:, 3:5])
-        for k in INTEGRAL_NAMES:
-            true = abs(r.metrics[k] - truth[k]) / abs(truth[k])
-            assert true <= 2 * r.numerical_error[k], (r.scenario.name, k, true, r.numerical_error)
-        true = np.max(np.abs(r.pose[:, :2] - x[:, :2])) / np.max(np.abs(x[:, :2]))
-        assert true <= max(2 * r.numerical_error["position"], 1e-12), (r.scenario.name, true)
+    for r, (truth, x) in zip(out, _converged(scs, rtol=1e-10, atol=1e-12, max_step=5e-3)):
+        assert r.estimate == "tightened" and r.rtol <= alone.rtol, (r.estimate, r.rtol)
+        _within_twice(r, truth, x, r.scenario.name)
     fewer = simulate_batch([scs[2], scs[1]], estimate="per_point")
     assert fewer[0].metrics == out[2].metrics
 
